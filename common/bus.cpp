@@ -1,0 +1,232 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "bus.h"
+
+#include <hemo/heartbeat_t.hpp>
+#include <hemo/resend_request_t.hpp>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+
+#include <atomic>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+namespace hemo {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Sequence numbers start at the wall clock in microseconds, so a restarted process never
+// reuses a number its predecessor sent (receivers would take it for a replay).
+std::atomic<std::int64_t>& process_seq() {
+  static std::atomic<std::int64_t> seq{std::chrono::duration_cast<std::chrono::microseconds>(
+                                           std::chrono::system_clock::now().time_since_epoch())
+                                           .count()};
+  return seq;
+}
+
+std::uint32_t read_be32(const std::uint8_t* p) {
+  return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
+}
+
+void write_be64(std::uint8_t* p, std::int64_t v) {
+  for (int i = 7; i >= 0; --i) { p[i] = static_cast<std::uint8_t>(v & 0xff); v >>= 8; }
+}
+
+constexpr std::size_t kHashBytes = 8;     // LCM type fingerprint before the fields
+constexpr std::size_t kTagBytes = 32;     // HMAC-SHA256
+constexpr std::int64_t kReplayWindow = 1 << 16;
+
+}  // namespace
+
+void RunContext::add_options(CLI::App& app) {
+  app.add_option("--run-id", run_id, "Run id (from the coordinator)")->required();
+  app.add_option("--lcm-url", lcm_url, "LCM URL of the run's bus")->required();
+  app.add_option("--secret-file", secret_file, "File holding the run's HMAC secret")->required();
+  app.add_option("--timeout", timeout_s, "Seconds without any message from the run before giving up")
+      ->capture_default_str();
+}
+
+void RunContext::load_secret() {
+  std::ifstream in(secret_file, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read the run secret " + secret_file);
+  secret.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  if (secret.size() < 16) throw std::runtime_error("run secret " + secret_file + " is shorter than 16 bytes");
+}
+
+std::size_t tag_offset(const std::uint8_t* buf, std::size_t len) {
+  std::size_t pos = kHashBytes;
+  for (int s = 0; s < 2; ++s) {  // run_id, sender: int32 length (with NUL), bytes
+    if (pos + 4 > len) throw std::runtime_error("truncated envelope");
+    pos += 4 + read_be32(buf + pos);
+  }
+  pos += 16;  // step, seq
+  if (pos + kTagBytes > len) throw std::runtime_error("truncated envelope");
+  return pos;
+}
+
+static std::array<std::uint8_t, kTagBytes> compute_tag(std::vector<std::uint8_t> buf, std::size_t off,
+                                                       const std::vector<std::uint8_t>& secret) {
+  std::memset(buf.data() + off, 0, kTagBytes);
+  std::array<std::uint8_t, kTagBytes> tag{};
+  unsigned int n = 0;
+  HMAC(EVP_sha256(), secret.data(), static_cast<int>(secret.size()), buf.data(), buf.size(), tag.data(), &n);
+  return tag;
+}
+
+void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+  const auto off = tag_offset(buf.data(), buf.size());
+  const auto tag = compute_tag(buf, off, secret);
+  std::memcpy(buf.data() + off, tag.data(), kTagBytes);
+}
+
+bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+  std::size_t off;
+  try {
+    off = tag_offset(buf.data(), buf.size());
+  } catch (const std::exception&) {
+    return false;
+  }
+  const auto tag = compute_tag(buf, off, secret);
+  return CRYPTO_memcmp(tag.data(), buf.data() + off, kTagBytes) == 0;
+}
+
+std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len) {
+  envelope_t env;
+  if (len < kHashBytes) return std::nullopt;
+  if (env._decodeNoHash(buf, static_cast<int>(kHashBytes), static_cast<int>(len - kHashBytes)) < 0)
+    return std::nullopt;
+  return env;
+}
+
+Bus::Bus(const RunContext& ctx, std::string sender) : ctx_(ctx), sender_(std::move(sender)), lcm_(ctx.lcm_url) {
+  if (!lcm_.good()) throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
+  if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
+  lcm_.subscribe(ctx_.run_id + "/.*", &Bus::on_raw, this);
+}
+
+void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
+  sign(buf, ctx_.secret);
+  {
+    std::lock_guard<std::mutex> lock(publish_mutex_);
+    lcm_.publish(topic(kind), buf.data(), static_cast<unsigned>(buf.size()));
+  }
+  if (keep) kept_[kind][step] = std::move(buf);
+}
+
+void Bus::request_resend(const std::string& kind, std::int64_t step) {
+  resend_request_t req;
+  req.channel = kind;
+  req.wanted_step = step;
+  publish(channel::resend, req, step);
+  ++counters_.resend_requests;
+}
+
+void Bus::forget_before(std::int64_t step) {
+  for (auto& [kind, by_step] : kept_) {
+    if (kind == channel::mesh || kind == channel::hello) continue;  // wanted by late joiners
+    by_step.erase(by_step.begin(), by_step.lower_bound(step));
+  }
+}
+
+bool Bus::accept_seq(const std::string& sender, std::int64_t seq) {
+  auto& [max_seq, recent] = seen_[sender];
+  if (seq <= max_seq - kReplayWindow || recent.count(seq)) return false;
+  recent.insert(seq);
+  if (seq > max_seq) max_seq = seq;
+  while (!recent.empty() && *recent.begin() <= max_seq - kReplayWindow) recent.erase(recent.begin());
+  return true;
+}
+
+void Bus::on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+  const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
+  std::vector<std::uint8_t> bytes(data, data + rbuf->data_size);
+  auto env = peek_envelope(bytes.data(), bytes.size());
+  if (!env) { ++counters_.rejected_corrupt; return; }
+  if (env->run_id != ctx_.run_id) { ++counters_.rejected_foreign; return; }
+  if (env->sender == sender_) return;  // multicast loops our own messages back to us
+  if (!verify(bytes, ctx_.secret)) { ++counters_.rejected_auth; return; }
+  if (!accept_seq(env->sender, env->seq)) { ++counters_.rejected_replay; return; }
+  ++counters_.accepted;
+  const auto slash = chan.rfind('/');
+  inbox_.push_back({chan.substr(slash + 1), *env, std::move(bytes)});
+}
+
+int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_message) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (inbox_.empty()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    if (left <= 0) break;
+    if (lcm_.handleTimeout(static_cast<int>(left)) < 0)
+      throw std::runtime_error("LCM receive failed on " + ctx_.lcm_url);
+  }
+  while (lcm_.handleTimeout(0) > 0) {}  // drain what is already queued
+  std::vector<Received> batch;
+  batch.swap(inbox_);
+  int handled = 0;
+  for (const auto& msg : batch) {
+    if (msg.kind == channel::resend) {
+      resend_request_t req;
+      if (req.decode(msg.bytes.data(), 0, static_cast<int>(msg.bytes.size())) < 0) {
+        ++counters_.rejected_corrupt;
+        continue;
+      }
+      auto kind = kept_.find(req.channel);
+      if (kind == kept_.end()) continue;
+      auto it = kind->second.find(req.wanted_step);
+      if (it == kind->second.end()) continue;
+      // Publish the same content again with a fresh sequence number and tag.
+      auto buf = it->second;
+      write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 8, next_seq());
+      publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
+      ++counters_.resent;
+      continue;
+    }
+    on_message(msg);
+    ++handled;
+  }
+  return handled;
+}
+
+std::int64_t Bus::next_seq() { return ++process_seq(); }
+
+struct Heartbeat::Impl {
+  std::atomic<bool> stop{false};
+  std::thread thread;
+};
+
+Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s) : impl_(new Impl) {
+  impl_->thread = std::thread([this, ctx, sender, period_s] {
+    lcm::LCM lcm(ctx.lcm_url);
+    const auto start = Clock::now();
+    while (!impl_->stop.load()) {
+      heartbeat_t hb;
+      hb.envelope.run_id = ctx.run_id;
+      hb.envelope.sender = sender;
+      hb.envelope.step = -1;
+      hb.envelope.seq = Bus::next_seq();
+      std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
+      hb.uptime_s = std::chrono::duration<double>(Clock::now() - start).count();
+      std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
+      hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
+      sign(buf, ctx.secret);
+      if (lcm.good()) lcm.publish(ctx.run_id + "/" + channel::heartbeat, buf.data(), static_cast<unsigned>(buf.size()));
+      for (double t = 0; t < period_s && !impl_->stop.load(); t += 0.05)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  });
+}
+
+Heartbeat::~Heartbeat() {
+  impl_->stop = true;
+  if (impl_->thread.joinable()) impl_->thread.join();
+  delete impl_;
+}
+
+}  // namespace hemo

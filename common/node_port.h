@@ -1,0 +1,118 @@
+// The surface between a node and the bus: three calls, as in preCICE's adapter API.
+//
+//   initialize  announce the node; the fluid publishes its mesh, the particles receive it
+//   advance     publish this node's result of the current step and report it done; then wait
+//               for the coordinator's next order and the inputs that step needs
+//   finalize    report the end and leave the bus
+//
+// A node is nothing more than a loop over `advance`, so any program that speaks the messages
+// in messages/ can take a node's place.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "bus.h"
+
+#include <hemo/fluid_state_t.hpp>
+#include <hemo/mesh_t.hpp>
+#include <hemo/particle_feedback_t.hpp>
+#include <hemo/step_order_t.hpp>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace hemo {
+
+// Named scalar diagnostics reported with each step (residuals, Courant number, counts...).
+using Diagnostics = std::vector<std::pair<std::string, double>>;
+
+struct StepTimes {
+  double compute_s = 0;
+  double wait_s = 0;
+};
+
+// What the fluid node gets for a step: the order and the particles' feedback of the step before.
+struct FluidStep {
+  step_order_t order;
+  particle_feedback_t feedback;
+};
+
+// What the particle node gets for a step: the order and the fluid state at the step's end.
+struct ParticleStep {
+  step_order_t order;
+  fluid_state_t fluid;
+};
+
+class NodePort {
+ public:
+  NodePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1);
+  ~NodePort();
+
+  Bus& bus() { return *bus_; }
+  std::int64_t step() const { return step_; }
+
+  // Reports a failure of the current step to the coordinator (one line) before exiting.
+  void fail(const std::string& error);
+
+ protected:
+  // Publishes `kind` for the current step (kept for resends), then STEP_DONE; waits for the
+  // next order and for `input_kind` at step `order.step + input_offset`.
+  template <class Out>
+  std::optional<std::pair<step_order_t, Received>> advance_with(const std::string& out_kind, Out& out,
+                                                                const std::string& input_kind,
+                                                                int input_offset,
+                                                                const Diagnostics& diag) {
+    bus_->publish(out_kind, out, step_, /*keep=*/true);
+    report_done(true, "", diag);
+    bus_->forget_before(step_ - 1);
+    const double wait_start = now();
+    const auto order_msg = wait_for(channel::step, step_ + 1, "the coordinator's next step order");
+    auto order = order_msg.as<step_order_t>();
+    if (order.stop) return std::nullopt;
+    auto input = wait_for(input_kind, step_ + 1 + input_offset, input_kind.c_str());
+    step_ = order.envelope.step;
+    times_.wait_s = now() - wait_start;
+    step_started_ = now();
+    return std::make_pair(order, std::move(input));
+  }
+  // Waits for (kind, step), asking again every retry interval; throws when the run is silent.
+  Received wait_for(const std::string& kind, std::int64_t step, const char* what);
+  void report_done(bool ok, const std::string& error, const Diagnostics& diag);
+  static double now();
+
+  std::map<std::pair<std::string, std::int64_t>, Received> pending_;
+
+  std::unique_ptr<Bus> bus_;
+  std::unique_ptr<Heartbeat> heartbeat_;
+  std::string role_;
+  std::int64_t step_ = 0;
+  StepTimes times_;
+  double step_started_ = 0;
+};
+
+class FluidPort : public NodePort {
+ public:
+  using NodePort::NodePort;
+  // Says hello and publishes the mesh (kept for anyone who asks again).
+  void initialize(mesh_t& mesh);
+  // Publishes the state of the current step; returns the next step's order and feedback,
+  // or nothing when the coordinator says stop.
+  std::optional<FluidStep> advance(fluid_state_t& state, const Diagnostics& diag = {});
+  void finalize();
+};
+
+class ParticlePort : public NodePort {
+ public:
+  using NodePort::NodePort;
+  // Says hello and waits for the fluid mesh.
+  mesh_t initialize();
+  // Publishes the feedback of the current step; returns the next order and the fluid state,
+  // or nothing when the coordinator says stop.
+  std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag = {});
+  void finalize();
+};
+
+}  // namespace hemo

@@ -1,0 +1,219 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "scene.h"
+
+#include "units.h"
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <functional>
+#include <set>
+
+namespace hemo {
+
+std::string SceneProblem::str(const std::string& file) const {
+  if (line > 0) return fmt::format("{}:{}: {}: {}", file, line, key, message);
+  return fmt::format("{}: {}: {}", file, key, message);
+}
+
+static std::string join_problems(const std::string& file, const std::vector<SceneProblem>& ps) {
+  std::string s;
+  for (const auto& p : ps) s += (s.empty() ? "" : "\n") + p.str(file);
+  return s;
+}
+
+SceneError::SceneError(std::string file, std::vector<SceneProblem> problems)
+    : std::runtime_error(join_problems(file, problems)), problems_(std::move(problems)) {}
+
+namespace {
+
+// Reads typed values by dotted key, remembering which keys the schema knows so that
+// anything else in the file is reported as unknown.
+class Reader {
+ public:
+  explicit Reader(const toml::table& root) : root_(root) {}
+
+  template <class T>
+  bool read(const std::string& key, T& out, double scale = 1.0) {
+    known_.insert(key);
+    auto node = root_.at_path(key);
+    if (!node) return false;
+    const int line = static_cast<int>(node.node()->source().begin.line);
+    if constexpr (std::is_same_v<T, std::string>) {
+      if (auto v = node.value<std::string>()) { out = *v; return true; }
+      problem(key, line, "expected a string");
+    } else if constexpr (std::is_same_v<T, bool>) {
+      if (auto v = node.value<bool>()) { out = *v; return true; }
+      problem(key, line, "expected true or false");
+    } else if constexpr (std::is_integral_v<T>) {
+      if (auto v = node.value_exact<int64_t>()) { out = static_cast<T>(*v); return true; }
+      problem(key, line, "expected an integer");
+    } else {
+      if (auto v = node.value<double>()) {
+        if (!std::isfinite(*v)) { problem(key, line, "must be a finite number"); return false; }
+        out = *v * scale;
+        return true;
+      }
+      problem(key, line, "expected a number");
+    }
+    return false;
+  }
+
+  int line_of(const std::string& key) const {
+    auto node = root_.at_path(key);
+    return node ? static_cast<int>(node.node()->source().begin.line) : 0;
+  }
+
+  void problem(const std::string& key, int line, std::string message) {
+    problems_.push_back({key, line, std::move(message)});
+  }
+  void check(bool ok, const std::string& key, const std::string& message) {
+    if (!ok) problem(key, line_of(key), message);
+  }
+
+  void report_unknown() { walk(root_, ""); }
+  std::vector<SceneProblem>& problems() { return problems_; }
+
+ private:
+  void walk(const toml::table& t, const std::string& prefix) {
+    for (const auto& [k, v] : t) {
+      const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+      if (const auto* sub = v.as_table()) {
+        bool any_known = false;
+        for (const auto& kk : known_) any_known |= kk.rfind(key + ".", 0) == 0;
+        if (any_known) { walk(*sub, key); continue; }
+      }
+      if (!known_.count(key))
+        problem(key, static_cast<int>(v.source().begin.line), "unknown key");
+    }
+  }
+
+  const toml::table& root_;
+  std::set<std::string> known_;
+  std::vector<SceneProblem> problems_;
+};
+
+void read_species(Reader& r, Species& s, bool rbc) {
+  const std::string p = s.name + ".";
+  s.present = false;
+  if (rbc) {
+    s.diameter = 5.56 * units::um;
+    s.volume = 90 * units::um3;
+    double density = 1100;
+    r.read(p + "diameter_um", s.diameter, units::um);
+    r.read(p + "volume_um3", s.volume, units::um3);
+    r.read(p + "density_kg_m3", density);
+    s.mass = density * s.volume;
+    s.present = r.read(p + "hematocrit", s.hematocrit);
+    r.check(s.hematocrit >= 0 && s.hematocrit < 0.6, p + "hematocrit", "must be in [0, 0.6)");
+  } else {
+    s.diameter = 2.66 * units::um;
+    s.mass = 8.79 * units::pg;
+    const double a = 2.06 * units::um, c = 0.52 * units::um;
+    s.volume = 4.0 / 3.0 * units::pi * a * a * c;
+    r.read(p + "diameter_um", s.diameter, units::um);
+    r.read(p + "mass_pg", s.mass, units::pg);
+    r.read(p + "volume_um3", s.volume, units::um3);
+    s.present = r.read(p + "number_density_per_ul", s.number_density, units::per_ul);
+    r.check(s.number_density >= 0, p + "number_density_per_ul", "must not be negative");
+  }
+  r.read(p + "drag", s.drag);
+  r.read(p + "lift", s.lift);
+  r.check(s.diameter > 0, p + "diameter_um", "must be positive");
+  r.check(s.volume > 0, p + "volume_um3", "must be positive");
+  r.check(s.mass > 0, p + (rbc ? "density_kg_m3" : "mass_pg"), "must be positive");
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path) {
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    const int line = static_cast<int>(e.source().begin.line);
+    if (e.source().path == nullptr && line == 0)
+      throw SceneError(path, {{"(file)", 0, std::string(e.description())}});
+    throw SceneError(path, {{"(syntax)", line, std::string(e.description())}});
+  }
+
+  Scene s;
+  s.source_path = path;
+  Reader r(root);
+
+  r.read("run.name", s.run.name);
+  r.read("run.seed", s.run.seed);
+  r.read("run.node_timeout_s", s.run.node_timeout);
+  r.read("run.startup_timeout_s", s.run.startup_timeout);
+  r.read("run.fluid_command", s.run.fluid_command);
+  r.read("run.particle_command", s.run.particle_command);
+  r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");
+  r.check(s.run.startup_timeout > 0, "run.startup_timeout_s", "must be positive");
+
+  if (!r.read("vessel.diameter_um", s.vessel.diameter, units::um)) r.problem("vessel.diameter_um", 0, "missing");
+  if (!r.read("vessel.length_um", s.vessel.length, units::um)) r.problem("vessel.length_um", 0, "missing");
+  r.check(s.vessel.diameter > 0, "vessel.diameter_um", "must be positive");
+  r.check(s.vessel.length > 0, "vessel.length_um", "must be positive");
+
+  r.read("mesh.core_cells", s.mesh.core_cells);
+  r.read("mesh.ring_cells", s.mesh.ring_cells);
+  r.read("mesh.axial_cells", s.mesh.axial_cells);
+  r.check(s.mesh.core_cells >= 1, "mesh.core_cells", "must be at least 1");
+  r.check(s.mesh.ring_cells >= 1, "mesh.ring_cells", "must be at least 1");
+  r.check(s.mesh.axial_cells >= 1, "mesh.axial_cells", "must be at least 1");
+
+  r.read("plasma.density_kg_m3", s.plasma.density);
+  r.read("plasma.viscosity_Pa_s", s.plasma.viscosity);
+  r.check(s.plasma.density > 0, "plasma.density_kg_m3", "must be positive");
+  r.check(s.plasma.viscosity > 0, "plasma.viscosity_Pa_s", "must be positive");
+
+  const bool has_dp = r.read("driving.pressure_drop_Pa", s.driving.pressure_drop);
+  const bool has_shear = r.read("driving.wall_shear_rate_per_s", s.driving.wall_shear_rate);
+  if (has_dp == has_shear)
+    r.problem("driving", r.line_of("driving"), "give exactly one of pressure_drop_Pa and wall_shear_rate_per_s");
+  r.check(s.driving.pressure_drop >= 0 && s.driving.wall_shear_rate >= 0, "driving",
+          "must not be negative");
+  // gamma_w = d dP / (4 mu l): the wall shear rate is defined from the pressure drop (MODEL.md §4).
+  if (has_shear)
+    s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * s.driving.wall_shear_rate / s.vessel.diameter;
+  else if (s.vessel.diameter > 0 && s.vessel.length > 0)
+    s.driving.wall_shear_rate = s.vessel.diameter * s.driving.pressure_drop / (4 * s.plasma.viscosity * s.vessel.length);
+
+  read_species(r, s.rbc, true);
+  read_species(r, s.platelet, false);
+
+  auto& c = s.contact;
+  r.read("contact.cell_youngs_modulus_Pa", c.cell_youngs_modulus);
+  r.read("contact.wall_youngs_modulus_Pa", c.wall_youngs_modulus);
+  r.read("contact.cell_poisson_ratio", c.cell_poisson_ratio);
+  r.read("contact.wall_poisson_ratio", c.wall_poisson_ratio);
+  r.read("contact.cell_cell_restitution", c.cell_cell_restitution);
+  r.read("contact.cell_wall_restitution", c.cell_wall_restitution);
+  r.read("contact.friction", c.friction);
+  r.check(c.cell_youngs_modulus > 0, "contact.cell_youngs_modulus_Pa", "must be positive");
+  r.check(c.wall_youngs_modulus > 0, "contact.wall_youngs_modulus_Pa", "must be positive");
+  r.check(c.cell_poisson_ratio > -1 && c.cell_poisson_ratio < 0.5, "contact.cell_poisson_ratio", "must be in (-1, 0.5)");
+  r.check(c.wall_poisson_ratio > -1 && c.wall_poisson_ratio < 0.5, "contact.wall_poisson_ratio", "must be in (-1, 0.5)");
+  r.check(c.cell_cell_restitution > 0 && c.cell_cell_restitution <= 1, "contact.cell_cell_restitution", "must be in (0, 1]");
+  r.check(c.cell_wall_restitution > 0 && c.cell_wall_restitution <= 1, "contact.cell_wall_restitution", "must be in (0, 1]");
+  r.check(c.friction >= 0, "contact.friction", "must not be negative");
+
+  r.read("time.coupling_interval_s", s.time.coupling_interval);
+  r.read("time.coupling_steps", s.time.coupling_steps);
+  r.read("time.dem_substeps", s.time.dem_substeps);
+  r.check(s.time.coupling_interval > 0, "time.coupling_interval_s", "must be positive");
+  r.check(s.time.coupling_steps >= 1, "time.coupling_steps", "must be at least 1");
+  r.check(s.time.dem_substeps >= 0, "time.dem_substeps", "must not be negative (0 derives it)");
+
+  r.read("output.every_steps", s.output.every_steps);
+  r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");
+
+  r.read("coupling.two_way", s.two_way);
+
+  r.report_unknown();
+  if (!r.problems().empty()) throw SceneError(path, r.problems());
+  return s;
+}
+
+}  // namespace hemo
