@@ -1,0 +1,175 @@
+// The fluid node's settings and case directory (see fluid_case.h).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "fluid_case.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+namespace hemo {
+namespace {
+
+std::string header(const char* cls, const char* location, const char* object) {
+  std::string h =
+      "/*--------------------------------*- C++ -*----------------------------------*\\\n"
+      "  hemocosim fluid node case (written by hemocosim-fluid at start; do not edit)\n"
+      "\\*---------------------------------------------------------------------------*/\n"
+      "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       ";
+  h += cls;
+  h += ";\n    location    \"";
+  h += location;
+  h += "\";\n    object      ";
+  h += object;
+  h += ";\n}\n\n";
+  return h;
+}
+
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::filesystem::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+std::string control_dict(const FluidSettings& fluid) {
+  std::string s = header("dictionary", "system", "controlDict");
+  s += "application     hemocosim-fluid;\n"
+       "startFrom       startTime;\n"
+       "startTime       0;\n"
+       "stopAt          endTime;\n"
+       "endTime         1e30;           // the coordinator decides when to stop\n"
+       "deltaT          " + num(fluid.dt) + ";  // coupling interval; each step order may change it\n"
+       "writeControl    none;           // written only when the coordinator asks\n"
+       "writeInterval   1;\n"
+       "purgeWrite      0;\n"
+       "writeFormat     ascii;\n"
+       "writePrecision  12;\n"
+       "writeCompression off;\n"
+       "timeFormat      general;\n"
+       "timePrecision   12;\n"
+       "runTimeModifiable false;\n";
+  return s;
+}
+
+std::string fv_schemes() {
+  std::string s = header("dictionary", "system", "fvSchemes");
+  s += "ddtSchemes\n{\n    default         Euler;\n}\n\n"
+       "gradSchemes\n{\n    default         Gauss linear;\n}\n\n"
+       "divSchemes\n{\n    default         none;\n    div(alphaPhi,U) Gauss linear;\n}\n\n"
+       "laplacianSchemes\n{\n    default         Gauss linear corrected;\n}\n\n"
+       "interpolationSchemes\n{\n    default         linear;\n}\n\n"
+       "snGradSchemes\n{\n    default         corrected;\n}\n";
+  return s;
+}
+
+std::string fv_solution() {
+  std::string s = header("dictionary", "system", "fvSolution");
+  s += "solvers\n{\n"
+       "    p\n    {\n        solver          GAMG;\n        smoother        GaussSeidel;\n"
+       "        tolerance       1e-10;\n        relTol          0.01;\n    }\n"
+       "    pFinal\n    {\n        $p;\n        relTol          0;\n    }\n"
+       "    U\n    {\n        solver          smoothSolver;\n        smoother        symGaussSeidel;\n"
+       "        tolerance       1e-12;\n        relTol          0;\n    }\n"
+       "}\n\n"
+       "PISO\n{\n    momentumPredictor yes;\n    nCorrectors     2;\n"
+       "    nNonOrthogonalCorrectors 1;\n    pRefCell        0;\n    pRefValue       0;\n}\n";
+  return s;
+}
+
+}  // namespace
+
+double driving_pressure_drop(const Scene& scene) {
+  const bool has_dp = scene.driving.pressure_drop > 0;
+  const bool has_rate = scene.driving.wall_shear_rate > 0;
+  if (has_dp == has_rate)
+    throw std::invalid_argument("driving: give exactly one of pressure_drop and wall_shear_rate (> 0)");
+  if (has_dp) return scene.driving.pressure_drop;
+  return 4 * scene.plasma.viscosity * scene.vessel.length * scene.driving.wall_shear_rate /
+         scene.vessel.diameter;
+}
+
+FluidSettings fluid_settings(const Scene& scene) {
+  FluidSettings f;
+  f.density = scene.plasma.density;
+  f.viscosity = scene.plasma.viscosity;
+  if (!(f.density > 0) || !(f.viscosity > 0))
+    throw std::invalid_argument("plasma density and viscosity must be positive");
+  if (!(scene.vessel.length > 0) || !(scene.vessel.diameter > 0))
+    throw std::invalid_argument("vessel diameter and length must be positive");
+  f.kinematic_viscosity = f.viscosity / f.density;
+  f.pressure_drop = driving_pressure_drop(scene);
+  f.body_force = f.pressure_drop / (f.density * scene.vessel.length);
+  f.dt = scene.time.coupling_interval;
+  if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");
+  for (const Species* s : {&scene.rbc, &scene.platelet})
+    if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
+  return f;
+}
+
+double poiseuille_velocity(const FluidSettings& fluid, const Vessel& vessel, double r) {
+  const double R = vessel.radius();
+  return fluid.pressure_drop / (4 * fluid.viscosity * vessel.length) * (R * R - r * r);
+}
+
+std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
+                                                   double largest_particle_diameter) {
+  if (geometry.cell_volumes.empty() || !(largest_particle_diameter > 0)) return std::nullopt;
+  const double v_min = *std::min_element(geometry.cell_volumes.begin(), geometry.cell_volumes.end());
+  const double dx = std::cbrt(v_min);
+  if (dx > largest_particle_diameter) return std::nullopt;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "mesh too fine for unresolved coupling: smallest cell size (cube root of volume) "
+                "%.3g um is not larger than the largest particle diameter %.3g um (d_p/dx = %.2f >= 1); "
+                "use fewer cells",
+                dx * 1e6, largest_particle_diameter * 1e6, largest_particle_diameter / dx);
+  return std::string(buf);
+}
+
+void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel,
+                const PolyMesh& mesh, const MeshGeometry& geometry, InitialFlow initial) {
+  namespace fs = std::filesystem;
+  const fs::path dir(case_dir);
+  write_text(dir / "system" / "controlDict", control_dict(fluid));
+  write_text(dir / "system" / "fvSchemes", fv_schemes());
+  write_text(dir / "system" / "fvSolution", fv_solution());
+  write_polymesh(mesh, case_dir);
+
+  std::string cyclic_entries;
+  for (const auto& p : mesh.patches)
+    if (p.type == "cyclic") cyclic_entries += "    " + p.name + "\n    {\n        type            cyclic;\n    }\n";
+
+  std::string u = header("volVectorField", "0", "U");
+  u += "dimensions      [0 1 -1 0 0 0 0];\n\n";
+  if (initial == InitialFlow::rest) {
+    u += "internalField   uniform (0 0 0);\n\n";
+  } else {
+    // The developed particle-free flow for the imposed pressure drop.
+    u += "internalField   nonuniform List<vector>\n" + std::to_string(geometry.cell_centres.size()) + "\n(\n";
+    for (const auto& c : geometry.cell_centres)
+      u += "(0 0 " + num(poiseuille_velocity(fluid, vessel, std::hypot(c[0], c[1]))) + ")\n";
+    u += ")\n;\n\n";
+  }
+  u += "boundaryField\n{\n    " + std::string(patch_name::wall) +
+       "\n    {\n        type            noSlip;\n    }\n" + cyclic_entries + "}\n";
+  write_text(dir / "0" / "U", u);
+
+  std::string p = header("volScalarField", "0", "p");
+  p += "dimensions      [0 2 -2 0 0 0 0];  // kinematic: pressure / density\n\n"
+       "internalField   uniform 0;\n\n"
+       "boundaryField\n{\n    " + std::string(patch_name::wall) +
+       "\n    {\n        type            zeroGradient;\n    }\n" + cyclic_entries + "}\n";
+  write_text(dir / "0" / "p", p);
+}
+
+}  // namespace hemo

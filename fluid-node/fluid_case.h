@@ -1,0 +1,48 @@
+// What the fluid node takes from a scene, and the OpenFOAM case it writes from it
+// (RUN_DIR/fluid: system/, constant/polyMesh, 0/). Plain C++, no OpenFOAM.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "vessel_mesh.h"
+
+#include <scene.h>
+
+#include <optional>
+#include <string>
+
+namespace hemo {
+
+// The fluid problem in SI units.
+struct FluidSettings {
+  double density = 0;              // kg/m^3
+  double viscosity = 0;            // Pa s
+  double kinematic_viscosity = 0;  // m^2/s
+  double pressure_drop = 0;        // Pa over the vessel length
+  double body_force = 0;           // m/s^2 along +z: G = dP / (rho l)
+  double dt = 0;                   // s, coupling interval = one fluid time step
+  double largest_particle_diameter = 0;  // m, over the species present (0: none)
+};
+
+// The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from
+// `driving.wall_shear_rate`. Throws std::invalid_argument when neither (or both) is given.
+double driving_pressure_drop(const Scene& scene);
+
+FluidSettings fluid_settings(const Scene& scene);
+
+// Analytic Poiseuille velocity of the particle-free vessel at radius r (m/s along z).
+double poiseuille_velocity(const FluidSettings& fluid, const Vessel& vessel, double r);
+
+// Unresolved coupling needs every fluid cell larger than every particle. Cell size is the
+// edge of the cube of the cell's volume. Returns the one-line reason when the mesh is too
+// fine for the particles, nothing when it is fine.
+std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
+                                                   double largest_particle_diameter);
+
+enum class InitialFlow { rest, poiseuille };
+
+// Writes the case directory: system/{controlDict,fvSchemes,fvSolution}, constant/polyMesh,
+// 0/{U,p}. The time step is the coupling interval; the case writes nothing unless asked.
+void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel,
+                const PolyMesh& mesh, const MeshGeometry& geometry, InitialFlow initial);
+
+}  // namespace hemo

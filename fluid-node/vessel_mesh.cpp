@@ -1,0 +1,470 @@
+// The O-grid vessel mesh (see vessel_mesh.h).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "vessel_mesh.h"
+
+#include <hemo/mesh_t.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <utility>
+
+namespace hemo {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+using Vec2 = std::array<double, 2>;
+
+Vec3 operator+(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+Vec3 operator-(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3 operator*(double s, const Vec3& a) { return {s * a[0], s * a[1], s * a[2]}; }
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+
+// The cross-section: nodes in the xy plane and quads listed counter-clockwise seen from +z.
+struct Section {
+  std::vector<Vec2> nodes;
+  std::vector<std::array<int, 4>> quads;
+};
+
+// Point of the core's boundary on the ray at angle `theta`: the square of half-width s blended
+// toward the circle through its corners.
+Vec2 core_edge_point(double theta, double s, double rounding) {
+  const double c = std::cos(theta), sn = std::sin(theta);
+  const double r_square = s / std::max(std::abs(c), std::abs(sn));
+  const double r = (1 - rounding) * r_square + rounding * s * std::sqrt(2.0);
+  return {r * c, r * sn};
+}
+
+Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
+  Section sec;
+  const double s = shape.core_half_width * radius;
+  const double w = shape.core_rounding;
+  const double deg = kPi / 180;
+  auto edge = [&](double theta_deg) { return core_edge_point(theta_deg * deg, s, w); };
+
+  // Core nodes (i, j), i along x, j along y, by transfinite interpolation of its four edges,
+  // whose nodes sit at equal angles so that the ring's radial lines continue them.
+  auto core_id = [&](int i, int j) { return i + j * (nc + 1); };
+  sec.nodes.resize(static_cast<std::size_t>((nc + 1) * (nc + 1)));
+  const Vec2 p00 = edge(225), p10 = edge(315), p01 = edge(135), p11 = edge(45);
+  for (int j = 0; j <= nc; ++j) {
+    for (int i = 0; i <= nc; ++i) {
+      const double xi = double(i) / nc, eta = double(j) / nc;
+      const Vec2 b = edge(225 + 90 * xi), t = edge(135 - 90 * xi);
+      const Vec2 l = edge(225 - 90 * eta), r = edge(-45 + 90 * eta);
+      Vec2 p;
+      for (int d = 0; d < 2; ++d) {
+        p[d] = (1 - eta) * b[d] + eta * t[d] + (1 - xi) * l[d] + xi * r[d] -
+               ((1 - xi) * (1 - eta) * p00[d] + xi * (1 - eta) * p10[d] + (1 - xi) * eta * p01[d] +
+                xi * eta * p11[d]);
+      }
+      sec.nodes[static_cast<std::size_t>(core_id(i, j))] = p;
+    }
+  }
+  // Core boundary node of side k (0 east, 1 north, 2 west, 3 south) at position m, counted
+  // counter-clockwise around the axis.
+  auto side_id = [&](int k, int m) {
+    switch (k) {
+      case 0: return core_id(nc, m);
+      case 1: return core_id(nc - m, nc);
+      case 2: return core_id(0, nc - m);
+      default: return core_id(m, 0);
+    }
+  };
+  // Ring nodes: side k, position m (0..nc, m = nc is the next side's m = 0), layer l (0 core edge,
+  // nr wall), on the radial line through the core edge node.
+  const int ring_base = static_cast<int>(sec.nodes.size());
+  auto ring_id = [&](int k, int m, int l) {
+    if (m == nc) {
+      k = (k + 1) % 4;
+      m = 0;
+    }
+    if (l == 0) return side_id(k, m);
+    return ring_base + (k * nc + m) * nr + (l - 1);
+  };
+  sec.nodes.resize(static_cast<std::size_t>(ring_base + 4 * nc * nr));
+  for (int k = 0; k < 4; ++k) {
+    for (int m = 0; m < nc; ++m) {
+      const double theta = (-45 + 90 * k + 90.0 * m / nc) * deg;
+      const Vec2 inner = sec.nodes[static_cast<std::size_t>(side_id(k, m))];
+      const Vec2 outer{radius * std::cos(theta), radius * std::sin(theta)};
+      for (int l = 1; l <= nr; ++l) {
+        const double f = double(l) / nr;
+        Vec2 p{inner[0] + f * (outer[0] - inner[0]), inner[1] + f * (outer[1] - inner[1])};
+        if (l == nr) p = outer;
+        sec.nodes[static_cast<std::size_t>(ring_id(k, m, l))] = p;
+      }
+    }
+  }
+  // Quads: the core (i along x, j along y), then the ring blocks (radius, then angle: a
+  // right-handed pair like x, y), all counter-clockwise.
+  for (int j = 0; j < nc; ++j)
+    for (int i = 0; i < nc; ++i)
+      sec.quads.push_back({core_id(i, j), core_id(i + 1, j), core_id(i + 1, j + 1), core_id(i, j + 1)});
+  for (int k = 0; k < 4; ++k)
+    for (int m = 0; m < nc; ++m)
+      for (int l = 0; l < nr; ++l)
+        sec.quads.push_back(
+            {ring_id(k, m, l), ring_id(k, m, l + 1), ring_id(k, m + 1, l + 1), ring_id(k, m + 1, l)});
+  return sec;
+}
+
+// FNV-1a, 64 bit.
+struct Fnv1a {
+  std::uint64_t h = 1469598103934665603ull;
+  void bytes(const void* p, std::size_t n) {
+    const auto* c = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) {
+      h ^= c[i];
+      h *= 1099511628211ull;
+    }
+  }
+  template <class T>
+  void value(const T& v) {
+    bytes(&v, sizeof v);
+  }
+  void text(const std::string& s) {
+    value(static_cast<std::uint64_t>(s.size()));
+    bytes(s.data(), s.size());
+  }
+};
+
+std::string foam_header(const char* cls, const char* object, const std::string& note = {}) {
+  std::string h =
+      "/*--------------------------------*- C++ -*----------------------------------*\\\n"
+      "  hemocosim vessel mesh (generated; do not edit)\n"
+      "\\*---------------------------------------------------------------------------*/\n"
+      "FoamFile\n{\n    version     2.0;\n    format      ascii;\n    class       ";
+  h += cls;
+  h += ";\n";
+  if (!note.empty()) h += "    note        \"" + note + "\";\n";
+  h += "    location    \"constant/polyMesh\";\n    object      ";
+  h += object;
+  h += ";\n}\n\n";
+  return h;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+std::string fmt_double(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+}  // namespace
+
+const PatchInfo& PolyMesh::patch(const std::string& name) const {
+  for (const auto& p : patches)
+    if (p.name == name) return p;
+  throw std::out_of_range("mesh has no patch " + name);
+}
+
+PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
+  if (!(vessel.diameter > 0) || !(vessel.length > 0))
+    throw std::invalid_argument("vessel diameter and length must be positive");
+  if (spec.core_cells < 1 || spec.ring_cells < 1 || spec.axial_cells < 1)
+    throw std::invalid_argument("mesh core_cells, ring_cells and axial_cells must be at least 1");
+  if (!(shape.core_half_width > 0 && shape.core_half_width < 1 / std::sqrt(2.0)) ||
+      !(shape.core_rounding >= 0 && shape.core_rounding <= 1))
+    throw std::invalid_argument("O-grid core half-width must be in (0, 1/sqrt 2) R, rounding in [0, 1]");
+
+  const Section sec = make_section(vessel.radius(), spec.core_cells, spec.ring_cells, shape);
+  const int nn = static_cast<int>(sec.nodes.size());
+  const int nq = static_cast<int>(sec.quads.size());
+  const int nz = spec.axial_cells;
+
+  PolyMesh mesh;
+  mesh.n_cells = nq * nz;
+  mesh.points.reserve(static_cast<std::size_t>(nn * (nz + 1)));
+  for (int k = 0; k <= nz; ++k) {
+    const double z = (k == nz) ? vessel.length : vessel.length * k / nz;
+    for (const auto& n : sec.nodes) mesh.points.push_back({n[0], n[1], z});
+  }
+  auto P = [nn](int node, int layer) { return layer * nn + node; };
+  auto cell = [nq](int q, int layer) { return layer * nq + q; };
+
+  // 2D edges: (a, b) in the counter-clockwise order of each quad that has it.
+  struct EdgeUse {
+    int quad, a, b;
+  };
+  std::map<std::pair<int, int>, std::vector<EdgeUse>> edges;
+  for (int q = 0; q < nq; ++q) {
+    for (int e = 0; e < 4; ++e) {
+      const int a = sec.quads[q][e], b = sec.quads[q][(e + 1) % 4];
+      edges[{std::min(a, b), std::max(a, b)}].push_back({q, a, b});
+    }
+  }
+  // Per quad: the higher-numbered quads across an edge (with the edge in this quad's order),
+  // and the wall edges.
+  std::vector<std::vector<std::pair<int, std::pair<int, int>>>> upper(static_cast<std::size_t>(nq));
+  std::vector<std::pair<int, std::pair<int, int>>> wall_edges;  // (quad, (a, b))
+  for (const auto& [key, uses] : edges) {
+    if (uses.size() == 1) {
+      wall_edges.push_back({uses[0].quad, {uses[0].a, uses[0].b}});
+    } else if (uses.size() == 2) {
+      const EdgeUse& lo = uses[0].quad < uses[1].quad ? uses[0] : uses[1];
+      const EdgeUse& hi = uses[0].quad < uses[1].quad ? uses[1] : uses[0];
+      upper[static_cast<std::size_t>(lo.quad)].push_back({hi.quad, {lo.a, lo.b}});
+    } else {
+      throw std::logic_error("O-grid edge shared by more than two cells");
+    }
+  }
+  std::sort(wall_edges.begin(), wall_edges.end());
+
+  // Internal faces, upper-triangular: cell by cell, neighbours in increasing order.
+  for (int k = 0; k < nz; ++k) {
+    for (int q = 0; q < nq; ++q) {
+      std::vector<std::pair<int, std::vector<int>>> faces;  // (neighbour, points)
+      for (const auto& [q2, ab] : upper[static_cast<std::size_t>(q)]) {
+        const auto [a, b] = ab;
+        faces.push_back({cell(q2, k), {P(a, k), P(b, k), P(b, k + 1), P(a, k + 1)}});
+      }
+      if (k + 1 < nz) {
+        const auto& n = sec.quads[static_cast<std::size_t>(q)];
+        faces.push_back({cell(q, k + 1), {P(n[0], k + 1), P(n[1], k + 1), P(n[2], k + 1), P(n[3], k + 1)}});
+      }
+      std::sort(faces.begin(), faces.end());
+      for (auto& [nb, pts] : faces) {
+        mesh.faces.push_back(std::move(pts));
+        mesh.owner.push_back(cell(q, k));
+        mesh.neighbour.push_back(nb);
+      }
+    }
+  }
+  // Boundary: the wall, then the cyclic pair. Face i of inlet (z = 0) and face i of outlet
+  // (z = length) are the same quad: same first point, opposite orientation.
+  const double L = vessel.length;
+  PatchInfo wall{patch_name::wall, "wall", mesh.n_faces(), 0, {}, {0, 0, 0}};
+  for (int k = 0; k < nz; ++k) {
+    for (const auto& [q, ab] : wall_edges) {
+      const auto [a, b] = ab;
+      mesh.faces.push_back({P(a, k), P(b, k), P(b, k + 1), P(a, k + 1)});
+      mesh.owner.push_back(cell(q, k));
+    }
+  }
+  wall.size = mesh.n_faces() - wall.start;
+  PatchInfo inlet{patch_name::inlet, "cyclic", mesh.n_faces(), nq, patch_name::outlet, {0, 0, L}};
+  for (int q = 0; q < nq; ++q) {
+    const auto& n = sec.quads[static_cast<std::size_t>(q)];
+    mesh.faces.push_back({P(n[0], 0), P(n[3], 0), P(n[2], 0), P(n[1], 0)});
+    mesh.owner.push_back(cell(q, 0));
+  }
+  PatchInfo outlet{patch_name::outlet, "cyclic", mesh.n_faces(), nq, patch_name::inlet, {0, 0, -L}};
+  for (int q = 0; q < nq; ++q) {
+    const auto& n = sec.quads[static_cast<std::size_t>(q)];
+    mesh.faces.push_back({P(n[0], nz), P(n[1], nz), P(n[2], nz), P(n[3], nz)});
+    mesh.owner.push_back(cell(q, nz - 1));
+  }
+  mesh.patches = {wall, inlet, outlet};
+  return mesh;
+}
+
+MeshGeometry compute_geometry(const PolyMesh& mesh) {
+  MeshGeometry g;
+  const std::size_t nf = mesh.faces.size();
+  g.face_centres.resize(nf);
+  g.face_areas.resize(nf);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto& face = mesh.faces[f];
+    const std::size_t np = face.size();
+    Vec3 avg{0, 0, 0};
+    for (int p : face) avg = avg + mesh.points[static_cast<std::size_t>(p)];
+    avg = (1.0 / double(np)) * avg;
+    Vec3 sum_n{0, 0, 0}, sum_ac{0, 0, 0};
+    double sum_a = 0;
+    for (std::size_t i = 0; i < np; ++i) {
+      const Vec3& a = mesh.points[static_cast<std::size_t>(face[i])];
+      const Vec3& b = mesh.points[static_cast<std::size_t>(face[(i + 1) % np])];
+      const Vec3 c = a + b + avg;
+      const Vec3 n = cross(b - a, avg - a);
+      const double area = norm(n);
+      sum_n = sum_n + n;
+      sum_a += area;
+      sum_ac = sum_ac + area * c;
+    }
+    g.face_centres[f] = sum_a > 1e-300 ? (1.0 / (3.0 * sum_a)) * sum_ac : avg;
+    g.face_areas[f] = 0.5 * sum_n;
+  }
+  const std::size_t nc = static_cast<std::size_t>(mesh.n_cells);
+  std::vector<Vec3> estimate(nc, Vec3{0, 0, 0});
+  std::vector<int> count(nc, 0);
+  const std::size_t ni = mesh.neighbour.size();
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto o = static_cast<std::size_t>(mesh.owner[f]);
+    estimate[o] = estimate[o] + g.face_centres[f];
+    ++count[o];
+    if (f < ni) {
+      const auto n = static_cast<std::size_t>(mesh.neighbour[f]);
+      estimate[n] = estimate[n] + g.face_centres[f];
+      ++count[n];
+    }
+  }
+  for (std::size_t c = 0; c < nc; ++c) estimate[c] = (1.0 / std::max(count[c], 1)) * estimate[c];
+  g.cell_centres.assign(nc, Vec3{0, 0, 0});
+  g.cell_volumes.assign(nc, 0.0);
+  auto add_pyramid = [&](std::size_t c, std::size_t f, double sign) {
+    const double v3 = sign * dot(g.face_areas[f], g.face_centres[f] - estimate[c]);
+    const Vec3 pc = 0.75 * g.face_centres[f] + 0.25 * estimate[c];
+    g.cell_centres[c] = g.cell_centres[c] + v3 * pc;
+    g.cell_volumes[c] += v3;
+  };
+  for (std::size_t f = 0; f < nf; ++f) {
+    add_pyramid(static_cast<std::size_t>(mesh.owner[f]), f, 1.0);
+    if (f < ni) add_pyramid(static_cast<std::size_t>(mesh.neighbour[f]), f, -1.0);
+  }
+  for (std::size_t c = 0; c < nc; ++c) {
+    if (std::abs(g.cell_volumes[c]) > 1e-300)
+      g.cell_centres[c] = (1.0 / g.cell_volumes[c]) * g.cell_centres[c];
+    else
+      g.cell_centres[c] = estimate[c];
+    g.cell_volumes[c] /= 3.0;
+  }
+  return g;
+}
+
+double min_edge_length(const PolyMesh& mesh) {
+  double m = std::numeric_limits<double>::infinity();
+  for (const auto& face : mesh.faces)
+    for (std::size_t i = 0; i < face.size(); ++i)
+      m = std::min(m, norm(mesh.points[static_cast<std::size_t>(face[(i + 1) % face.size()])] -
+                           mesh.points[static_cast<std::size_t>(face[i])]));
+  return m;
+}
+
+std::string mesh_hash(const PolyMesh& mesh) {
+  Fnv1a h;
+  h.value(static_cast<std::int64_t>(mesh.n_cells));
+  h.value(static_cast<std::int64_t>(mesh.points.size()));
+  for (const auto& p : mesh.points) h.bytes(p.data(), sizeof(double) * 3);
+  h.value(static_cast<std::int64_t>(mesh.faces.size()));
+  for (const auto& f : mesh.faces) {
+    h.value(static_cast<std::int32_t>(f.size()));
+    for (int p : f) h.value(static_cast<std::int32_t>(p));
+  }
+  for (int o : mesh.owner) h.value(static_cast<std::int32_t>(o));
+  for (int n : mesh.neighbour) h.value(static_cast<std::int32_t>(n));
+  for (const auto& p : mesh.patches) {
+    h.text(p.name);
+    h.text(p.type);
+    h.value(static_cast<std::int32_t>(p.start));
+    h.value(static_cast<std::int32_t>(p.size));
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h.h));
+  return buf;
+}
+
+void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(case_dir) / "constant" / "polyMesh";
+  fs::create_directories(dir);
+  const std::string note = "nPoints:" + std::to_string(mesh.points.size()) +
+                           "  nCells:" + std::to_string(mesh.n_cells) +
+                           "  nFaces:" + std::to_string(mesh.faces.size()) +
+                           "  nInternalFaces:" + std::to_string(mesh.neighbour.size());
+  {
+    std::string s = foam_header("vectorField", "points");
+    s += std::to_string(mesh.points.size()) + "\n(\n";
+    for (const auto& p : mesh.points)
+      s += "(" + fmt_double(p[0]) + " " + fmt_double(p[1]) + " " + fmt_double(p[2]) + ")\n";
+    s += ")\n";
+    write_file(dir / "points", s);
+  }
+  {
+    std::string s = foam_header("faceList", "faces");
+    s += std::to_string(mesh.faces.size()) + "\n(\n";
+    for (const auto& f : mesh.faces) {
+      s += std::to_string(f.size()) + "(";
+      for (std::size_t i = 0; i < f.size(); ++i) s += (i ? " " : "") + std::to_string(f[i]);
+      s += ")\n";
+    }
+    s += ")\n";
+    write_file(dir / "faces", s);
+  }
+  auto label_list = [&](const char* object, const std::vector<int>& v) {
+    std::string s = foam_header("labelList", object, note);
+    s += std::to_string(v.size()) + "\n(\n";
+    for (int x : v) s += std::to_string(x) + "\n";
+    s += ")\n";
+    write_file(dir / object, s);
+  };
+  label_list("owner", mesh.owner);
+  label_list("neighbour", mesh.neighbour);
+  {
+    std::string s = foam_header("polyBoundaryMesh", "boundary");
+    s += std::to_string(mesh.patches.size()) + "\n(\n";
+    for (const auto& p : mesh.patches) {
+      s += "    " + p.name + "\n    {\n";
+      s += "        type            " + p.type + ";\n";
+      if (p.type == "wall") s += "        inGroups        1(wall);\n";
+      if (p.type == "cyclic") s += "        inGroups        1(cyclic);\n";
+      s += "        nFaces          " + std::to_string(p.size) + ";\n";
+      s += "        startFace       " + std::to_string(p.start) + ";\n";
+      if (p.type == "cyclic") {
+        s += "        matchTolerance  0.0001;\n";
+        s += "        transform       translational;\n";
+        s += "        neighbourPatch  " + p.neighbour + ";\n";
+        s += "        separationVector (" + fmt_double(p.separation[0]) + " " +
+             fmt_double(p.separation[1]) + " " + fmt_double(p.separation[2]) + ");\n";
+      }
+      s += "    }\n";
+    }
+    s += ")\n";
+    write_file(dir / "boundary", s);
+  }
+}
+
+void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel,
+                       mesh_t& msg) {
+  msg.mesh_hash = mesh_hash(mesh);
+  msg.vessel_diameter_m = vessel.diameter;
+  msg.vessel_length_m = vessel.length;
+  msg.n_points = static_cast<int32_t>(mesh.points.size());
+  msg.points.clear();
+  for (const auto& p : mesh.points) msg.points.push_back({p[0], p[1], p[2]});
+  msg.n_faces = mesh.n_faces();
+  msg.face_offsets.clear();
+  msg.face_points.clear();
+  for (const auto& f : mesh.faces) {
+    msg.face_offsets.push_back(static_cast<int32_t>(msg.face_points.size()));
+    msg.face_points.insert(msg.face_points.end(), f.begin(), f.end());
+  }
+  msg.n_face_points = static_cast<int32_t>(msg.face_points.size());
+  msg.owner.assign(mesh.owner.begin(), mesh.owner.end());
+  msg.n_internal_faces = mesh.n_internal_faces();
+  msg.neighbour.assign(mesh.neighbour.begin(), mesh.neighbour.end());
+  msg.n_cells = mesh.n_cells;
+  msg.cell_centres.clear();
+  for (const auto& c : geometry.cell_centres) msg.cell_centres.push_back({c[0], c[1], c[2]});
+  msg.cell_volumes = geometry.cell_volumes;
+  msg.n_patches = static_cast<int32_t>(mesh.patches.size());
+  msg.patch_names.clear();
+  msg.patch_types.clear();
+  msg.patch_start.clear();
+  msg.patch_size.clear();
+  for (const auto& p : mesh.patches) {
+    msg.patch_names.push_back(p.name);
+    msg.patch_types.push_back(p.type);
+    msg.patch_start.push_back(p.start);
+    msg.patch_size.push_back(p.size);
+  }
+}
+
+}  // namespace hemo

@@ -1,0 +1,87 @@
+// The fluid mesh of a straight periodic vessel: an O-grid disk (square core and four ring
+// blocks) extruded along z, generated in plain C++ in OpenFOAM's polyMesh order, written as
+// constant/polyMesh and packed into the mesh message the particle node locates particles with.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <scene.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hemo {
+
+class mesh_t;
+
+using Vec3 = std::array<double, 3>;
+
+// Shape of the O-grid cross-section (dimensionless, relative to the radius R).
+struct OGridShape {
+  double core_half_width = 0.55;  // half-width of the core square, in R
+  double core_rounding = 0.4;     // 0: straight core edges, 1: core edges on a circle
+};
+
+struct PatchInfo {
+  std::string name;
+  std::string type;  // "wall" or "cyclic"
+  int start = 0;     // first face
+  int size = 0;      // number of faces
+  std::string neighbour;  // cyclic partner patch
+  Vec3 separation{0, 0, 0};  // cyclic: neighbour face centre minus this face centre
+};
+
+// An unstructured polyhedral mesh in OpenFOAM order: internal faces first, upper-triangular
+// (sorted by owner, then neighbour, owner < neighbour, normal from owner to neighbour), then
+// boundary faces patch by patch with outward normals.
+struct PolyMesh {
+  std::vector<Vec3> points;
+  std::vector<std::vector<int>> faces;
+  std::vector<int> owner;
+  std::vector<int> neighbour;  // size = number of internal faces
+  std::vector<PatchInfo> patches;
+  int n_cells = 0;
+
+  int n_internal_faces() const { return static_cast<int>(neighbour.size()); }
+  int n_faces() const { return static_cast<int>(faces.size()); }
+  const PatchInfo& patch(const std::string& name) const;  // throws if absent
+};
+
+// Geometry computed the way OpenFOAM does (face centres and area vectors from triangles about
+// the point average; cell centres and volumes from pyramids about the face-centre average).
+struct MeshGeometry {
+  std::vector<Vec3> face_centres;
+  std::vector<Vec3> face_areas;  // area-weighted normals
+  std::vector<Vec3> cell_centres;
+  std::vector<double> cell_volumes;
+};
+
+// Patch names of the vessel mesh.
+namespace patch_name {
+inline constexpr const char* wall = "wall";
+inline constexpr const char* inlet = "inlet";    // z = 0, cyclic partner of outlet
+inline constexpr const char* outlet = "outlet";  // z = length
+}  // namespace patch_name
+
+// Generates the O-grid vessel mesh. Throws std::invalid_argument on impossible input.
+PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape = {});
+
+MeshGeometry compute_geometry(const PolyMesh& mesh);
+
+// Smallest edge length of any face: a lower bound of the cell size used for the
+// unresolved-coupling check (particle diameter / cell size < 1).
+double min_edge_length(const PolyMesh& mesh);
+
+// Short hex fingerprint (FNV-1a 64) of points, faces, owner, neighbour and patches.
+std::string mesh_hash(const PolyMesh& mesh);
+
+// Writes constant/polyMesh/{points,faces,owner,neighbour,boundary} under `case_dir`
+// (creating directories), ASCII, full precision.
+void write_polymesh(const PolyMesh& mesh, const std::string& case_dir);
+
+// Fills the mesh message (everything except the envelope).
+void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel,
+                       mesh_t& msg);
+
+}  // namespace hemo

@@ -1,0 +1,232 @@
+// Unit tests of the O-grid vessel mesh generator.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include <gtest/gtest.h>
+#include <hemo/mesh_t.hpp>
+
+#include "vessel_mesh.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+
+namespace {
+
+using hemo::Vec3;
+constexpr double kPi = 3.14159265358979323846;
+
+hemo::Vessel paper_vessel() { return hemo::Vessel{100e-6, 600e-6}; }
+
+Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+
+struct Built {
+  hemo::PolyMesh mesh;
+  hemo::MeshGeometry geo;
+};
+
+Built build(int core, int ring, int axial, hemo::Vessel v = paper_vessel()) {
+  hemo::MeshSpec spec;
+  spec.core_cells = core;
+  spec.ring_cells = ring;
+  spec.axial_cells = axial;
+  Built b{hemo::make_vessel_mesh(v, spec), {}};
+  b.geo = hemo::compute_geometry(b.mesh);
+  return b;
+}
+
+TEST(VesselMesh, CellCountMatchesSpec) {
+  for (auto [c, r, a] : {std::array<int, 3>{4, 3, 24}, {2, 1, 1}, {6, 4, 10}, {8, 6, 3}}) {
+    hemo::MeshSpec spec{c, r, a};
+    const auto mesh = hemo::make_vessel_mesh(paper_vessel(), spec);
+    EXPECT_EQ(mesh.n_cells, spec.cells()) << c << " " << r << " " << a;
+  }
+  EXPECT_EQ(build(4, 3, 24).mesh.n_cells, 1536);  // the paper's mesh
+}
+
+TEST(VesselMesh, CellsAreClosedHexahedraWithPositiveVolume) {
+  const auto b = build(4, 3, 24);
+  const auto& m = b.mesh;
+  std::vector<Vec3> sum(static_cast<std::size_t>(m.n_cells), Vec3{0, 0, 0});
+  std::vector<double> mag(static_cast<std::size_t>(m.n_cells), 0.0);
+  std::vector<int> nfaces(static_cast<std::size_t>(m.n_cells), 0);
+  for (int f = 0; f < m.n_faces(); ++f) {
+    EXPECT_EQ(m.faces[f].size(), 4u);
+    const auto& s = b.geo.face_areas[f];
+    auto add = [&](int c, double sign) {
+      for (int d = 0; d < 3; ++d) sum[c][d] += sign * s[d];
+      mag[c] += norm(s);
+      ++nfaces[c];
+    };
+    add(m.owner[f], 1);
+    if (f < m.n_internal_faces()) add(m.neighbour[f], -1);
+  }
+  for (int c = 0; c < m.n_cells; ++c) {
+    EXPECT_EQ(nfaces[c], 6) << "cell " << c;
+    EXPECT_LT(norm(sum[c]), 1e-12 * mag[c]) << "cell " << c << " is not closed";
+    EXPECT_GT(b.geo.cell_volumes[c], 0) << "cell " << c;
+  }
+}
+
+TEST(VesselMesh, TotalVolumeIsTheInscribedPolygonAndConvergesToTheCylinder) {
+  const auto v = paper_vessel();
+  const double exact = kPi * v.radius() * v.radius() * v.length;
+  double previous_error = 1;
+  for (int n : {2, 4, 8, 16, 32}) {
+    const auto b = build(n, n, 2);
+    double total = 0;
+    for (double vol : b.geo.cell_volumes) total += vol;
+    const int sides = 4 * n;
+    const double polygon = 0.5 * sides * std::sin(2 * kPi / sides) * v.radius() * v.radius() * v.length;
+    EXPECT_NEAR(total / polygon, 1.0, 1e-12) << n;
+    const double error = std::abs(total / exact - 1);
+    EXPECT_LT(error, previous_error / 3.5) << "second-order polygon convergence at n = " << n;
+    previous_error = error;
+  }
+  EXPECT_LT(previous_error, 1e-3);
+}
+
+TEST(VesselMesh, InternalFacesAreUpperTriangularAndPointOwnerToNeighbour) {
+  const auto b = build(4, 3, 6);
+  const auto& m = b.mesh;
+  ASSERT_GT(m.n_internal_faces(), 0);
+  for (int f = 0; f < m.n_internal_faces(); ++f) {
+    EXPECT_LT(m.owner[f], m.neighbour[f]);
+    if (f > 0) {
+      const bool ordered = m.owner[f - 1] < m.owner[f] ||
+                           (m.owner[f - 1] == m.owner[f] && m.neighbour[f - 1] < m.neighbour[f]);
+      EXPECT_TRUE(ordered) << "face " << f;
+    }
+    const Vec3 d = sub(b.geo.cell_centres[m.neighbour[f]], b.geo.cell_centres[m.owner[f]]);
+    EXPECT_GT(dot(d, b.geo.face_areas[f]), 0) << "face " << f;
+  }
+  for (int f = m.n_internal_faces(); f < m.n_faces(); ++f) {
+    const Vec3 d = sub(b.geo.face_centres[f], b.geo.cell_centres[m.owner[f]]);
+    EXPECT_GT(dot(d, b.geo.face_areas[f]), 0) << "boundary face " << f << " not outward";
+  }
+}
+
+TEST(VesselMesh, PatchesCoverTheBoundaryAndTheWallIsOnTheCircle) {
+  const auto b = build(4, 3, 5);
+  const auto& m = b.mesh;
+  ASSERT_EQ(m.patches.size(), 3u);
+  int next = m.n_internal_faces();
+  for (const auto& p : m.patches) {
+    EXPECT_EQ(p.start, next) << p.name;
+    next += p.size;
+  }
+  EXPECT_EQ(next, m.n_faces());
+  const auto& wall = m.patch("wall");
+  EXPECT_EQ(wall.type, "wall");
+  EXPECT_EQ(wall.size, 4 * 4 * 5);
+  const double R = paper_vessel().radius();
+  for (int f = wall.start; f < wall.start + wall.size; ++f)
+    for (int p : m.faces[f]) EXPECT_NEAR(std::hypot(m.points[p][0], m.points[p][1]), R, 1e-15);
+  std::set<int> used;
+  for (const auto& f : m.faces) used.insert(f.begin(), f.end());
+  EXPECT_EQ(used.size(), m.points.size()) << "every point belongs to a face";
+}
+
+TEST(VesselMesh, CyclicFacesArePairedOneLengthApart) {
+  const auto v = paper_vessel();
+  const auto b = build(4, 3, 7);
+  const auto& m = b.mesh;
+  const auto& in = m.patch("inlet");
+  const auto& out = m.patch("outlet");
+  EXPECT_EQ(in.type, "cyclic");
+  EXPECT_EQ(in.neighbour, "outlet");
+  EXPECT_EQ(out.neighbour, "inlet");
+  EXPECT_DOUBLE_EQ(in.separation[2], v.length);
+  EXPECT_DOUBLE_EQ(out.separation[2], -v.length);
+  ASSERT_EQ(in.size, out.size);
+  ASSERT_EQ(in.size, 4 * 4 + 4 * 4 * 3);
+  for (int i = 0; i < in.size; ++i) {
+    const int fi = in.start + i, fo = out.start + i;
+    const Vec3& ci = b.geo.face_centres[fi];
+    const Vec3& co = b.geo.face_centres[fo];
+    EXPECT_NEAR(co[0], ci[0], 1e-18);
+    EXPECT_NEAR(co[1], ci[1], 1e-18);
+    EXPECT_NEAR(ci[2], 0.0, 1e-18);
+    EXPECT_NEAR(co[2] - ci[2], v.length, 1e-15);
+    // Same first point (shifted by the length), opposite orientation.
+    const Vec3& p0 = m.points[m.faces[fi][0]];
+    const Vec3& q0 = m.points[m.faces[fo][0]];
+    EXPECT_EQ(p0[0], q0[0]);
+    EXPECT_EQ(p0[1], q0[1]);
+    EXPECT_LT(b.geo.face_areas[fi][2], 0);
+    EXPECT_GT(b.geo.face_areas[fo][2], 0);
+    EXPECT_NEAR(b.geo.face_areas[fi][2], -b.geo.face_areas[fo][2], 1e-24);
+  }
+}
+
+TEST(VesselMesh, CellsAreNotBadlySkewed) {
+  // Face non-orthogonality (angle between the owner-neighbour line and the face normal).
+  const auto b = build(4, 3, 24);
+  double worst = 0;
+  for (int f = 0; f < b.mesh.n_internal_faces(); ++f) {
+    const Vec3 d = sub(b.geo.cell_centres[b.mesh.neighbour[f]], b.geo.cell_centres[b.mesh.owner[f]]);
+    const double c = dot(d, b.geo.face_areas[f]) / (norm(d) * norm(b.geo.face_areas[f]));
+    worst = std::max(worst, std::acos(std::min(1.0, c)) * 180 / kPi);
+  }
+  EXPECT_LT(worst, 40.0);
+}
+
+TEST(VesselMesh, HashIsAFingerprintOfTheGeometry) {
+  const auto a = build(4, 3, 24);
+  const auto same = build(4, 3, 24);
+  const auto other = build(4, 3, 23);
+  const auto h = hemo::mesh_hash(a.mesh);
+  EXPECT_EQ(h.size(), 16u);
+  EXPECT_EQ(h, hemo::mesh_hash(same.mesh));
+  EXPECT_NE(h, hemo::mesh_hash(other.mesh));
+  const auto longer = build(4, 3, 24, hemo::Vessel{100e-6, 601e-6});
+  EXPECT_NE(h, hemo::mesh_hash(longer.mesh));
+}
+
+TEST(VesselMesh, MessageCarriesTheMesh) {
+  const auto b = build(4, 3, 4);
+  hemo::mesh_t msg;
+  hemo::fill_mesh_message(b.mesh, b.geo, paper_vessel(), msg);
+  EXPECT_EQ(msg.mesh_hash, hemo::mesh_hash(b.mesh));
+  EXPECT_EQ(msg.n_points, static_cast<int>(b.mesh.points.size()));
+  EXPECT_EQ(msg.points.size(), b.mesh.points.size());
+  EXPECT_EQ(msg.n_faces, b.mesh.n_faces());
+  EXPECT_EQ(msg.face_offsets.size(), b.mesh.faces.size());
+  EXPECT_EQ(msg.n_face_points, 4 * msg.n_faces);
+  EXPECT_EQ(static_cast<int>(msg.face_points.size()), msg.n_face_points);
+  EXPECT_EQ(msg.n_internal_faces, static_cast<int>(msg.neighbour.size()));
+  EXPECT_EQ(msg.n_cells, b.mesh.n_cells);
+  EXPECT_EQ(static_cast<int>(msg.cell_centres.size()), msg.n_cells);
+  EXPECT_EQ(static_cast<int>(msg.cell_volumes.size()), msg.n_cells);
+  EXPECT_EQ(msg.n_patches, 3);
+  EXPECT_EQ(msg.patch_types[1], "cyclic");
+  EXPECT_DOUBLE_EQ(msg.vessel_length_m, 600e-6);
+  // It encodes (sizes consistent with the counts).
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(msg.getEncodedSize()));
+  EXPECT_EQ(msg.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+}
+
+TEST(VesselMesh, WritesPolyMesh) {
+  const auto b = build(2, 1, 2);
+  const auto dir = std::filesystem::temp_directory_path() / "hemocosim_test_polymesh";
+  std::filesystem::remove_all(dir);
+  hemo::write_polymesh(b.mesh, dir.string());
+  for (const char* f : {"points", "faces", "owner", "neighbour", "boundary"})
+    EXPECT_TRUE(std::filesystem::exists(dir / "constant" / "polyMesh" / f)) << f;
+  std::ifstream in(dir / "constant" / "polyMesh" / "boundary");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("neighbourPatch  outlet;"), std::string::npos);
+  EXPECT_NE(text.find("transform       translational;"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VesselMesh, RefusesImpossibleInput) {
+  EXPECT_THROW(hemo::make_vessel_mesh(hemo::Vessel{0, 1e-4}, hemo::MeshSpec{}), std::invalid_argument);
+  EXPECT_THROW(hemo::make_vessel_mesh(paper_vessel(), hemo::MeshSpec{0, 3, 2}), std::invalid_argument);
+  EXPECT_THROW(hemo::make_vessel_mesh(paper_vessel(), hemo::MeshSpec{}, hemo::OGridShape{0.8, 0.4}),
+               std::invalid_argument);
+}
+
+}  // namespace
