@@ -51,6 +51,8 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option("--secret-file", secret_file, "File holding the run's HMAC secret")->required();
   app.add_option("--timeout", timeout_s, "Seconds without any message from the run before giving up")
       ->capture_default_str();
+  app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
+      ->capture_default_str();
 }
 
 void RunContext::load_secret() {
@@ -151,6 +153,9 @@ void Bus::on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
   if (!env) { ++counters_.rejected_corrupt; return; }
   if (env->run_id != ctx_.run_id) { ++counters_.rejected_foreign; return; }
   if (env->sender == sender_) return;  // multicast loops our own messages back to us
+  if (ctx_.drop_every > 0 && chan.find(channel::heartbeat) == std::string::npos &&
+      ++received_for_drop_ % static_cast<std::uint64_t>(ctx_.drop_every) == 0)
+    return;  // as if UDP had lost it
   if (!verify(bytes, ctx_.secret)) { ++counters_.rejected_auth; return; }
   if (!accept_seq(env->sender, env->seq)) { ++counters_.rejected_replay; return; }
   ++counters_.accepted;

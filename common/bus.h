@@ -31,6 +31,7 @@ struct RunContext {
   std::vector<std::uint8_t> secret;   // loaded from secret_file
   double timeout_s = 30;              // give up waiting for peers after this long
   double retry_s = 0.5;               // ask again for a missing message after this long
+  int drop_every = 0;                 // fault injection: drop every n-th received message (0: none)
 
   void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout
   void load_secret();                 // reads secret_file; throws with a one-line reason
@@ -129,6 +130,7 @@ class Bus {
   std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;
+  std::uint64_t received_for_drop_ = 0;
 };
 
 // HMAC-SHA256 tag handling on an encoded message (exposed for tests and the monitor).

@@ -146,10 +146,12 @@ Scene load_scene(const std::string& path) {
   r.read("run.seed", s.run.seed);
   r.read("run.node_timeout_s", s.run.node_timeout);
   r.read("run.startup_timeout_s", s.run.startup_timeout);
+  r.read("run.step_timeout_s", s.run.step_timeout);
   r.read("run.fluid_command", s.run.fluid_command);
   r.read("run.particle_command", s.run.particle_command);
   r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");
   r.check(s.run.startup_timeout > 0, "run.startup_timeout_s", "must be positive");
+  r.check(s.run.step_timeout > 0, "run.step_timeout_s", "must be positive");
 
   if (!r.read("vessel.diameter_um", s.vessel.diameter, units::um)) r.problem("vessel.diameter_um", 0, "missing");
   if (!r.read("vessel.length_um", s.vessel.length, units::um)) r.problem("vessel.length_um", 0, "missing");

@@ -1,1 +1,42 @@
-int main() { return 0; }
+// hemocosim: the coordinator of the blood co-simulation.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "commands.h"
+#include "scene.h"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+int main(int argc, char** argv) {
+  CLI::App app{"hemocosim: unresolved CFD-DEM of red blood cells and platelets, coupled over LCM"};
+  app.require_subcommand(1);
+
+  hemo::RunOptions run;
+  auto* run_cmd = app.add_subcommand("run", "Run a scene: launch the fluid and particle nodes and couple them");
+  run_cmd->add_option("scene", run.scene, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+  run_cmd->add_option("--out", run.out, "Run directory to create (default runs/<name>-<time>)");
+
+  std::string check_scene;
+  auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
+  check_cmd->add_option("scene", check_scene, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+
+  hemo::MonitorOptions mon;
+  auto* mon_cmd = app.add_subcommand("monitor", "Live view of a run's coupling traffic");
+  mon_cmd->add_option("run_dir", mon.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
+  mon_cmd->add_option("--duration", mon.duration_s, "Stop after this many seconds (0: until Ctrl-C)");
+  mon_cmd->add_option("--interval", mon.interval_s, "Seconds between refreshes")->capture_default_str();
+  mon_cmd->add_flag("--plain", mon.plain, "Append tables instead of redrawing the screen");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*run_cmd) return hemo::run_command(run);
+    if (*check_cmd) return hemo::check_command(check_scene);
+    if (*mon_cmd) return hemo::monitor_command(mon);
+  } catch (const hemo::SceneError& e) {
+    for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "hemocosim: error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

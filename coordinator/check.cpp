@@ -1,0 +1,29 @@
+// hemocosim check: validate a scene and say what it will run.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "commands.h"
+#include "scene.h"
+#include "units.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace hemo {
+
+int check_command(const std::string& scene_path) {
+  const Scene s = load_scene(scene_path);  // throws SceneError listing every problem
+  const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+  const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;
+  const long platelets = s.platelet.present ? std::lround(s.platelet.number_density * volume) : 0;
+  fmt::print("{}: ok\n", scene_path);
+  fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
+             s.vessel.length / units::um, s.mesh.cells());
+  fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
+             s.driving.wall_shear_rate);
+  fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
+  fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
+             s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
+  return 0;
+}
+
+}  // namespace hemo

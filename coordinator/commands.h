@@ -1,0 +1,25 @@
+// The coordinator's subcommands.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <string>
+
+namespace hemo {
+
+struct RunOptions {
+  std::string scene;
+  std::string out;     // run directory; default runs/<name>-<time>
+};
+int run_command(const RunOptions& opt);
+
+int check_command(const std::string& scene_path);
+
+struct MonitorOptions {
+  std::string run_dir;
+  double duration_s = 0;   // 0: until the run ends or Ctrl-C
+  double interval_s = 1;
+  bool plain = false;      // no screen clearing (logs, tests)
+};
+int monitor_command(const MonitorOptions& opt);
+
+}  // namespace hemo

@@ -1,0 +1,156 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "lockstep.h"
+
+#include <hemo/heartbeat_t.hpp>
+#include <hemo/step_done_t.hpp>
+#include <hemo/step_order_t.hpp>
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <unistd.h>
+
+namespace hemo {
+
+namespace {
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string self_dir() {
+  return std::filesystem::read_symlink("/proc/self/exe").parent_path().string();
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+}  // namespace
+
+Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx)
+    : scene_(scene), dir_(std::move(dir)), ctx_(ctx) {
+  bus_ = std::make_unique<Bus>(ctx_, "coordinator");
+  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
+  metrics_.open(dir_.metrics_file());
+  metrics_ << "step,time_s,node,name,value\n";
+  launch("fluid", scene.run.fluid_command, "hemocosim-fluid");
+  launch("particles", scene.run.particle_command, "hemocosim-particles");
+}
+
+Lockstep::~Lockstep() {
+  for (auto& [name, node] : nodes_)
+    if (node.process) node.process->terminate();
+}
+
+void Lockstep::launch(const std::string& node, const std::string& command, const char* default_program) {
+  auto argv = split(command);
+  if (argv.empty()) argv.push_back(self_dir() + "/" + default_program);
+  for (const auto& a : {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path,
+                        std::string("--run-id"), ctx_.run_id, std::string("--lcm-url"), ctx_.lcm_url,
+                        std::string("--secret-file"), ctx_.secret_file, std::string("--timeout"),
+                        fmt::format("{}", scene_.run.node_timeout)})
+    argv.push_back(a);
+  auto& state = nodes_[node];
+  state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));
+  state.last_heard = now();
+}
+
+void Lockstep::order(long step, double time_s, bool write_output) {
+  step_order_t o;
+  o.time_s = time_s;
+  o.dt_s = scene_.time.coupling_interval;
+  o.write_output = write_output;
+  o.stop = false;
+  step_time_s_ = time_s;
+  bus_->publish(channel::step, o, step, /*keep=*/true);
+  bus_->forget_before(step - 1);
+}
+
+void Lockstep::record(const Received& msg) {
+  const auto done = msg.as<step_done_t>();
+  auto it = nodes_.find(done.node);
+  if (it == nodes_.end() || done.node != msg.envelope.sender) return;
+  auto& node = it->second;
+  if (!done.ok)
+    throw std::runtime_error(fmt::format("{} node failed at step {}: {}", done.node, msg.envelope.step, done.error));
+  if (msg.envelope.step <= node.done_step) return;  // a repeat
+  node.done_step = msg.envelope.step;
+  node.compute = done.compute_s;
+  node.wait = done.wait_s;
+  const long k = msg.envelope.step;
+  metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
+  metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
+  for (std::size_t i = 0; i < done.names.size(); ++i)
+    metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", k, step_time_s_, done.node, done.names[i], done.values[i]);
+  metrics_.flush();
+}
+
+void Lockstep::check_health(long step) {
+  for (auto& [name, node] : nodes_) {
+    if (!node.process->running()) {
+      const auto last = node.process->last_log_line();
+      throw std::runtime_error(fmt::format("{} node {} at step {}{}{} (log: {})", name, node.process->how_it_ended(),
+                                           step, last.empty() ? "" : ": ", last, node.process->log_path()));
+    }
+    if (now() - node.last_heard > scene_.run.node_timeout)
+      throw std::runtime_error(fmt::format("{} node stopped answering at step {}: no heartbeat for {:.0f} s (log: {})",
+                                           name, step, scene_.run.node_timeout, node.process->log_path()));
+  }
+}
+
+void Lockstep::await(long step, double timeout_s) {
+  const double start = now();
+  double last_asked = start;
+  auto all_done = [&] {
+    for (auto& [name, node] : nodes_)
+      if (node.done_step < step) return false;
+    return true;
+  };
+  while (!all_done()) {
+    bus_->poll(0.05, [&](const Received& msg) {
+      auto it = nodes_.find(msg.envelope.sender);
+      if (it != nodes_.end()) it->second.last_heard = now();
+      if (msg.kind == channel::step_done) record(msg);
+    });
+    check_health(step);
+    if (now() - last_asked > ctx_.retry_s) {
+      bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again
+      last_asked = now();
+    }
+    if (now() - start > timeout_s) {
+      for (auto& [name, node] : nodes_)
+        if (node.done_step < step)
+          throw std::runtime_error(fmt::format("{} node did not finish step {} within {:.0f} s (log: {})", name,
+                                               step, timeout_s, node.process->log_path()));
+    }
+  }
+}
+
+void Lockstep::stop(long step) {
+  step_order_t o;
+  o.time_s = step_time_s_;
+  o.dt_s = 0;
+  o.write_output = false;
+  o.stop = true;
+  bus_->publish(channel::step, o, step, /*keep=*/true);
+  // Nodes that missed the order ask for it again; keep answering while they finish.
+  const double deadline = now() + scene_.run.node_timeout;
+  for (;;) {
+    bool all_exited = true;
+    for (auto& [name, node] : nodes_) all_exited &= !node.process->running();
+    if (all_exited) break;
+    if (now() > deadline) throw std::runtime_error("nodes did not exit after the stop order");
+    bus_->poll(0.05, [](const Received&) {});
+  }
+  for (auto& [name, node] : nodes_) {
+    if (node.process->how_it_ended() != "exited with status 0")
+      throw std::runtime_error(fmt::format("{} node {} while finishing (log: {})", name,
+                                           node.process->how_it_ended(), node.process->log_path()));
+  }
+}
+
+}  // namespace hemo

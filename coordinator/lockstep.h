@@ -1,0 +1,56 @@
+// The serial (Gauss-Seidel) lockstep of DESIGN.md: the coordinator orders step k, both nodes
+// report it done, and only then is step k+1 ordered. It also watches the nodes' health.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "bus.h"
+#include "node_process.h"
+#include "run_directory.h"
+#include "scene.h"
+
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+
+namespace hemo {
+
+class Lockstep {
+ public:
+  Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx);
+  ~Lockstep();
+
+  // Orders step k (time at its end, output wanted or not).
+  void order(long step, double time_s, bool write_output);
+  // Waits until both nodes have reported step k done; throws a one-line error naming the node
+  // that failed, exited or stopped answering.
+  void await(long step, double timeout_s);
+  // Orders the nodes to finish and waits for their clean exit.
+  void stop(long step);
+
+  // Per-node seconds of the last step: computing and waiting.
+  double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
+  double wait_s(const std::string& node) const { return nodes_.at(node).wait; }
+
+ private:
+  struct NodeState {
+    std::unique_ptr<NodeProcess> process;
+    double last_heard = 0;
+    long done_step = -1;
+    double compute = 0, wait = 0;
+  };
+  void launch(const std::string& node, const std::string& command, const char* default_program);
+  void check_health(long step);
+  void record(const Received& msg);
+
+  const Scene& scene_;
+  RunDirectory dir_;
+  RunContext ctx_;
+  std::unique_ptr<Bus> bus_;
+  std::unique_ptr<Heartbeat> heartbeat_;
+  std::map<std::string, NodeState> nodes_;
+  std::ofstream metrics_;
+  double step_time_s_ = 0;
+};
+
+}  // namespace hemo

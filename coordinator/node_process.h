@@ -1,0 +1,37 @@
+// A node running as a child process of the coordinator, its output captured in a log file.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <string>
+#include <sys/types.h>
+#include <vector>
+
+namespace hemo {
+
+class NodeProcess {
+ public:
+  NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path);
+  ~NodeProcess();  // terminates the process if it still runs
+  NodeProcess(const NodeProcess&) = delete;
+  NodeProcess& operator=(const NodeProcess&) = delete;
+
+  const std::string& name() const { return name_; }
+  const std::string& log_path() const { return log_path_; }
+  bool running();
+  // "exited with status 3" / "killed by signal 9"; empty while running.
+  std::string how_it_ended() const { return ended_; }
+  // SIGTERM, then SIGKILL after `grace_s`.
+  void terminate(double grace_s = 3.0);
+  // Waits up to `timeout_s` for a clean exit; true if it exited with status 0.
+  bool wait_exit(double timeout_s);
+  // The last non-empty line of the node's log, for error messages.
+  std::string last_log_line() const;
+
+ private:
+  void reap(int status);
+  std::string name_, log_path_, ended_;
+  pid_t pid_ = -1;
+  int status_ = -1;
+};
+
+}  // namespace hemo

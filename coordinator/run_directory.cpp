@@ -1,0 +1,60 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_directory.h"
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+namespace fs = std::filesystem;
+
+namespace hemo {
+
+std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path, const std::string& scene_path) {
+  if (fs::exists(path) && !fs::is_empty(path))
+    throw std::runtime_error("run directory " + path + " exists and is not empty; choose another --out");
+  fs::create_directories(path);
+  RunDirectory dir{fs::absolute(path).string()};
+  fs::copy_file(scene_path, dir.scene_copy(), fs::copy_options::overwrite_existing);
+
+  std::random_device rd;
+  std::mt19937_64 rng((std::uint64_t(rd()) << 32) ^ rd());
+  RunContext ctx;
+  ctx.run_id = fmt::format("hc{:08x}", static_cast<std::uint32_t>(rng()));
+  // A multicast group and port of the run's own, loopback-only (ttl=0) unless hosts say otherwise:
+  // two runs on one machine never read each other's traffic.
+  ctx.lcm_url = fmt::format("udpm://239.255.{}.{}:{}?ttl=0", 1 + rng() % 254, 1 + rng() % 254, 20000 + rng() % 40000);
+  ctx.secret_file = dir.secret_file();
+  ctx.secret.resize(32);
+  for (auto& b : ctx.secret) b = static_cast<std::uint8_t>(rng());
+  {
+    std::ofstream out(ctx.secret_file, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(ctx.secret.data()), static_cast<std::streamsize>(ctx.secret.size()));
+  }
+  fs::permissions(ctx.secret_file, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+
+  toml::table info{{"run_id", ctx.run_id}, {"lcm_url", ctx.lcm_url}, {"secret_file", ctx.secret_file}};
+  std::ofstream(dir.info_file()) << info << "\n";
+  return {dir, ctx};
+}
+
+std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) {
+  RunDirectory dir{fs::absolute(path).string()};
+  toml::table info;
+  try {
+    info = toml::parse_file(dir.info_file());
+  } catch (const toml::parse_error& e) {
+    throw std::runtime_error(fmt::format("{} is not a hemocosim run directory ({})", path, e.description()));
+  }
+  RunContext ctx;
+  ctx.run_id = info["run_id"].value_or(std::string());
+  ctx.lcm_url = info["lcm_url"].value_or(std::string());
+  ctx.secret_file = info["secret_file"].value_or(std::string());
+  if (ctx.run_id.empty() || ctx.lcm_url.empty()) throw std::runtime_error(dir.info_file() + " lacks run_id or lcm_url");
+  ctx.load_secret();
+  return {dir, ctx};
+}
+
+}  // namespace hemo

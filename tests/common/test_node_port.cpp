@@ -1,0 +1,113 @@
+// The node-port protocol over real LCM: lockstep order of data, and recovery from lost datagrams.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "node_port.h"
+#include "test_helpers.h"
+
+#include <hemo/step_done_t.hpp>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+using namespace hemo;
+
+namespace {
+
+// Stand-ins for the engines: the fluid's velocity is 10 x (feedback it saw) + 1; the particles'
+// feedback is what they saw. Any break of the Gauss-Seidel order changes the recorded numbers.
+struct Trace {
+  std::vector<double> fluid_saw, particles_saw;
+};
+
+void run_fluid(const RunContext& ctx, Trace& trace) {
+  FluidPort port(ctx, "fluid", "test fluid");
+  mesh_t mesh{};
+  mesh.mesh_hash = "m1";
+  port.initialize(mesh);
+  fluid_state_t state{};
+  state.mesh_hash = "m1";
+  state.n_cells = 1;
+  state.velocity = {{1.0, 0, 0}};
+  state.velocity_gradient.assign(1, std::vector<double>(9, 0.0));
+  while (auto step = port.advance(state, {{"courant_max", 0.1}})) {
+    const double seen = step->feedback.solid_fraction.at(0);
+    trace.fluid_saw.push_back(seen);
+    state.velocity[0][0] = 10 * seen + 1;
+  }
+  port.finalize();
+}
+
+void run_particles(const RunContext& ctx, Trace& trace) {
+  ParticlePort port(ctx, "particles", "test particles");
+  const mesh_t mesh = port.initialize();
+  ASSERT_EQ(mesh.mesh_hash, "m1");
+  particle_feedback_t fb{};
+  fb.mesh_hash = "m1";
+  fb.n_cells = 1;
+  fb.solid_fraction = {0.0};
+  fb.source_explicit = {{0, 0, 0}};
+  fb.drag_coefficient = {0};
+  while (auto step = port.advance(fb)) {
+    const double seen = step->fluid.velocity.at(0).at(0);
+    trace.particles_saw.push_back(seen);
+    fb.solid_fraction[0] = seen;
+  }
+  port.finalize();
+}
+
+// Drives `steps` coupling steps the way the coordinator does.
+void coordinate(const RunContext& ctx, int steps) {
+  Bus bus(ctx, "coordinator");
+  std::map<std::string, long> done;
+  auto await = [&](long k) {
+    double asked = 0;
+    for (int i = 0; i < 400 && !(done["fluid"] >= k && done["particles"] >= k); ++i) {
+      bus.poll(0.05, [&](const Received& m) {
+        if (m.kind == channel::step_done) done[m.as<step_done_t>().node] = std::max(done[m.as<step_done_t>().node], long(m.envelope.step));
+      });
+      if ((asked += 0.05) > ctx.retry_s) { bus.request_resend(channel::step_done, k); asked = 0; }
+    }
+    ASSERT_TRUE(done["fluid"] >= k && done["particles"] >= k) << "step " << k << " never finished";
+  };
+  done["fluid"] = done["particles"] = -1;
+  await(0);
+  for (long k = 1; k <= steps + 1; ++k) {
+    step_order_t o{};
+    o.dt_s = 1e-5;
+    o.stop = k > steps;
+    bus.publish(channel::step, o, k, /*keep=*/true);
+    if (o.stop) {
+      for (int i = 0; i < 40; ++i) bus.poll(0.05, [](const Received&) {});  // answer late resend requests
+      break;
+    }
+    await(k);
+  }
+}
+
+Trace run_protocol(RunContext ctx, int steps) {
+  Trace trace;
+  std::thread fluid([&] { run_fluid(ctx, trace); });
+  std::thread particles([&] { run_particles(ctx, trace); });
+  coordinate(ctx, steps);
+  fluid.join();
+  particles.join();
+  return trace;
+}
+
+}  // namespace
+
+TEST(NodePort, SerialLockstepOrdersTheData) {
+  const Trace t = run_protocol(test::make_context("ls"), 4);
+  // particles at step k see the fluid of step k; the fluid at step k sees the feedback of k-1.
+  EXPECT_EQ(t.fluid_saw, (std::vector<double>{0, 1, 11, 111}));
+  EXPECT_EQ(t.particles_saw, (std::vector<double>{1, 11, 111, 1111}));
+}
+
+TEST(NodePort, LostDatagramsDoNotChangeTheResult) {
+  auto ctx = test::make_context("lossy");
+  ctx.drop_every = 3;  // every process loses every third message it receives
+  const Trace t = run_protocol(ctx, 4);
+  EXPECT_EQ(t.fluid_saw, (std::vector<double>{0, 1, 11, 111}));
+  EXPECT_EQ(t.particles_saw, (std::vector<double>{1, 11, 111, 1111}));
+}

@@ -1,0 +1,107 @@
+// Scenes: units are converted once, unknown keys and impossible values are refused with their line.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "scene.h"
+#include "test_helpers.h"
+#include "units.h"
+
+#include <gtest/gtest.h>
+
+using namespace hemo;
+
+namespace {
+const char* kMinimal = R"(
+[vessel]
+diameter_um = 100
+length_um = 600
+
+[driving]
+wall_shear_rate_per_s = 799
+)";
+
+std::vector<SceneProblem> problems_of(const std::string& text) {
+  try {
+    load_scene(test::write_temp(text));
+  } catch (const SceneError& e) {
+    return e.problems();
+  }
+  return {};
+}
+}  // namespace
+
+TEST(Scene, MinimalSceneTakesModelDefaultsInSI) {
+  const Scene s = load_scene(test::write_temp(kMinimal));
+  EXPECT_DOUBLE_EQ(s.vessel.diameter, 100e-6);
+  EXPECT_DOUBLE_EQ(s.vessel.length, 600e-6);
+  EXPECT_EQ(s.mesh.cells(), 1536);  // the paper's mesh
+  EXPECT_DOUBLE_EQ(s.plasma.viscosity, 1.2e-3);
+  // dP = 4 mu l gamma / d
+  EXPECT_NEAR(s.driving.pressure_drop, 4 * 1.2e-3 * 600e-6 * 799 / 100e-6, 1e-12);
+  EXPECT_NEAR(s.rbc.volume, 90e-18, 1e-30);
+  EXPECT_NEAR(s.platelet.mass, 8.79e-15, 1e-27);
+  EXPECT_FALSE(s.rbc.present);
+}
+
+TEST(Scene, PressureDropGivesTheWallShearRate) {
+  const Scene s = load_scene(test::write_temp(R"(
+[vessel]
+diameter_um = 100
+length_um = 600
+[driving]
+pressure_drop_Pa = 23.0112
+)"));
+  EXPECT_NEAR(s.driving.wall_shear_rate, 799, 1e-9);
+}
+
+TEST(Scene, UnknownKeyIsNamedWithItsLine) {
+  auto ps = problems_of(std::string(kMinimal) + "\n[vessel2]\nx = 1\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "vessel2");
+  EXPECT_EQ(ps[0].message, "unknown key");
+  ps = problems_of(R"(
+[vessel]
+diameter_um = 100
+lenght_um = 600
+length_um = 600
+[driving]
+wall_shear_rate_per_s = 799
+)");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "vessel.lenght_um");
+  EXPECT_EQ(ps[0].line, 4);
+}
+
+TEST(Scene, ImpossibleValuesAreAllReported) {
+  auto ps = problems_of(R"(
+[vessel]
+diameter_um = -5
+length_um = 600
+[driving]
+wall_shear_rate_per_s = 799
+pressure_drop_Pa = 3
+[rbc]
+hematocrit = 0.9
+[time]
+coupling_steps = 0
+)");
+  std::set<std::string> keys;
+  for (auto& p : ps) keys.insert(p.key);
+  EXPECT_TRUE(keys.count("vessel.diameter_um"));
+  EXPECT_TRUE(keys.count("driving"));
+  EXPECT_TRUE(keys.count("rbc.hematocrit"));
+  EXPECT_TRUE(keys.count("time.coupling_steps"));
+}
+
+TEST(Scene, WrongTypeAndSyntaxErrorsAreProblemsNotCrashes) {
+  auto ps = problems_of(std::string(kMinimal) + "[mesh]\naxial_cells = \"many\"\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "mesh.axial_cells");
+  ps = problems_of("[vessel\ndiameter_um = 1\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_GT(ps[0].line, 0);
+}
+
+TEST(Scene, ShippedScenesAreValid) {
+  for (const char* name : {"quickstart.toml"}) {
+    EXPECT_NO_THROW(load_scene(std::string(HEMO_SCENES_DIR) + "/" + name)) << name;
+  }
+}
