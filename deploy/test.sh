@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# From a fresh Debian 12 checkout: install, build, run the whole test suite (unit + integration).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+deploy/install-deps.sh
+deploy/build.sh
+cd build
+ctest --output-on-failure --timeout 900 "$@"
