@@ -1,0 +1,109 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <hdf5.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <sys/wait.h>
+
+namespace hemo::test {
+
+CommandResult run(const std::string& command) {
+  CommandResult r;
+  const auto start = std::chrono::steady_clock::now();
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (!pipe) throw std::runtime_error("cannot run " + command);
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe)) r.output += buf;
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+std::string bin(const std::string& program) { return std::string(HEMO_BIN_DIR) + "/" + program; }
+std::string scene(const std::string& name) { return std::string(HEMO_TEST_SCENES) + "/" + name; }
+
+std::string fresh_run_dir(const std::string& name) {
+  std::random_device rd;
+  auto dir = std::filesystem::temp_directory_path() / ("hemocosim-it-" + std::to_string(rd())) / name;
+  std::filesystem::create_directories(dir.parent_path());
+  return dir.string();
+}
+
+Metrics read_metrics(const std::string& run_dir) {
+  std::ifstream in(run_dir + "/metrics.csv");
+  if (!in) throw std::runtime_error("no metrics.csv in " + run_dir);
+  Metrics m;
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string step, time, node, name, value;
+    std::getline(ss, step, ',');
+    std::getline(ss, time, ',');
+    std::getline(ss, node, ',');
+    std::getline(ss, name, ',');
+    std::getline(ss, value, ',');
+    m[{node, name}][std::stol(step)] = std::stod(value);
+  }
+  return m;
+}
+
+std::vector<std::string> snapshot_names(const std::string& h5_path) {
+  std::vector<std::string> names;
+  const hid_t f = H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) throw std::runtime_error("cannot open " + h5_path);
+  const hid_t g = H5Gopen2(f, "/snapshots", H5P_DEFAULT);
+  hsize_t n = 0;
+  H5Gget_num_objs(g, &n);
+  for (hsize_t i = 0; i < n; ++i) {
+    char name[256];
+    H5Gget_objname_by_idx(g, i, name, sizeof name);
+    names.emplace_back(name);
+  }
+  H5Gclose(g);
+  H5Fclose(f);
+  return names;
+}
+
+namespace {
+template <class T>
+std::vector<T> read_dataset(hid_t group, const char* name, hid_t mem_type, std::size_t per_row) {
+  const hid_t ds = H5Dopen2(group, name, H5P_DEFAULT);
+  if (ds < 0) throw std::runtime_error(std::string("snapshot lacks dataset ") + name);
+  const hid_t space = H5Dget_space(ds);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  std::vector<T> data(dims[0] * per_row);
+  if (!data.empty()) H5Dread(ds, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data());
+  H5Sclose(space);
+  H5Dclose(ds);
+  return data;
+}
+}  // namespace
+
+Snapshot read_snapshot(const std::string& h5_path, const std::string& name) {
+  Snapshot s;
+  const hid_t f = H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) throw std::runtime_error("cannot open " + h5_path);
+  const hid_t g = H5Gopen2(f, ("/snapshots/" + name).c_str(), H5P_DEFAULT);
+  const hid_t a = H5Aopen(g, "time_s", H5P_DEFAULT);
+  H5Aread(a, H5T_NATIVE_DOUBLE, &s.time_s);
+  H5Aclose(a);
+  s.id = read_dataset<long long>(g, "id", H5T_NATIVE_LLONG, 1);
+  s.species = read_dataset<signed char>(g, "species", H5T_NATIVE_SCHAR, 1);
+  s.position = read_dataset<double>(g, "position", H5T_NATIVE_DOUBLE, 3);
+  s.velocity = read_dataset<double>(g, "velocity", H5T_NATIVE_DOUBLE, 3);
+  H5Gclose(g);
+  H5Fclose(f);
+  return s;
+}
+
+}  // namespace hemo::test

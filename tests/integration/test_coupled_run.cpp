@@ -1,0 +1,110 @@
+// A coupled run of the real nodes: particles follow the plasma, momentum is exchanged exactly,
+// and a lossy bus changes nothing.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+using namespace hemo::test;
+
+namespace {
+
+// One run of the small scene shared by the tests below (it takes tens of seconds).
+const std::string& small_run() {
+  static const std::string dir = [] {
+    const std::string d = fresh_run_dir("coupled-small");
+    const auto r = run(bin("hemocosim") + " run " + scene("coupled_small.toml") + " --out " + d);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return d;
+  }();
+  return dir;
+}
+
+double relative_difference(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), std::abs(b)); }
+
+}  // namespace
+
+TEST(CoupledRun, LeavesScenePidsMetricsAndParticleSnapshots) {
+  const auto& dir = small_run();
+  EXPECT_TRUE(std::filesystem::exists(dir + "/scene.toml"));
+  const auto names = snapshot_names(dir + "/particles.h5");
+  // step 0 and every 10th of 40 steps
+  EXPECT_EQ(names.size(), 5u);
+  const auto first = read_snapshot(dir + "/particles.h5", names.front());
+  const auto last = read_snapshot(dir + "/particles.h5", names.back());
+  EXPECT_DOUBLE_EQ(first.time_s, 0.0);
+  EXPECT_NEAR(last.time_s, 40 * 2e-5, 1e-12);
+  ASSERT_GT(last.id.size(), 20u);
+  EXPECT_EQ(last.id.size(), first.id.size());  // no particle lost
+  EXPECT_EQ(last.position.size(), 3 * last.id.size());
+  int rbcs = 0, platelets = 0;
+  for (auto s : last.species) (s == 0 ? rbcs : platelets)++;
+  EXPECT_GT(rbcs, 0);
+  EXPECT_GT(platelets, 0);
+}
+
+// Away from the wall, cells are carried at the local plasma velocity: their relaxation time
+// (~1 us) is far below the flow's development time (R^2/nu ~ 0.3 ms), so once the flow has
+// developed, the mean axial particle velocity equals the mean fluid velocity sampled at the
+// same particles to within 2 % (contacts between cells account for the rest).
+TEST(CoupledRun, CoreParticlesMoveWithThePlasma) {
+  const auto m = read_metrics(small_run());
+  const auto& vp = m.at({"particles", "core_particle_axial_velocity_m_s"});
+  const auto& vf = m.at({"particles", "core_fluid_axial_velocity_m_s"});
+  int checked = 0;
+  for (long k = 30; k <= 40; ++k) {
+    ASSERT_TRUE(vp.count(k) && vf.count(k)) << "step " << k;
+    EXPECT_GT(vf.at(k), 1e-4) << "the plasma should be flowing at step " << k;
+    EXPECT_LT(relative_difference(vp.at(k), vf.at(k)), 0.02)
+        << "step " << k << ": particles " << vp.at(k) << " m/s, fluid " << vf.at(k) << " m/s";
+    ++checked;
+  }
+  EXPECT_EQ(checked, 11);
+}
+
+// Newton's third law across the bus: the fluid receives, at step k+1, the feedback of step k;
+// evaluated at the velocity the particles saw, its momentum source is minus the total fluid
+// force on the particles, to round-off.
+TEST(CoupledRun, ForceOnParticlesEqualsMinusSourceReceivedByFluid) {
+  const auto m = read_metrics(small_run());
+  int checked = 0;
+  for (const char* axis : {"x", "y", "z"}) {
+    const auto& force = m.at({"particles", std::string("total_force_") + axis + "_N"});
+    const auto& source = m.at({"fluid", std::string("received_source_") + axis + "_N"});
+    double scale = 0;
+    for (const auto& [k, f] : force) scale = std::max(scale, std::abs(f));
+    ASSERT_GT(scale, 0) << "no force on the particles along " << axis;
+    for (const auto& [k, f] : force) {
+      if (!source.count(k + 1)) continue;
+      EXPECT_NEAR(source.at(k + 1), -f, 1e-9 * scale) << axis << " at step " << k;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 3 * 39);
+}
+
+TEST(CoupledRun, LostDatagramsLeaveTheResultUnchanged) {
+  const std::string scene_text = [] {
+    std::ifstream in(scene("coupled_small.toml"));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string s = ss.str();
+    s.replace(s.find("[run]"), 5, "[run]\ndrop_every = 7");
+    s.replace(s.find("coupling_steps = 40"), 19, "coupling_steps = 10");
+    return s;
+  }();
+  const std::string lossy_scene = fresh_run_dir("lossy") + ".toml";
+  std::ofstream(lossy_scene) << scene_text;
+  const std::string lossy = fresh_run_dir("lossy");
+  const auto r = run(bin("hemocosim") + " run " + lossy_scene + " --out " + lossy);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto a = read_snapshot(small_run() + "/particles.h5", "00000010");
+  const auto b = read_snapshot(lossy + "/particles.h5", "00000010");
+  ASSERT_EQ(a.id, b.id);
+  EXPECT_EQ(a.position, b.position);  // bit for bit
+  EXPECT_EQ(a.velocity, b.velocity);
+}

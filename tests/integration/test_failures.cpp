@@ -1,0 +1,88 @@
+// Failures are loud and named: a killed node, a silent node, a bad scene.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <thread>
+
+using namespace hemo::test;
+
+namespace {
+// Starts a long run in the background, waits until it is stepping, signals one node.
+CommandResult run_and_signal(const std::string& node, int signal, const std::string& name) {
+  const std::string dir = fresh_run_dir(name);
+  std::string text;
+  {
+    std::ifstream in(scene("coupled_small.toml"));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+    text.replace(text.find("coupling_steps = 40"), 19, "coupling_steps = 100000");
+  }
+  const std::string long_scene = dir + ".toml";
+  std::ofstream(long_scene) << text;
+  auto result = std::async(std::launch::async, [&] {
+    return run(bin("hemocosim") + " run " + long_scene + " --out " + dir);
+  });
+  // Wait until the run has written a few steps of metrics, then signal the node.
+  for (int i = 0; i < 600; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::ifstream m(dir + "/metrics.csv");
+    std::string line;
+    int lines = 0;
+    while (std::getline(m, line)) ++lines;
+    if (lines > 60) break;
+  }
+  long pid = 0;
+  std::ifstream(dir + "/" + node + ".pid") >> pid;
+  EXPECT_GT(pid, 0);
+  if (pid > 0) kill(static_cast<pid_t>(pid), signal);
+  return result.get();
+}
+}  // namespace
+
+TEST(Failures, KilledParticleNodeStopsTheRunNamingIt) {
+  const auto r = run_and_signal("particles", SIGKILL, "kill-particles");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("particles node"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("signal 9"), std::string::npos) << r.output;
+  EXPECT_LT(r.seconds, 120);
+}
+
+TEST(Failures, KilledFluidNodeStopsTheRunNamingIt) {
+  const auto r = run_and_signal("fluid", SIGKILL, "kill-fluid");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("fluid node"), std::string::npos) << r.output;
+}
+
+// A stopped (not dead) node sends no heartbeat: the coordinator gives up after node_timeout_s (10 s).
+TEST(Failures, FrozenNodeTimesOutNamingIt) {
+  const auto r = run_and_signal("fluid", SIGSTOP, "freeze-fluid");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("fluid node stopped answering"), std::string::npos) << r.output;
+}
+
+TEST(Failures, UnknownSceneKeyIsRefusedInOneLineNamingIt) {
+  const std::string dir = fresh_run_dir("unknown-key");
+  const auto r = run(bin("hemocosim") + " run " + scene("unknown_key.toml") + " --out " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("vessel.wall_thickness_um"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(":4:"), std::string::npos) << r.output;  // its line
+  EXPECT_FALSE(std::filesystem::exists(dir)) << "a refused scene must not create a run";
+}
+
+TEST(Failures, HelpWorksForEveryCommand) {
+  for (const std::string cmd : {"hemocosim --help", "hemocosim run --help", "hemocosim check --help",
+                                "hemocosim monitor --help", "hemocosim-fluid --help", "hemocosim-particles --help"}) {
+    const auto r = run(bin("") + cmd);
+    EXPECT_EQ(r.exit_code, 0) << cmd << "\n" << r.output;
+    EXPECT_NE(r.output.find("--"), std::string::npos) << cmd;
+  }
+}
