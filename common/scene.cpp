@@ -147,6 +147,8 @@ Scene load_scene(const std::string& path) {
   r.read("run.node_timeout_s", s.run.node_timeout);
   r.read("run.startup_timeout_s", s.run.startup_timeout);
   r.read("run.step_timeout_s", s.run.step_timeout);
+  r.read("run.drop_every", s.run.drop_every);
+  r.check(s.run.drop_every >= 0, "run.drop_every", "must not be negative (0: no fault injection)");
   r.read("run.fluid_command", s.run.fluid_command);
   r.read("run.particle_command", s.run.particle_command);
   r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");

@@ -52,10 +52,12 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   for (const auto& a : {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path,
                         std::string("--run-id"), ctx_.run_id, std::string("--lcm-url"), ctx_.lcm_url,
                         std::string("--secret-file"), ctx_.secret_file, std::string("--timeout"),
-                        fmt::format("{}", scene_.run.node_timeout)})
+                        fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
+                        fmt::format("{}", ctx_.drop_every)})
     argv.push_back(a);
   auto& state = nodes_[node];
   state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));
+  std::ofstream(dir_.path + "/" + node + ".pid") << state.process->pid() << "\n";
   state.last_heard = now();
 }
 

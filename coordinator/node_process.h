@@ -17,6 +17,7 @@ class NodeProcess {
 
   const std::string& name() const { return name_; }
   const std::string& log_path() const { return log_path_; }
+  pid_t pid() const { return pid_; }
   bool running();
   // "exited with status 3" / "killed by signal 9"; empty while running.
   std::string how_it_ended() const { return ended_; }

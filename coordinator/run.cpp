@@ -27,6 +27,7 @@ std::string default_run_dir(const Scene& scene) {
 int run_command(const RunOptions& opt) {
   const Scene scene = load_scene(opt.scene);
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
+  ctx.drop_every = scene.run.drop_every;
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
