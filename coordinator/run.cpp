@@ -9,6 +9,8 @@
 
 #include <csignal>
 #include <ctime>
+#include <fstream>
+#include <unistd.h>
 
 namespace hemo {
 
@@ -28,6 +30,7 @@ int run_command(const RunOptions& opt) {
   const Scene scene = load_scene(opt.scene);
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
   ctx.drop_every = scene.run.drop_every;
+  std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);

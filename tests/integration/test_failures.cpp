@@ -86,3 +86,36 @@ TEST(Failures, HelpWorksForEveryCommand) {
     EXPECT_NE(r.output.find("--"), std::string::npos) << cmd;
   }
 }
+
+// The monitor joins a running run's bus and shows its channels; Ctrl-C on the coordinator
+// stops the run and its nodes, keeping what was written.
+TEST(Monitor, ShowsTheTrafficOfARunningRun) {
+  const std::string dir = fresh_run_dir("monitored");
+  std::string text;
+  {
+    std::ifstream in(scene("coupled_small.toml"));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+    text.replace(text.find("coupling_steps = 40"), 19, "coupling_steps = 100000");
+  }
+  std::ofstream(dir + ".toml") << text;
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const auto mon = run(bin("hemocosim") + " monitor " + dir + " --duration 4 --plain");
+  long pid = 0;
+  std::ifstream(dir + "/coordinator.pid") >> pid;
+  ASSERT_GT(pid, 0);
+  kill(static_cast<pid_t>(pid), SIGINT);
+  const auto r = result.get();
+
+  EXPECT_EQ(mon.exit_code, 0) << mon.output;
+  for (const char* channel : {"FLUID_STATE", "PARTICLE_FEEDBACK", "STEP_DONE", "STEP ", "HEARTBEAT"})
+    EXPECT_NE(mon.output.find(channel), std::string::npos) << channel << " missing in\n" << mon.output;
+  EXPECT_NE(mon.output.find("fluid alive"), std::string::npos) << mon.output;
+  EXPECT_NE(mon.output.find("rejected: auth 0"), std::string::npos) << mon.output;
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("interrupted"), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/particles.h5"));
+}
