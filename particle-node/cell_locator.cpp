@@ -1,0 +1,237 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "cell_locator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace hemo::particles {
+
+namespace {
+
+struct FaceGeometry {
+  Vec3 centroid;
+  Vec3 area;  // area vector, direction from the point ordering (right-hand rule)
+};
+
+FaceGeometry face_geometry(const std::vector<Vec3>& pts) {
+  Vec3 mean = Vec3::Zero();
+  for (const auto& p : pts) mean += p;
+  mean /= static_cast<double>(pts.size());
+  if (pts.size() == 3) return {mean, 0.5 * (pts[1] - pts[0]).cross(pts[2] - pts[0])};
+  // Fan of triangles around the mean point; centroid weighted by triangle areas.
+  Vec3 area = Vec3::Zero();
+  Vec3 weighted = Vec3::Zero();
+  double total = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Vec3& a = pts[i];
+    const Vec3& b = pts[(i + 1) % pts.size()];
+    Vec3 tri = 0.5 * (a - mean).cross(b - mean);
+    double mag = tri.norm();
+    area += tri;
+    weighted += mag * (a + b + mean) / 3.0;
+    total += mag;
+  }
+  return {total > 0 ? Vec3(weighted / total) : mean, area};
+}
+
+[[noreturn]] void bad_mesh(const std::string& what) {
+  throw std::invalid_argument("mesh_t is inconsistent: " + what);
+}
+
+}  // namespace
+
+CellLocator::CellLocator(const mesh_t& mesh) {
+  const int n_points = mesh.n_points;
+  const int n_faces = mesh.n_faces;
+  const int n_cells = mesh.n_cells;
+  const int n_internal = mesh.n_internal_faces;
+  if (n_points <= 0 || n_faces <= 0 || n_cells <= 0) bad_mesh("no points, faces or cells");
+  if (static_cast<int>(mesh.points.size()) != n_points ||
+      static_cast<int>(mesh.face_offsets.size()) != n_faces ||
+      static_cast<int>(mesh.face_points.size()) != mesh.n_face_points ||
+      static_cast<int>(mesh.owner.size()) != n_faces ||
+      static_cast<int>(mesh.neighbour.size()) != n_internal || n_internal > n_faces ||
+      static_cast<int>(mesh.cell_centres.size()) != n_cells ||
+      static_cast<int>(mesh.cell_volumes.size()) != n_cells)
+    bad_mesh("array sizes do not match their counts");
+
+  std::vector<Vec3> points(n_points);
+  for (int i = 0; i < n_points; ++i) {
+    if (mesh.points[i].size() != 3) bad_mesh("a point without 3 coordinates");
+    points[i] = Vec3(mesh.points[i][0], mesh.points[i][1], mesh.points[i][2]);
+  }
+  centre_.resize(n_cells);
+  volume_.resize(n_cells);
+  for (int c = 0; c < n_cells; ++c) {
+    if (mesh.cell_centres[c].size() != 3) bad_mesh("a cell centre without 3 coordinates");
+    centre_[c] = Vec3(mesh.cell_centres[c][0], mesh.cell_centres[c][1], mesh.cell_centres[c][2]);
+    volume_[c] = mesh.cell_volumes[c];
+    if (!(volume_[c] > 0)) bad_mesh("cell " + std::to_string(c) + " has no positive volume");
+  }
+
+  // Face planes, and for each cell the list of its faces.
+  std::vector<FaceGeometry> faces(n_faces);
+  std::vector<std::vector<int>> cell_faces(n_cells);
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max());
+  Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
+  std::vector<Vec3> cell_lo(n_cells, lo), cell_hi(n_cells, hi);
+  std::vector<Vec3> pts;
+  for (int f = 0; f < n_faces; ++f) {
+    const int start = mesh.face_offsets[f];
+    const int end = f + 1 < n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points;
+    if (start < 0 || end > mesh.n_face_points || end - start < 3)
+      bad_mesh("face " + std::to_string(f) + " has fewer than 3 points or bad offsets");
+    pts.clear();
+    for (int k = start; k < end; ++k) {
+      const int p = mesh.face_points[k];
+      if (p < 0 || p >= n_points) bad_mesh("face " + std::to_string(f) + " names a missing point");
+      pts.push_back(points[p]);
+    }
+    faces[f] = face_geometry(pts);
+    if (!(faces[f].area.norm() > 0)) bad_mesh("face " + std::to_string(f) + " has zero area");
+    const int own = mesh.owner[f];
+    const int nei = f < n_internal ? mesh.neighbour[f] : -1;
+    if (own < 0 || own >= n_cells || (f < n_internal && (nei < 0 || nei >= n_cells)))
+      bad_mesh("face " + std::to_string(f) + " names a missing cell");
+    for (int c : {own, nei}) {
+      if (c < 0) continue;
+      cell_faces[c].push_back(f);
+      for (const auto& p : pts) {
+        cell_lo[c] = cell_lo[c].cwiseMin(p);
+        cell_hi[c] = cell_hi[c].cwiseMax(p);
+      }
+    }
+    for (const auto& p : pts) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  }
+
+  plane_start_.assign(n_cells + 1, 0);
+  tolerance_.resize(n_cells);
+  for (int c = 0; c < n_cells; ++c) {
+    if (cell_faces[c].size() < 4) bad_mesh("cell " + std::to_string(c) + " has fewer than 4 faces");
+    const double h = std::cbrt(volume_[c]);
+    tolerance_[c] = 1e-10 * h;
+    for (int f : cell_faces[c]) {
+      const Vec3 n = faces[f].area.normalized();
+      const double side = n.dot(centre_[c] - faces[f].centroid);
+      // Outward normal: away from the cell centre. If the centre lies (numerically) on the face
+      // plane the cell is degenerate; fall back on OpenFOAM's orientation (out of the owner).
+      double sign;
+      if (std::abs(side) > 1e-12 * h)
+        sign = side < 0 ? 1.0 : -1.0;
+      else
+        sign = mesh.owner[f] == c ? 1.0 : -1.0;
+      Plane plane;
+      plane.normal = sign * n;
+      plane.offset = plane.normal.dot(faces[f].centroid);
+      plane.across = f < n_internal ? (mesh.owner[f] == c ? mesh.neighbour[f] : mesh.owner[f]) : -1;
+      planes_.push_back(plane);
+    }
+    plane_start_[c + 1] = static_cast<int>(planes_.size());
+  }
+
+  // Periodicity along z.
+  z0_ = lo.z();
+  length_ = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : hi.z() - lo.z();
+  radius_ = mesh.vessel_diameter_m / 2;
+  if (std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
+    bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from vessel_length_m " +
+             std::to_string(length_) + " m");
+
+  // Uniform bins over the mesh's bounding box, about one cell per bin; each bin lists every
+  // cell whose bounding box touches it.
+  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-300));
+  const double h = std::cbrt(extent.prod() / n_cells);
+  for (int d = 0; d < 3; ++d) nbin_[d] = std::max(1, static_cast<int>(std::lround(extent[d] / h)));
+  bin_lo_ = lo;
+  bin_size_ = Vec3(extent.x() / nbin_[0], extent.y() / nbin_[1], extent.z() / nbin_[2]);
+  const int total_bins = nbin_[0] * nbin_[1] * nbin_[2];
+  std::vector<std::vector<int>> lists(total_bins);
+  auto index = [&](double v, int d) {
+    int i = static_cast<int>(std::floor((v - bin_lo_[d]) / bin_size_[d]));
+    return std::clamp(i, 0, nbin_[d] - 1);
+  };
+  for (int c = 0; c < n_cells; ++c) {
+    int a[3], b[3];
+    for (int d = 0; d < 3; ++d) {
+      a[d] = index(cell_lo[c][d] - tolerance_[c], d);
+      b[d] = index(cell_hi[c][d] + tolerance_[c], d);
+    }
+    for (int i = a[0]; i <= b[0]; ++i)
+      for (int j = a[1]; j <= b[1]; ++j)
+        for (int k = a[2]; k <= b[2]; ++k) lists[(k * nbin_[1] + j) * nbin_[0] + i].push_back(c);
+  }
+  bin_start_.assign(total_bins + 1, 0);
+  for (int b = 0; b < total_bins; ++b) bin_start_[b + 1] = bin_start_[b] + static_cast<int>(lists[b].size());
+  bin_cells_.reserve(bin_start_.back());
+  for (auto& l : lists) bin_cells_.insert(bin_cells_.end(), l.begin(), l.end());
+}
+
+Vec3 CellLocator::wrap(const Vec3& x) const {
+  Vec3 w = x;
+  double z = std::fmod(x.z() - z0_, length_);
+  if (z < 0) z += length_;
+  if (z >= length_) z = 0;  // rounding of a tiny negative value
+  w.z() = z0_ + z;
+  return w;
+}
+
+bool CellLocator::inside(int cell, const Vec3& x) const {
+  const double tol = tolerance_[cell];
+  for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k)
+    if (signed_distance(planes_[k], x) > tol) return false;
+  return true;
+}
+
+int CellLocator::bin_of(const Vec3& x) const {
+  int idx[3];
+  for (int d = 0; d < 3; ++d) {
+    const double t = (x[d] - bin_lo_[d]) / bin_size_[d];
+    if (d < 2 && (t < -1e-9 || t > nbin_[d] + 1e-9)) return -1;  // beyond the mesh's box
+    idx[d] = std::clamp(static_cast<int>(std::floor(t)), 0, nbin_[d] - 1);
+  }
+  return (idx[2] * nbin_[1] + idx[1]) * nbin_[0] + idx[0];
+}
+
+int CellLocator::search_bins(const Vec3& x) const {
+  ++stats_.bin_searches;
+  const int b = bin_of(x);
+  if (b >= 0)
+    for (int k = bin_start_[b]; k < bin_start_[b + 1]; ++k)
+      if (inside(bin_cells_[k], x)) return bin_cells_[k];
+  ++stats_.outside;
+  return -1;
+}
+
+int CellLocator::locate(const Vec3& x, int hint) const {
+  const Vec3 w = wrap(x);
+  if (hint >= 0 && hint < n_cells()) {
+    int c = hint;
+    for (int step = 0; step <= max_walk_steps_; ++step) {
+      // Most violated face of c.
+      double worst = -std::numeric_limits<double>::max();
+      int across = -1;
+      for (int k = plane_start_[c]; k < plane_start_[c + 1]; ++k) {
+        const double s = signed_distance(planes_[k], w);
+        if (s > worst) {
+          worst = s;
+          across = planes_[k].across;
+        }
+      }
+      if (worst <= tolerance_[c]) {
+        ++(step == 0 ? stats_.hint_hits : stats_.walk_hits);
+        return c;
+      }
+      if (across < 0) break;  // a boundary (wall or cyclic) lies in the way: ask the bins
+      c = across;
+    }
+  }
+  return search_bins(w);
+}
+
+}  // namespace hemo::particles

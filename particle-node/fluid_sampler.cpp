@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "fluid_sampler.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace hemo::particles {
+
+std::string FluidSampler::check(const fluid_state_t& s, int n_cells, const std::string& mesh_hash) {
+  if (s.mesh_hash != mesh_hash)
+    return "fluid state is for mesh '" + s.mesh_hash + "', not the mesh received ('" + mesh_hash + "')";
+  if (s.n_cells != n_cells || static_cast<int>(s.velocity.size()) != n_cells ||
+      static_cast<int>(s.velocity_gradient.size()) != n_cells)
+    return "fluid state has " + std::to_string(s.n_cells) + " cells, the mesh has " + std::to_string(n_cells);
+  if (!std::isfinite(s.time_s)) return "fluid state time is not finite";
+  for (int c = 0; c < n_cells; ++c) {
+    if (s.velocity[c].size() != 3 || s.velocity_gradient[c].size() != 9)
+      return "fluid state cell " + std::to_string(c) + " has malformed vectors";
+    for (double v : s.velocity[c])
+      if (!std::isfinite(v)) return "fluid velocity is not finite in cell " + std::to_string(c);
+    for (double v : s.velocity_gradient[c])
+      if (!std::isfinite(v)) return "fluid velocity gradient is not finite in cell " + std::to_string(c);
+  }
+  return {};
+}
+
+void FluidSampler::set_state(const fluid_state_t& s) {
+  const int n = locator_->n_cells();
+  if (s.n_cells != n || static_cast<int>(s.velocity.size()) != n ||
+      static_cast<int>(s.velocity_gradient.size()) != n)
+    throw std::invalid_argument("fluid state has " + std::to_string(s.n_cells) + " cells, the mesh has " +
+                                std::to_string(n));
+  velocity_.resize(n);
+  gradient_.resize(n);
+  for (int c = 0; c < n; ++c) {
+    if (s.velocity[c].size() != 3 || s.velocity_gradient[c].size() != 9)
+      throw std::invalid_argument("fluid state cell " + std::to_string(c) + " has malformed vectors");
+    velocity_[c] = Vec3(s.velocity[c][0], s.velocity[c][1], s.velocity[c][2]);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) gradient_[c](i, j) = s.velocity_gradient[c][3 * i + j];
+    if (!velocity_[c].allFinite() || !gradient_[c].allFinite())
+      throw std::invalid_argument("fluid state is not finite in cell " + std::to_string(c));
+  }
+}
+
+double FluidSampler::shear_rate(int cell) const {
+  const Mat3& g = gradient_[cell];
+  const Mat3 s = 0.5 * (g + g.transpose());
+  return std::sqrt(2.0 * (s.array() * s.array()).sum());
+}
+
+}  // namespace hemo::particles

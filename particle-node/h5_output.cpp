@@ -1,0 +1,138 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "h5_output.h"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+namespace hemo::particles {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& what) { throw std::runtime_error("particles.h5: " + what); }
+
+void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, std::size_t rows,
+                   std::size_t cols, const void* data) {
+  hsize_t dims[2] = {rows, cols};
+  hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
+  hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (set < 0) {
+    H5Sclose(space);
+    fail(std::string("cannot create dataset ") + name);
+  }
+  herr_t st = rows > 0 ? H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) : 0;
+  H5Dclose(set);
+  H5Sclose(space);
+  if (st < 0) fail(std::string("cannot write dataset ") + name);
+}
+
+template <class T>
+std::vector<T> read_dataset(hid_t group, const char* name, hid_t mem_type, std::size_t cols) {
+  hid_t set = H5Dopen2(group, name, H5P_DEFAULT);
+  if (set < 0) fail(std::string("no dataset ") + name);
+  hid_t space = H5Dget_space(set);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  std::vector<T> out(static_cast<std::size_t>(dims[0]) * cols);
+  herr_t st = out.empty() ? 0 : H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+  H5Sclose(space);
+  H5Dclose(set);
+  if (st < 0) fail(std::string("cannot read dataset ") + name);
+  return out;
+}
+
+}  // namespace
+
+std::string snapshot_name(long step) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%08ld", step);
+  return buf;
+}
+
+H5Output::H5Output(const std::string& path) : path_(path) {
+  hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) fail("cannot create " + path);
+  hid_t g = H5Gcreate2(f, "snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) {
+    H5Fclose(f);
+    fail("cannot create /snapshots in " + path);
+  }
+  file_ = f;
+  snapshots_ = g;
+}
+
+H5Output::~H5Output() {
+  if (snapshots_ >= 0) H5Gclose(static_cast<hid_t>(snapshots_));
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
+}
+
+bool H5Output::write(const ParticleSnapshot& s) {
+  const std::size_t n = s.id.size();
+  if (s.species.size() != n || s.position.size() != 3 * n || s.velocity.size() != 3 * n)
+    fail("snapshot arrays of step " + std::to_string(s.step) + " have inconsistent sizes");
+  const std::string name = snapshot_name(s.step);
+  const hid_t parent = static_cast<hid_t>(snapshots_);
+  if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) > 0) return false;
+  hid_t g = H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) fail("cannot create group " + name);
+  hid_t scalar = H5Screate(H5S_SCALAR);
+  hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, H5T_NATIVE_DOUBLE, &s.time_s);
+  H5Aclose(attr);
+  H5Sclose(scalar);
+  write_dataset(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, s.id.data());
+  write_dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, s.species.data());
+  write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
+  write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
+  H5Gclose(g);
+  if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0) fail("cannot flush " + path_);
+  return true;
+}
+
+std::vector<long> list_snapshots(const std::string& path) {
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) fail("cannot open " + path);
+  hid_t g = H5Lexists(f, "snapshots", H5P_DEFAULT) > 0 ? H5Gopen2(f, "snapshots", H5P_DEFAULT) : -1;
+  std::vector<long> steps;
+  if (g >= 0) {
+    H5G_info_t info;
+    H5Gget_info(g, &info);
+    for (hsize_t i = 0; i < info.nlinks; ++i) {
+      char name[64] = {0};
+      H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, i, name, sizeof name, H5P_DEFAULT);
+      steps.push_back(std::stol(name));
+    }
+    H5Gclose(g);
+  }
+  H5Fclose(f);
+  std::sort(steps.begin(), steps.end());
+  return steps;
+}
+
+ParticleSnapshot read_snapshot(const std::string& path, long step) {
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) fail("cannot open " + path);
+  const std::string name = "snapshots/" + snapshot_name(step);
+  const bool exists = H5Lexists(f, "snapshots", H5P_DEFAULT) > 0 && H5Lexists(f, name.c_str(), H5P_DEFAULT) > 0;
+  hid_t g = exists ? H5Gopen2(f, name.c_str(), H5P_DEFAULT) : -1;
+  if (g < 0) {
+    H5Fclose(f);
+    fail("no snapshot " + name + " in " + path);
+  }
+  ParticleSnapshot s;
+  s.step = step;
+  hid_t attr = H5Aopen(g, "time_s", H5P_DEFAULT);
+  H5Aread(attr, H5T_NATIVE_DOUBLE, &s.time_s);
+  H5Aclose(attr);
+  s.id = read_dataset<std::int64_t>(g, "id", H5T_NATIVE_INT64, 1);
+  s.species = read_dataset<std::int8_t>(g, "species", H5T_NATIVE_INT8, 1);
+  s.position = read_dataset<double>(g, "position", H5T_NATIVE_DOUBLE, 3);
+  s.velocity = read_dataset<double>(g, "velocity", H5T_NATIVE_DOUBLE, 3);
+  H5Gclose(g);
+  H5Fclose(f);
+  return s;
+}
+
+}  // namespace hemo::particles

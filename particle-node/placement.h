@@ -1,0 +1,54 @@
+// Initial positions: random, non-overlapping spheres inside the periodic cylinder
+// x^2 + y^2 < R^2, z in [z0, z0 + L). Every centre keeps radius + gap from the wall; every pair
+// keeps r_i + r_j + gap. Reproducible from the seed (own uniform mapping of mt19937_64, so the
+// result does not depend on the standard library's distributions).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "vec.h"
+
+#include <scene.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace hemo::particles {
+
+struct PlacementRequest {
+  int species = 0;       // SpeciesIndex
+  double diameter = 0;   // m
+  long count = 0;
+};
+
+struct PlacedParticle {
+  int species = 0;
+  double diameter = 0;
+  Vec3 position;
+};
+
+struct PlacementOptions {
+  double gap_fraction = 0.02;  // gap = this x the smaller diameter involved
+  long max_attempts = 20000;   // per particle, before giving up
+};
+
+class PlacementError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Number of RBCs: hematocrit x vessel volume / V_RBC (rounded); platelets: number density x
+// vessel volume (rounded); 0 for an absent species.
+long rbc_count(const Scene& scene);
+long platelet_count(const Scene& scene);
+
+// The requests a scene implies (RBCs first, then platelets).
+std::vector<PlacementRequest> placement_requests(const Scene& scene);
+
+// Places the particles, largest first; throws PlacementError naming the species, how many were
+// placed and the volume fraction when a particle finds no free spot.
+std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
+                                            const std::vector<PlacementRequest>& requests,
+                                            unsigned long long seed, const PlacementOptions& options = {});
+
+}  // namespace hemo::particles

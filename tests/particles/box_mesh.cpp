@@ -1,0 +1,104 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "box_mesh.h"
+
+#include <vector>
+
+namespace hemo::particles::testing {
+
+mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length,
+                double diameter, const std::string& hash) {
+  mesh_t m;
+  m.mesh_hash = hash;
+  m.vessel_diameter_m = diameter;
+  m.vessel_length_m = length;
+  auto pid = [&](int i, int j, int k) { return (k * (ny + 1) + j) * (nx + 1) + i; };
+  auto cid = [&](int i, int j, int k) { return (k * ny + j) * nx + i; };
+  for (int k = 0; k <= nz; ++k)
+    for (int j = 0; j <= ny; ++j)
+      for (int i = 0; i <= nx; ++i)
+        m.points.push_back({x0 + (x1 - x0) * i / nx, y0 + (y1 - y0) * j / ny, length * k / nz});
+  m.n_points = static_cast<int>(m.points.size());
+
+  struct Face {
+    std::array<int, 4> p;
+    int owner, neighbour;
+  };
+  std::vector<Face> internal, patch[6];
+  // Faces normal to x at i (points ordered so the area vector points to +x), etc.
+  auto fx = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i, j + 1, k), pid(i, j + 1, k + 1), pid(i, j, k + 1)}; };
+  auto fy = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i, j, k + 1), pid(i + 1, j, k + 1), pid(i + 1, j, k)}; };
+  auto fz = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i + 1, j, k), pid(i + 1, j + 1, k), pid(i, j + 1, k)}; };
+  auto flip = [](std::array<int, 4> p) { return std::array<int, 4>{p[0], p[3], p[2], p[1]}; };
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const int c = cid(i, j, k);
+        if (i + 1 < nx) internal.push_back({fx(i + 1, j, k), c, cid(i + 1, j, k)});
+        if (j + 1 < ny) internal.push_back({fy(i, j + 1, k), c, cid(i, j + 1, k)});
+        if (k + 1 < nz) internal.push_back({fz(i, j, k + 1), c, cid(i, j, k + 1)});
+        if (i == 0) patch[0].push_back({flip(fx(0, j, k)), c, -1});
+        if (i == nx - 1) patch[1].push_back({fx(nx, j, k), c, -1});
+        if (j == 0) patch[2].push_back({flip(fy(i, 0, k)), c, -1});
+        if (j == ny - 1) patch[3].push_back({fy(i, ny, k), c, -1});
+        if (k == 0) patch[4].push_back({flip(fz(i, j, 0)), c, -1});
+        if (k == nz - 1) patch[5].push_back({fz(i, j, nz), c, -1});
+      }
+  auto add = [&](const Face& f) {
+    m.face_offsets.push_back(static_cast<int>(m.face_points.size()));
+    for (int p : f.p) m.face_points.push_back(p);
+    m.owner.push_back(f.owner);
+    if (f.neighbour >= 0) m.neighbour.push_back(f.neighbour);
+  };
+  for (const auto& f : internal) add(f);
+  m.n_internal_faces = static_cast<int>(internal.size());
+  const char* names[6] = {"xmin", "xmax", "ymin", "ymax", "zmin", "zmax"};
+  for (int p = 0; p < 6; ++p) {
+    m.patch_names.push_back(names[p]);
+    m.patch_types.push_back(p < 4 ? "wall" : "cyclic");
+    m.patch_start.push_back(static_cast<int>(m.owner.size()));
+    m.patch_size.push_back(static_cast<int>(patch[p].size()));
+    for (const auto& f : patch[p]) add(f);
+  }
+  m.n_patches = 6;
+  m.n_faces = static_cast<int>(m.owner.size());
+  m.n_face_points = static_cast<int>(m.face_points.size());
+  m.n_cells = nx * ny * nz;
+  const double vol = (x1 - x0) / nx * (y1 - y0) / ny * length / nz;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        m.cell_centres.push_back({x0 + (x1 - x0) * (i + 0.5) / nx, y0 + (y1 - y0) * (j + 0.5) / ny, length * (k + 0.5) / nz});
+        m.cell_volumes.push_back(vol);
+      }
+  return m;
+}
+
+fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time) {
+  fluid_state_t s;
+  s.mesh_hash = mesh.mesh_hash;
+  s.time_s = time;
+  s.n_cells = mesh.n_cells;
+  for (int c = 0; c < mesh.n_cells; ++c) {
+    std::array<double, 3> x{mesh.cell_centres[c][0], mesh.cell_centres[c][1], mesh.cell_centres[c][2]};
+    std::array<double, 3> u{};
+    std::array<double, 9> g{};
+    field(x, u, g);
+    s.velocity.emplace_back(u.begin(), u.end());
+    s.velocity_gradient.emplace_back(g.begin(), g.end());
+  }
+  return s;
+}
+
+FieldAt poiseuille(double radius, double u_max) {
+  return [=](const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& g) {
+    const double r2 = x[0] * x[0] + x[1] * x[1];
+    u = {0, 0, 0};
+    g = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    if (r2 >= radius * radius) return;
+    u[2] = u_max * (1 - r2 / (radius * radius));
+    g[0 * 3 + 2] = -2 * u_max * x[0] / (radius * radius);  // d u_z / d x
+    g[1 * 3 + 2] = -2 * u_max * x[1] / (radius * radius);  // d u_z / d y
+  };
+}
+
+}  // namespace hemo::particles::testing

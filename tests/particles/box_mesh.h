@@ -1,0 +1,28 @@
+// Test support: hand-made meshes and fluid states for the particle node's tests.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <hemo/fluid_state_t.hpp>
+#include <hemo/mesh_t.hpp>
+
+#include <array>
+#include <functional>
+
+namespace hemo::particles::testing {
+
+// A box [x0,x1] x [y0,y1] x [0,length] of nx x ny x nz hexahedra, OpenFOAM-ordered: internal
+// faces first (owner < neighbour, area vector out of the owner), then the patches
+// x-min, x-max, y-min, y-max (walls) and z-min, z-max (cyclic). vessel_diameter_m is set to
+// `diameter`, vessel_length_m to `length`.
+mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length,
+                double diameter, const std::string& hash = "box");
+
+// A fluid state on `mesh` with u and grad u (G[i][j] = d u_j / d x_i) given at each cell centre.
+using FieldAt = std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u,
+                                   std::array<double, 9>& grad)>;
+fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
+
+// Poiseuille flow u_z = u_max (1 - r^2/R^2) (zero outside r > R) and its exact gradient.
+FieldAt poiseuille(double radius, double u_max);
+
+}  // namespace hemo::particles::testing

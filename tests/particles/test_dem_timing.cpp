@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "dem_timing.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace hemo::particles;
+
+TEST(DemTiming, HertzContactTimeFormula) {
+  // Two equal spheres: m* = m/2, R* = r/2, E* = E / (2 (1 - nu^2)).
+  const double m = 1e-13, r = 3e-6, e = 7.5e5, nu = 0.45, v = 4e-3;
+  const double ms = m / 2, rs = r / 2, es = e / (2 * (1 - nu * nu));
+  EXPECT_NEAR(hertz_contact_time(m, r, e, nu, m, r, e, nu, v), 2.87 * std::pow(ms * ms / (rs * es * es * v), 0.2),
+              1e-18);
+  const double inf = std::numeric_limits<double>::infinity();
+  const double ew = 7.5e7, nuw = 0.18;
+  const double esw = 1 / ((1 - nu * nu) / e + (1 - nuw * nuw) / ew);
+  EXPECT_NEAR(hertz_contact_time(m, r, e, nu, inf, inf, ew, nuw, v), 2.87 * std::pow(m * m / (r * esw * esw * v), 0.2),
+              1e-18);
+}
+
+TEST(DemTiming, StepFromTheCalibrationScene) {
+  hemo::Scene s;
+  s.vessel.diameter = 100e-6;
+  s.vessel.length = 600e-6;
+  s.driving.wall_shear_rate = 799;
+  s.rbc.present = s.platelet.present = true;
+  s.rbc.diameter = 5.56e-6;
+  s.rbc.mass = 9.9e-14;
+  s.platelet.diameter = 2.66e-6;
+  s.platelet.mass = 8.79e-15;
+  const auto t = derive_dem_timing(s, 1e-5);
+  // Contacts last about a microsecond; the platelet-wall one is the shortest.
+  EXPECT_GT(t.contact_time, 0.5e-6);
+  EXPECT_LT(t.contact_time, 3e-6);
+  EXPECT_EQ(t.limiting, "platelet-wall");
+  EXPECT_LE(t.dt, t.contact_time / kStepsPerContact * (1 + 1e-12));
+  EXPECT_EQ(t.substeps, static_cast<int>(std::ceil(1e-5 / (t.contact_time / kStepsPerContact))));
+  EXPECT_NEAR(t.dt * t.substeps, 1e-5, 1e-18);
+  EXPECT_GT(t.dt, t.relaxation_time / 10);  // drag relaxation does not limit the step
+  const auto fixed = derive_dem_timing(s, 1e-5, 25);
+  EXPECT_EQ(fixed.substeps, 25);
+  EXPECT_NEAR(fixed.dt, 4e-7, 1e-20);
+}
+
+TEST(DemTiming, WallShearRateFromPressureDrop) {
+  hemo::Scene s;
+  s.vessel.diameter = 100e-6;
+  s.vessel.length = 600e-6;
+  s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * 799 / s.vessel.diameter;
+  EXPECT_NEAR(wall_shear_rate(s), 799, 1e-9);
+}
