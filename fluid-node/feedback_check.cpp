@@ -1,0 +1,69 @@
+// Validation of the particle feedback (see feedback_check.h).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "feedback_check.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace hemo {
+namespace {
+
+std::string format(const char* fmt, long a, double b, long count) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, fmt, a, b, count);
+  return buf;
+}
+
+}  // namespace
+
+std::string feedback_problem(const particle_feedback_t& fb, const std::string& mesh_hash, int n_cells,
+                             double max_solid_fraction) {
+  const std::string step = " (step " + std::to_string(fb.envelope.step) + ")";
+  if (fb.mesh_hash != mesh_hash)
+    return "particle feedback is for mesh '" + fb.mesh_hash + "', the fluid mesh is '" + mesh_hash + "'" + step;
+  const auto n = static_cast<std::size_t>(n_cells);
+  if (fb.n_cells != n_cells || fb.solid_fraction.size() != n || fb.source_explicit.size() != n ||
+      fb.drag_coefficient.size() != n)
+    return "particle feedback has " + std::to_string(fb.n_cells) + " cells, the fluid mesh " +
+           std::to_string(n_cells) + step;
+
+  long bad = 0, first = -1;
+  double first_value = 0;
+  auto flag = [&](std::size_t i, double v) {
+    if (bad++ == 0) {
+      first = static_cast<long>(i);
+      first_value = v;
+    }
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const double phi = fb.solid_fraction[i];
+    if (!std::isfinite(phi) || phi < 0 || phi >= max_solid_fraction) flag(i, phi);
+  }
+  if (bad) {
+    char range[64];
+    std::snprintf(range, sizeof range, " (must be in [0, %g))", max_solid_fraction);
+    return format("particle feedback: cell %ld has solid fraction %g; %ld cells out of range", first,
+                  first_value, bad) + range + step;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = fb.drag_coefficient[i];
+    if (!std::isfinite(k) || k < 0) flag(i, k);
+  }
+  if (bad)
+    return format("particle feedback: cell %ld has drag coefficient %g N s/m^4 (must be finite, >= 0); "
+                  "%ld cells bad", first, first_value, bad) + step;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (fb.source_explicit[i].size() != 3) return "particle feedback: explicit source is not 3 components per cell" + step;
+    for (double s : fb.source_explicit[i])
+      if (!std::isfinite(s)) {
+        flag(i, s);
+        break;
+      }
+  }
+  if (bad)
+    return format("particle feedback: cell %ld has a non-finite explicit source (%g N/m^3); %ld cells bad",
+                  first, first_value, bad) + step;
+  return {};
+}
+
+}  // namespace hemo

@@ -1,0 +1,83 @@
+/*---------------------------------------------------------------------------*\
+    hemocosim-fluid: the fluid node of a hemocosim run (OpenFOAM v1912).
+    SPDX-License-Identifier: GPL-3.0-or-later
+
+Description
+    Volume-averaged incompressible Navier-Stokes of plasma in a periodic
+    straight vessel (MODEL.md section 1), PISO, coupled in lockstep with a
+    particle node over the run's message bus:
+
+        d(alpha U)/dt + div(alpha phi U) - div(alpha nu grad U)
+            = -alpha grad p + alpha G + S/rho - (K/rho) U
+        d(alpha)/dt + div(alpha U) = 0
+
+    alpha = 1 - phi_solid, K the implicit drag coefficient and S the explicit
+    momentum source from the particles, G = dP/(rho l) e_z the driving force.
+
+Usage
+    hemocosim-fluid --scene FILE --run-dir DIR [bus options]
+\*---------------------------------------------------------------------------*/
+
+// hemocosim's own headers first: they must not see OpenFOAM's macros.
+#include "fluidNode.H"
+
+#include "fvCFD.H"
+#include "pisoControl.H"
+
+int main(int argc, char* argv[])
+{
+    #include "parseOptions.H"
+    #include "createPort.H"
+
+    try
+    {
+        #include "writeCase.H"
+        #include "createTime.H"
+        #include "createMesh.H"
+        #include "createFields.H"
+        #include "feedbackFields.H"
+
+        port.initialize(meshMsg);
+        #include "publishState.H"
+
+        while (auto step = port.advance(state, diagnostics))
+        {
+            runTime.setDeltaT(step->order.dt_s);
+            ++runTime;
+
+            #include "applyFeedback.H"
+
+            // PISO: momentum predictor, then pressure correctors
+            #include "UEqn.H"
+            while (piso.correct())
+            {
+                #include "pEqn.H"
+            }
+
+            #include "diagnostics.H"
+            #include "publishState.H"
+
+            if (step->order.write_output)
+            {
+                #include "writeOutput.H"
+            }
+        }
+
+        // The coordinator said stop: keep the final state.
+        #include "writeOutput.H"
+        port.finalize();
+        Info<< "hemocosim-fluid: finished at t = " << runTime.timeName() << " s" << endl;
+    }
+    catch (const Foam::error& err)
+    {
+        return hemo::fluid_failed(port, err.message());
+    }
+    catch (const std::exception& err)
+    {
+        return hemo::fluid_failed(port, err.what());
+    }
+
+    return 0;
+}
+
+// ************************************************************************* //
