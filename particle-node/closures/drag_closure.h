@@ -31,6 +31,9 @@ class DragClosure {
   virtual std::string name() const = 0;
   // beta in N s/m for a particle with slip u - v; finite and >= 0, also at zero slip.
   virtual double coefficient(const Vec3& slip) const = 0;
+  // True when beta does not depend on the slip (lets the engine compute the exponential
+  // factor once per species and step size instead of once per particle and step).
+  virtual bool slip_independent() const { return false; }
 };
 
 // The closure named `name` for a species; throws std::invalid_argument naming the known ones.

@@ -11,6 +11,7 @@ class StokesDrag final : public DragClosure {
   explicit StokesDrag(const DragParams& p);
   std::string name() const override { return "stokes"; }
   double coefficient(const Vec3&) const override { return beta_; }
+  bool slip_independent() const override { return true; }
 
  private:
   double beta_;

@@ -89,6 +89,24 @@ fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time)
   return s;
 }
 
+Scene blood_scene(double diameter, double length, double hematocrit, double wall_shear_rate) {
+  Scene s;
+  s.vessel.diameter = diameter;
+  s.vessel.length = length;
+  s.driving.wall_shear_rate = wall_shear_rate;
+  s.rbc.present = true;
+  s.rbc.diameter = 5.56e-6;
+  s.rbc.volume = 90e-18;
+  s.rbc.mass = 1100 * 90e-18;
+  s.rbc.hematocrit = hematocrit;
+  s.platelet.present = true;
+  s.platelet.diameter = 2.66e-6;
+  s.platelet.volume = 3.14159265358979323846 / 6 * 2.60e-6 * 2.60e-6 * 2.60e-6;
+  s.platelet.mass = 8.79e-15;
+  s.platelet.number_density = 3e5 * 1e9;
+  return s;
+}
+
 FieldAt poiseuille(double radius, double u_max) {
   return [=](const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& g) {
     const double r2 = x[0] * x[0] + x[1] * x[1];

@@ -4,6 +4,7 @@
 
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/mesh_t.hpp>
+#include <scene.h>
 
 #include <array>
 #include <functional>
@@ -21,6 +22,10 @@ mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double 
 using FieldAt = std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u,
                                    std::array<double, 9>& grad)>;
 fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
+
+// A scene with MODEL.md's default RBCs and platelets (Stokes drag) in a vessel of the given
+// size, hematocrit and wall shear rate.
+Scene blood_scene(double diameter, double length, double hematocrit = 0.15, double wall_shear_rate = 799);
 
 // Poiseuille flow u_z = u_max (1 - r^2/R^2) (zero outside r > R) and its exact gradient.
 FieldAt poiseuille(double radius, double u_max);
