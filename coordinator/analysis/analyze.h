@@ -1,0 +1,77 @@
+// hemocosim analyze RUN_DIR: the observables of MODEL.md §5 for one run, as a table or JSON,
+// and RUN_DIR/analysis.json + RUN_DIR/profiles.csv for plotting.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "observables.h"
+#include "run_data.h"
+
+#include <string>
+#include <vector>
+
+namespace hemo {
+
+struct AnalyzeOptions {
+  std::string run_dir;
+  bool json = false;          // print JSON instead of the table
+  int bins = 50;              // radial bins over [0, R]
+  double t_fit = 0.1;         // s: D from the MSD over [0, t_fit]
+  double window_start = -1;   // s: start of the averaging window; < 0: the second half of the run
+};
+
+// Prints the table (or JSON) and writes the two files; throws analysis::RunDataError (one line,
+// naming the file) on a missing or corrupt input.
+int analyze_command(const AnalyzeOptions& opt);
+
+namespace analysis {
+
+// Per-snapshot number-density profiles (for the paper's profiles at t = 0, 0.5, 1, 2 s).
+struct ProfileFrame {
+  double time_s = 0;
+  std::vector<double> rbc;       // 1/m^3
+  std::vector<double> platelet;  // 1/m^3
+};
+
+// Everything `analyze` reports; SI units.
+struct Analysis {
+  std::string run_dir;
+  Tube tube;
+  double rbc_diameter = 0, rbc_volume = 0, platelet_volume = 0;
+  int bins = 0;
+
+  double window_start = 0, window_end = 0;  // s
+  bool window_is_default = false;           // second half of the run
+  int window_snapshots = 0;
+  double mean_rbc_count = 0, mean_platelet_count = 0;  // over the window
+
+  Stations stations;
+  CflThickness cfl_edge, cfl_profile;
+
+  double msd_reference_time = 0;  // s, the first snapshot
+  std::vector<MsdPoint> msd;
+  DiffusionFit diffusion;
+
+  ApparentViscosity rheology;
+  long velocity_samples = 0;
+  double wall_shear_stress = 0;  // Pa, window mean from the fluid node
+
+  double tube_hematocrit = 0, discharge_hematocrit = 0;
+  double rbc_volume_flux = 0, total_volume_flux = 0;  // m^3/s, window means
+  std::string total_flux_source;
+
+  double margination_index = 0;  // with the edge-method delta
+
+  std::vector<double> bin_edges;  // m
+  std::vector<double> rbc_density, platelet_density, rbc_volume_fraction;  // window means
+  std::vector<ProfileFrame> frames;
+
+  std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
+};
+
+Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_start);
+std::string format_table(const Analysis& a);
+std::string format_json(const Analysis& a);
+std::string format_profiles_csv(const Analysis& a);
+
+}  // namespace analysis
+}  // namespace hemo

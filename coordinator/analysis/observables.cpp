@@ -1,0 +1,350 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "observables.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+namespace hemo::analysis {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Wraps an unwrapped axial coordinate into [0, L).
+double wrap_axial(double z, double length) {
+  double w = std::fmod(z, length);
+  if (w < 0) w += length;
+  return w >= length ? 0 : w;
+}
+
+int bin_of(double r, const Tube& tube, int bins) {
+  const int b = static_cast<int>(std::floor(r / tube.radius * bins));
+  return std::clamp(b, 0, bins - 1);
+}
+
+// Gauss-Legendre nodes and weights on [-1, 1] by Newton iteration on P_n.
+template <int N>
+struct GaussLegendre {
+  std::array<double, N> x{}, w{};
+  GaussLegendre() {
+    for (int i = 0; i < N; ++i) {
+      double t = std::cos(kPi * (i + 0.75) / (N + 0.5));
+      double dp = 0;
+      for (int it = 0; it < 100; ++it) {
+        double p0 = 1, p1 = t;
+        for (int k = 2; k <= N; ++k) {
+          const double p2 = ((2 * k - 1) * t * p1 - (k - 1) * p0) / k;
+          p0 = p1;
+          p1 = p2;
+        }
+        dp = N * (t * p1 - p0) / (t * t - 1);
+        const double step = p1 / dp;
+        t -= step;
+        if (std::abs(step) < 1e-15) break;
+      }
+      x[i] = t;
+      w[i] = 2 / ((1 - t * t) * dp * dp);
+    }
+  }
+};
+
+// Area of the overlap of a circle of radius rho centred on the axis and a circle of radius s
+// whose centre is at distance c from it.
+double circle_overlap_area(double rho, double s, double c) {
+  if (rho <= 0 || s <= 0) return 0;
+  if (c >= rho + s) return 0;
+  if (c <= std::abs(rho - s)) {
+    const double m = std::min(rho, s);
+    return kPi * m * m;
+  }
+  const double a1 = std::clamp((c * c + rho * rho - s * s) / (2 * c * rho), -1.0, 1.0);
+  const double a2 = std::clamp((c * c + s * s - rho * rho) / (2 * c * s), -1.0, 1.0);
+  const double k = (-c + rho + s) * (c + rho - s) * (c - rho + s) * (c + rho + s);
+  return rho * rho * std::acos(a1) + s * s * std::acos(a2) - 0.5 * std::sqrt(std::max(k, 0.0));
+}
+
+}  // namespace
+
+double Tube::cross_section() const { return kPi * radius * radius; }
+double Tube::volume() const { return cross_section() * length; }
+
+Cells select_species(const Snapshot& s, std::int8_t species) {
+  Cells c;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.species[i] != species) continue;
+    const double x = s.position[3 * i], y = s.position[3 * i + 1];
+    c.id.push_back(s.id[i]);
+    c.r.push_back(std::hypot(x, y));
+    c.theta.push_back(std::atan2(y, x));
+    c.z.push_back(s.position[3 * i + 2]);
+    c.vz.push_back(s.velocity[3 * i + 2]);
+  }
+  return c;
+}
+
+// ---- Radial number-density profile ---------------------------------------------------------
+
+std::vector<double> radial_bin_edges(const Tube& tube, int bins) {
+  std::vector<double> e(bins + 1);
+  for (int b = 0; b <= bins; ++b) e[b] = tube.radius * b / bins;
+  return e;
+}
+
+std::vector<double> annulus_volumes(const Tube& tube, int bins) {
+  const auto e = radial_bin_edges(tube, bins);
+  std::vector<double> v(bins);
+  for (int b = 0; b < bins; ++b) v[b] = kPi * (e[b + 1] * e[b + 1] - e[b] * e[b]) * tube.length;
+  return v;
+}
+
+std::vector<double> radial_number_density(const std::vector<double>& r, const Tube& tube, int bins) {
+  std::vector<double> n(bins, 0.0);
+  for (double ri : r) n[bin_of(ri, tube, bins)] += 1;
+  const auto v = annulus_volumes(tube, bins);
+  for (int b = 0; b < bins; ++b) n[b] /= v[b];
+  return n;
+}
+
+std::vector<double> average_profiles(const std::vector<std::vector<double>>& profiles) {
+  if (profiles.empty()) return {};
+  std::vector<double> mean(profiles.front().size(), 0.0);
+  for (const auto& p : profiles)
+    for (std::size_t b = 0; b < mean.size(); ++b) mean[b] += p[b];
+  for (double& m : mean) m /= static_cast<double>(profiles.size());
+  return mean;
+}
+
+// ---- RBC volume fraction profile -------------------------------------------------------------
+
+double sphere_volume_inside_cylinder(double a, double c, double rho) {
+  if (rho <= 0 || a <= 0) return 0;
+  if (c >= rho + a) return 0;
+  if (c + a <= rho) return 4.0 / 3.0 * kPi * a * a * a;
+  // V = 2 int_0^{pi/2} A(rho, a cos t, c) a cos t dt. The slice area has kinks where a slice
+  // circle becomes tangent to the cylinder (s = |rho - c|, s = rho + c); splitting the interval
+  // there keeps each panel smooth enough for Gauss-Legendre.
+  static const GaussLegendre<16> gl;
+  std::vector<double> cuts{0.0, kPi / 2};
+  for (double s : {std::abs(rho - c), rho + c})
+    if (s > 0 && s < a) cuts.push_back(std::acos(s / a));
+  std::sort(cuts.begin(), cuts.end());
+  double sum = 0;
+  for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+    const double mid = 0.5 * (cuts[k] + cuts[k + 1]), half = 0.5 * (cuts[k + 1] - cuts[k]);
+    if (half <= 0) continue;
+    for (int i = 0; i < 16; ++i) {
+      const double t = mid + half * gl.x[i];
+      const double s = a * std::cos(t);
+      sum += half * gl.w[i] * circle_overlap_area(rho, s, c) * s;
+    }
+  }
+  return 2 * sum;
+}
+
+std::vector<double> radial_volume_fraction(const std::vector<double>& r, double diameter, double cell_volume,
+                                           const Tube& tube, int bins) {
+  const double a = diameter / 2;
+  const double scale = cell_volume / (kPi / 6 * diameter * diameter * diameter);
+  const auto edges = radial_bin_edges(tube, bins);
+  const auto vol = annulus_volumes(tube, bins);
+  std::vector<double> f(bins, 0.0);
+  for (double c : r) {
+    // Only the annuli the sphere can reach; the part beyond R (soft wall contact) is not in
+    // the vessel and is left out.
+    const int lo = bin_of(std::max(c - a, 0.0), tube, bins);
+    const int hi = bin_of(c + a, tube, bins);
+    double inside_lo = sphere_volume_inside_cylinder(a, c, edges[lo]);
+    for (int b = lo; b <= hi; ++b) {
+      const double inside_hi = sphere_volume_inside_cylinder(a, c, edges[b + 1]);
+      f[b] += scale * (inside_hi - inside_lo);
+      inside_lo = inside_hi;
+    }
+  }
+  for (int b = 0; b < bins; ++b) f[b] /= vol[b];
+  return f;
+}
+
+// ---- Cell-free layer thickness ---------------------------------------------------------------
+
+Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station) {
+  const double n = mean_rbc_count / per_station;
+  const double ratio = 18 * tube.radius / tube.length;  // sectors per slice, 24/16 at d/l = 1/6
+  if (!(n >= 1) || !(ratio > 0)) return {1, 1};
+  const double axial = std::sqrt(n / ratio);
+  Stations st;
+  st.axial = std::max(1, static_cast<int>(std::lround(axial)));
+  st.sectors = std::max(1, static_cast<int>(std::lround(axial >= 0.5 ? axial * ratio : n)));
+  return st;
+}
+
+StationEdges rbc_core_edges(const Cells& rbc, double rbc_diameter, const Tube& tube, const Stations& st) {
+  std::vector<double> edge(st.count(), -1.0);
+  for (std::size_t i = 0; i < rbc.size(); ++i) {
+    const double zw = wrap_axial(rbc.z[i], tube.length);
+    const int ia = std::clamp(static_cast<int>(zw / tube.length * st.axial), 0, st.axial - 1);
+    const int is = std::clamp(static_cast<int>((rbc.theta[i] + kPi) / (2 * kPi) * st.sectors), 0, st.sectors - 1);
+    double& e = edge[ia * st.sectors + is];
+    e = std::max(e, rbc.r[i] + rbc_diameter / 2);
+  }
+  StationEdges out;
+  for (double e : edge) {
+    if (e < 0)
+      ++out.empty;
+    else
+      out.edge.push_back(e);
+  }
+  return out;
+}
+
+CflThickness cfl_thickness_edge(const std::vector<StationEdges>& per_snapshot, const Tube& tube) {
+  CflThickness c;
+  c.method = "edge";
+  double sum = 0, sum2 = 0;
+  for (const auto& s : per_snapshot) {
+    c.empty_samples += s.empty;
+    for (double e : s.edge) {
+      sum += e;
+      sum2 += e * e;
+      ++c.samples;
+    }
+  }
+  if (c.samples == 0) {
+    c.thickness = c.edge_mean = c.edge_std = kNaN;
+    return c;
+  }
+  c.edge_mean = sum / c.samples;
+  c.edge_std = std::sqrt(std::max(sum2 / c.samples - c.edge_mean * c.edge_mean, 0.0));
+  c.thickness = tube.radius - c.edge_mean;
+  return c;
+}
+
+CflThickness cfl_thickness_profile(const std::vector<double>& f, const Tube& tube, double threshold,
+                                   double core_radius_fraction) {
+  CflThickness c;
+  c.method = "profile";
+  c.thickness = c.edge_mean = c.core_mean_fraction = kNaN;
+  c.edge_std = 0;
+  const int bins = static_cast<int>(f.size());
+  if (bins == 0) return c;
+  const auto vol = annulus_volumes(tube, bins);
+  const double width = tube.radius / bins;
+  auto centre = [&](int b) { return (b + 0.5) * width; };
+  double fv = 0, v = 0;
+  for (int b = 0; b < bins && centre(b) < core_radius_fraction * tube.radius; ++b) {
+    fv += f[b] * vol[b];
+    v += vol[b];
+  }
+  if (v <= 0 || fv <= 0) return c;
+  c.core_mean_fraction = fv / v;
+  const double level = threshold * c.core_mean_fraction;
+  // From the wall inward: a dip inside the core (layering) must not end the core early.
+  int last = -1;
+  for (int b = bins - 1; b >= 0; --b)
+    if (f[b] >= level) {
+      last = b;
+      break;
+    }
+  if (last < 0) return c;
+  if (last == bins - 1) {
+    c.edge_mean = tube.radius;  // cells reach the wall: no cell-free layer
+  } else {
+    const double drop = f[last] - f[last + 1];
+    const double frac = drop > 0 ? (f[last] - level) / drop : 0;
+    c.edge_mean = centre(last) + frac * width;
+  }
+  c.thickness = tube.radius - c.edge_mean;
+  return c;
+}
+
+// ---- Radial mean squared displacement and diffusivity ----------------------------------------
+
+MsdPoint radial_msd(const Cells& reference, double t_reference, const Cells& now, double t_now) {
+  std::unordered_map<std::int64_t, double> r0;
+  r0.reserve(reference.size());
+  for (std::size_t i = 0; i < reference.size(); ++i) r0.emplace(reference.id[i], reference.r[i]);
+  MsdPoint p;
+  p.lag_s = t_now - t_reference;
+  double sum = 0;
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    const auto it = r0.find(now.id[i]);
+    if (it == r0.end()) continue;
+    const double d = now.r[i] - it->second;
+    sum += d * d;
+    ++p.matched;
+  }
+  p.msd_m2 = p.matched > 0 ? sum / p.matched : kNaN;
+  return p;
+}
+
+DiffusionFit fit_diffusivity(const std::vector<MsdPoint>& msd, double t_fit) {
+  DiffusionFit fit;
+  fit.t_fit = t_fit;
+  double st2 = 0, stm = 0;
+  for (const auto& p : msd) {
+    // Small tolerance: output times are sums of coupling intervals and t_fit is often one of them.
+    if (!(p.lag_s > 0) || p.lag_s > t_fit * (1 + 1e-9) || !std::isfinite(p.msd_m2)) continue;
+    st2 += p.lag_s * p.lag_s;
+    stm += p.lag_s * p.msd_m2;
+    fit.window_end = std::max(fit.window_end, p.lag_s);
+    ++fit.points;
+  }
+  fit.diffusivity = fit.points > 0 ? stm / st2 / 2 : kNaN;
+  return fit;
+}
+
+// ---- Apparent viscosity ----------------------------------------------------------------------
+
+ApparentViscosity apparent_viscosity(double mean_velocity, double diameter, double wall_shear_rate) {
+  ApparentViscosity a;
+  a.mean_velocity = mean_velocity;
+  a.wall_shear_rate = wall_shear_rate;
+  a.apparent_wall_shear_rate = 8 * mean_velocity / diameter;
+  a.relative_viscosity = a.apparent_wall_shear_rate > 0 ? wall_shear_rate / a.apparent_wall_shear_rate : kNaN;
+  return a;
+}
+
+double time_mean(const std::vector<double>& t, const std::vector<double>& value, double t_start, double t_end) {
+  double sum = 0;
+  long n = 0;
+  for (std::size_t i = 0; i < t.size() && i < value.size(); ++i) {
+    if (t[i] < t_start || t[i] > t_end) continue;
+    sum += value[i];
+    ++n;
+  }
+  return n > 0 ? sum / n : kNaN;
+}
+
+// ---- Hematocrit ------------------------------------------------------------------------------
+
+double tube_hematocrit(std::size_t rbc_count, double rbc_volume, const Tube& tube) {
+  return static_cast<double>(rbc_count) * rbc_volume / tube.volume();
+}
+
+double cell_volume_flux(const std::vector<double>& vz, double cell_volume, const Tube& tube) {
+  double sum = 0;
+  for (double v : vz) sum += v;
+  return cell_volume * sum / tube.length;
+}
+
+double total_volume_flux(double superficial_plasma_velocity, double cells_volume_flux, const Tube& tube) {
+  return tube.cross_section() * superficial_plasma_velocity + cells_volume_flux;
+}
+
+double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux) {
+  return total_volume_flux != 0 ? rbc_volume_flux / total_volume_flux : kNaN;
+}
+
+// ---- Margination -----------------------------------------------------------------------------
+
+double margination_index(const std::vector<double>& platelet_r, double radius, double cfl_thickness) {
+  if (platelet_r.empty() || !std::isfinite(cfl_thickness)) return kNaN;
+  const double inner = radius - cfl_thickness;
+  const auto n = std::count_if(platelet_r.begin(), platelet_r.end(), [&](double r) { return r > inner; });
+  return static_cast<double>(n) / static_cast<double>(platelet_r.size());
+}
+
+}  // namespace hemo::analysis

@@ -1,0 +1,172 @@
+// The observables of MODEL.md §5, defined once, here, as pure functions over plain arrays.
+// Nothing in this file reads files or prints: analyze.cpp feeds it snapshots and metrics.
+//
+// Geometry: the vessel is a straight tube of radius R along z through x = y = 0, periodic
+// over the length L; z is unwrapped by the particle node, so it is wrapped here where needed.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hemo::analysis {
+
+inline constexpr std::int8_t kRbc = 0;       // species code in particles.h5
+inline constexpr std::int8_t kPlatelet = 1;
+
+struct Tube {
+  double radius = 0;  // m
+  double length = 0;  // m, periodic along z
+  double cross_section() const;
+  double volume() const;
+};
+
+// One particle snapshot as written by the particle node (3 doubles per particle).
+struct Snapshot {
+  long step = 0;
+  double time_s = 0;
+  std::vector<std::int64_t> id;
+  std::vector<std::int8_t> species;
+  std::vector<double> position;  // m, z unwrapped
+  std::vector<double> velocity;  // m/s
+  std::size_t size() const { return id.size(); }
+};
+
+// The cells of one species in cylindrical coordinates: what every observable below works on.
+struct Cells {
+  std::vector<std::int64_t> id;
+  std::vector<double> r;      // m, distance of the centre from the axis
+  std::vector<double> theta;  // rad, in (-pi, pi]
+  std::vector<double> z;      // m, unwrapped
+  std::vector<double> vz;     // m/s, axial velocity
+  std::size_t size() const { return id.size(); }
+};
+Cells select_species(const Snapshot& s, std::int8_t species);
+
+// ---- Radial number-density profile ---------------------------------------------------------
+
+// `bins` equal bins in r/R over [0, 1]; edges in metres.
+std::vector<double> radial_bin_edges(const Tube& tube, int bins);
+// Volume of the annulus of bin b (pi (r_o^2 - r_i^2) L), m^3.
+std::vector<double> annulus_volumes(const Tube& tube, int bins);
+
+// Number of centres per annulus volume (1/m^3) of one snapshot. A centre at or beyond R
+// (soft wall contact) is counted in the last bin so that the profile integrates to the count.
+std::vector<double> radial_number_density(const std::vector<double>& r, const Tube& tube, int bins);
+
+// Element-wise mean of equal-length profiles (the time average over a window). Empty input:
+// empty result.
+std::vector<double> average_profiles(const std::vector<std::vector<double>>& profiles);
+
+// ---- RBC volume fraction profile (for the profile method of the CFL) -------------------------
+
+// Volume of a sphere (radius a, centre at distance c from the axis) that lies inside the
+// coaxial cylinder of radius rho. Integrates the exact area of the circle-circle overlap of
+// each z-slice with Gauss-Legendre quadrature in z = a sin(t); relative error below 1e-4.
+double sphere_volume_inside_cylinder(double a, double c, double rho);
+
+// Volume fraction of cells per annulus, each cell a sphere of `diameter` whose volume is spread
+// over the annuli it overlaps and scaled to `cell_volume` (V_RBC need not be the sphere's).
+// Counting the cell's extent, not just its centre, is what makes the fraction fall to zero at
+// the core's edge rather than half a cell inside it.
+std::vector<double> radial_volume_fraction(const std::vector<double>& r, double diameter, double cell_volume,
+                                           const Tube& tube, int bins);
+
+// ---- Cell-free layer thickness ---------------------------------------------------------------
+
+// Stations: axial slices x angular sectors.
+struct Stations {
+  int axial = 16;
+  int sectors = 24;
+  int count() const { return axial * sectors; }
+};
+// About `per_station` RBCs per station (MODEL.md §5), with the shape of the calibration case's
+// 16 x 24 stations kept for other vessels: sectors / slices = 18 R / L, i.e. a station's arc
+// at the wall is about a third of its axial length whatever the vessel.
+Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station = 20);
+
+// Outer edge of the RBC core at every occupied station of one snapshot: max(r_i + d_RBC/2)
+// over the station's RBCs. Empty stations give no edge and are counted.
+struct StationEdges {
+  std::vector<double> edge;  // m, one per occupied station
+  int empty = 0;
+};
+StationEdges rbc_core_edges(const Cells& rbc, double rbc_diameter, const Tube& tube, const Stations& stations);
+
+struct CflThickness {
+  std::string method;             // "edge" or "profile"
+  double thickness = 0;           // delta, m (NaN when undefined)
+  double edge_mean = 0;           // m: <edge> (edge method) or the crossing radius (profile method)
+  double edge_std = 0;            // m, spread of the station edges (edge method)
+  long samples = 0;               // (station, time) pairs averaged (edge method)
+  long empty_samples = 0;         // (station, time) pairs skipped for having no RBC
+  double core_mean_fraction = 0;  // profile method: mean RBC volume fraction of the core
+};
+
+// Edge method: delta = R - <edge> over all occupied stations and snapshots given.
+CflThickness cfl_thickness_edge(const std::vector<StationEdges>& per_snapshot, const Tube& tube);
+
+// Profile method: the core mean is the volume-weighted mean fraction over r < core_radius_fraction R;
+// the edge is the outermost radius where the (linearly interpolated between bin centres) fraction
+// is still `threshold` x core mean; delta = R - edge.
+CflThickness cfl_thickness_profile(const std::vector<double>& volume_fraction, const Tube& tube,
+                                   double threshold = 0.1, double core_radius_fraction = 0.5);
+
+// ---- Radial mean squared displacement and diffusivity ----------------------------------------
+
+struct MsdPoint {
+  double lag_s = 0;   // t - t_ref
+  double msd_m2 = 0;  // <(r_i(t) - r_i(t_ref))^2>
+  long matched = 0;   // platelets present in both snapshots (matched by id)
+};
+// Cells absent from either snapshot are left out; no match gives msd NaN.
+MsdPoint radial_msd(const Cells& reference, double t_reference, const Cells& now, double t_now);
+
+struct DiffusionFit {
+  double diffusivity = 0;  // D, m^2/s (NaN with no point in the window)
+  double t_fit = 0;        // s, the window asked for: [0, t_fit]
+  double window_end = 0;   // s, the largest lag actually used
+  int points = 0;          // MSD points with 0 < lag <= t_fit
+};
+// MSD = 2 D t by least squares through the origin: 2D = sum(t MSD) / sum(t^2).
+DiffusionFit fit_diffusivity(const std::vector<MsdPoint>& msd, double t_fit);
+
+// ---- Apparent viscosity ----------------------------------------------------------------------
+
+struct ApparentViscosity {
+  double mean_velocity = 0;            // U, m/s
+  double wall_shear_rate = 0;          // gamma_w = d dP / (4 mu l), 1/s (imposed)
+  double apparent_wall_shear_rate = 0; // 8 U / d, 1/s
+  double relative_viscosity = 0;       // mu_app / mu = gamma_w / (8 U / d)
+};
+ApparentViscosity apparent_viscosity(double mean_velocity, double diameter, double wall_shear_rate);
+
+// Arithmetic mean of the samples with t_start <= t <= t_end (metrics come at equal steps).
+// NaN without samples.
+double time_mean(const std::vector<double>& t, const std::vector<double>& value, double t_start, double t_end);
+
+// ---- Hematocrit ------------------------------------------------------------------------------
+
+// Tube hematocrit H_T = N_RBC V_RBC / (pi R^2 L).
+double tube_hematocrit(std::size_t rbc_count, double rbc_volume, const Tube& tube);
+
+// Volume flux of cells through a cross-section, m^3/s. In a periodic tube the flux averaged over
+// all sections is (1/L) sum_i V_i v_z,i: each cell crosses a section v_z,i / L times per second.
+double cell_volume_flux(const std::vector<double>& vz, double cell_volume, const Tube& tube);
+
+// Total (blood) volume flux Q = pi R^2 <alpha u_z> + Q_cells: the plasma's superficial flux from
+// the fluid node plus the cells' own flux.
+double total_volume_flux(double superficial_plasma_velocity, double cells_volume_flux, const Tube& tube);
+
+// Discharge hematocrit H_D = Q_RBC / Q: the RBC share of the volume that flows through a
+// section. H_D = H_T in plug flow; H_D > H_T when RBCs ride the fast core (Fahraeus effect).
+double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux);
+
+// ---- Margination -----------------------------------------------------------------------------
+
+// Fraction of platelets whose centre lies in the cell-free layer, r > R - delta. NaN without
+// platelets or without a finite delta.
+double margination_index(const std::vector<double>& platelet_r, double radius, double cfl_thickness);
+
+}  // namespace hemo::analysis

@@ -1,0 +1,79 @@
+// Apparent viscosity, tube and discharge hematocrit, margination index on constructed cases.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "observables.h"
+#include "synthetic.h"
+
+#include <gtest/gtest.h>
+
+using namespace hemo::analysis;
+using namespace hemo::analysis::test;
+
+namespace {
+const Tube kTube{50 * kUm, 600 * kUm};
+}
+
+// mu_app / mu = gamma_w / (8 U / d): the calibration value 1.4 for the U that gives it, and 1
+// for Poiseuille flow of plasma alone (U = gamma_w d / 8).
+TEST(ApparentViscosity, RatioOfImposedToApparentWallShearRate) {
+  const double d = 100 * kUm, gamma = 799;
+  const double u = gamma * d / (8 * 1.4);
+  const auto a = apparent_viscosity(u, d, gamma);
+  EXPECT_NEAR(a.apparent_wall_shear_rate, 799 / 1.4, 1e-9);
+  EXPECT_NEAR(a.relative_viscosity, 1.4, 1e-12);
+  EXPECT_NEAR(apparent_viscosity(gamma * d / 8, d, gamma).relative_viscosity, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(apparent_viscosity(0, d, gamma).relative_viscosity));
+}
+
+TEST(ApparentViscosity, TimeMeanOverTheWindowOnly) {
+  const std::vector<double> t{0, 0.5, 1.0, 1.5, 2.0}, v{100, 100, 1, 2, 3};
+  EXPECT_DOUBLE_EQ(time_mean(t, v, 1.0, 2.0), 2);
+  EXPECT_TRUE(std::isnan(time_mean(t, v, 3, 4)));
+}
+
+TEST(Hematocrit, TubeHematocritIsRbcVolumeOverVesselVolume) {
+  const std::size_t n = 7854;
+  EXPECT_NEAR(tube_hematocrit(n, 90e-18, kTube), n * 90e-18 / (kPi * 2500e-12 * 600e-6), 1e-15);
+}
+
+// Plug flow: plasma and cells all move at U, so the RBC share of the flux equals their share
+// of the volume: H_D = H_T to round-off.
+TEST(Hematocrit, PlugFlowDischargeEqualsTube) {
+  const double u = 5e-3, v = 90e-18;
+  Snapshot s;
+  for (int i = 0; i < 1000; ++i) add_particle(s, i, kRbc, 40 * kUm * std::sqrt((i + 0.5) / 1000), 2.4 * i, 0.6 * i * kUm, u);
+  const Cells rbc = select_species(s, kRbc);
+  const double ht = tube_hematocrit(rbc.size(), v, kTube);
+  const double q_rbc = cell_volume_flux(rbc.vz, v, kTube);
+  const double q = total_volume_flux((1 - ht) * u, q_rbc, kTube);  // superficial plasma = alpha U
+  EXPECT_NEAR(q, kTube.cross_section() * u, 1e-12 * q);
+  EXPECT_NEAR(discharge_hematocrit(q_rbc, q), ht, 1e-12);
+}
+
+// Parabolic flow u = 2U (1 - r^2/R^2) with RBCs spread evenly by area over r < R/2 and moving
+// with the flow: <v_RBC> = 2U (1 - <r^2>/R^2) = 2U (1 - 1/8) = 1.75 U, so H_D / H_T = 1.75
+// (the Fahraeus effect) when the total flux is pi R^2 U.
+TEST(Hematocrit, ParabolicFlowWithCentralRbcsGivesFahraeusRatio) {
+  const double u = 5e-3, v = 90e-18, R = kTube.radius;
+  const int n = 1000;
+  Snapshot s;
+  for (int i = 0; i < n; ++i) {
+    const double r = 0.5 * R * std::sqrt((i + 0.5) / n);  // <r^2> = R^2/8 exactly
+    add_particle(s, i, kRbc, r, 2.4 * i, 0.6 * i * kUm, 2 * u * (1 - r * r / (R * R)));
+  }
+  const Cells rbc = select_species(s, kRbc);
+  const double ht = tube_hematocrit(rbc.size(), v, kTube);
+  const double hd = discharge_hematocrit(cell_volume_flux(rbc.vz, v, kTube), kTube.cross_section() * u);
+  EXPECT_NEAR(hd / ht, 1.75, 1e-12);
+}
+
+// Platelets at r = 1..10 in a tube of radius 10 with delta = 2.5: r > 7.5 holds 8, 9, 10
+// (plain numbers, so that the edge case r = R - delta is exact).
+TEST(Margination, FractionOfPlateletsInTheLayer) {
+  std::vector<double> r;
+  for (int i = 1; i <= 10; ++i) r.push_back(i);
+  EXPECT_DOUBLE_EQ(margination_index(r, 10, 2.5), 0.3);
+  EXPECT_DOUBLE_EQ(margination_index(r, 10, 3), 0.3);  // r = 7 is on the edge, not in the layer
+  EXPECT_DOUBLE_EQ(margination_index(r, 10, 0), 0);
+  EXPECT_TRUE(std::isnan(margination_index(r, 10, std::nan(""))));
+  EXPECT_TRUE(std::isnan(margination_index({}, 10, 1)));
+}

@@ -1,0 +1,217 @@
+// The run-directory reader on small files the test writes in the run's format, its one-line
+// errors, and `analyze` end to end on a tiny constructed run.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "analyze.h"
+#include "run_data.h"
+#include "synthetic.h"
+
+#include <gtest/gtest.h>
+#include <fmt/format.h>
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+using namespace hemo::analysis;
+using namespace hemo::analysis::test;
+
+namespace {
+
+// What to break in a written snapshot.
+enum class Flaw { none, no_velocity, flat_position, no_time };
+
+void write_set(hid_t g, const char* name, hid_t mem, hid_t file, hsize_t rows, hsize_t cols, const void* data) {
+  hsize_t dims[2] = {rows, cols};
+  hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
+  hid_t set = H5Dcreate2(g, name, file, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (rows > 0) H5Dwrite(set, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  H5Dclose(set);
+  H5Sclose(space);
+}
+
+// particles.h5 in the particle node's format: /snapshots/<8 digits> {time_s; id, species, position, velocity}.
+void write_particles(const std::string& path, const std::vector<Snapshot>& snaps, Flaw flaw = Flaw::none) {
+  hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  hid_t root = H5Gcreate2(f, "snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  for (const auto& s : snaps) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%08ld", s.step);
+    hid_t g = H5Gcreate2(root, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (flaw != Flaw::no_time) {
+      hid_t scalar = H5Screate(H5S_SCALAR);
+      hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
+      H5Awrite(attr, H5T_NATIVE_DOUBLE, &s.time_s);
+      H5Aclose(attr);
+      H5Sclose(scalar);
+    }
+    const hsize_t n = s.size();
+    write_set(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, s.id.data());
+    write_set(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, s.species.data());
+    if (flaw == Flaw::flat_position)
+      write_set(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3 * n, 1, s.position.data());
+    else
+      write_set(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
+    if (flaw != Flaw::no_velocity)
+      write_set(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
+    H5Gclose(g);
+  }
+  H5Gclose(root);
+  H5Fclose(f);
+}
+
+Snapshot small_snapshot(long step, double t, double shift) {
+  Snapshot s;
+  s.step = step;
+  s.time_s = t;
+  add_particle(s, 7, kRbc, 3 * kUm + shift, 0.5, 12 * kUm, 1e-3);
+  add_particle(s, 3, kPlatelet, 8 * kUm - shift, -1.0, -5 * kUm, 2e-3);
+  add_particle(s, 11, kPlatelet, 1 * kUm, 2.0, 700 * kUm, 0.5e-3);
+  return s;
+}
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const RunDataError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+TEST(RunData, SnapshotsRoundTripSortedByStep) {
+  const std::string path = temp_dir("roundtrip") + "/particles.h5";
+  write_particles(path, {small_snapshot(10, 2e-4, 1 * kUm), small_snapshot(0, 0, 0)});
+  const auto list = list_snapshots(path);
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0].step, 0);
+  EXPECT_EQ(list[1].step, 10);
+  EXPECT_DOUBLE_EQ(list[1].time_s, 2e-4);
+  const Snapshot want = small_snapshot(10, 2e-4, 1 * kUm);
+  const Snapshot got = read_snapshot(path, 10);
+  EXPECT_EQ(got.step, 10);
+  EXPECT_DOUBLE_EQ(got.time_s, 2e-4);
+  EXPECT_EQ(got.id, want.id);
+  EXPECT_EQ(got.species, want.species);
+  EXPECT_EQ(got.position, want.position);
+  EXPECT_EQ(got.velocity, want.velocity);
+}
+
+TEST(RunData, MissingOrCorruptParticleFileIsOneClearLine) {
+  const std::string dir = temp_dir("corrupt");
+  EXPECT_EQ(error_of([&] { list_snapshots(dir + "/particles.h5"); }), dir + "/particles.h5: missing");
+  write_text(dir + "/junk.h5", "this is not HDF5\n");
+  EXPECT_EQ(error_of([&] { list_snapshots(dir + "/junk.h5"); }),
+            dir + "/junk.h5: not an HDF5 file (corrupt or truncated?)");
+  const auto snap = small_snapshot(0, 0, 0);
+  write_particles(dir + "/a.h5", {snap}, Flaw::no_velocity);
+  EXPECT_EQ(error_of([&] { read_snapshot(dir + "/a.h5", 0); }),
+            dir + "/a.h5 /snapshots/00000000: no dataset 'velocity'");
+  write_particles(dir + "/b.h5", {snap}, Flaw::flat_position);
+  EXPECT_EQ(error_of([&] { read_snapshot(dir + "/b.h5", 0); }),
+            dir + "/b.h5 /snapshots/00000000: dataset 'position' has shape 9x1, expected 3x3");
+  write_particles(dir + "/c.h5", {snap}, Flaw::no_time);
+  EXPECT_EQ(error_of([&] { list_snapshots(dir + "/c.h5"); }), dir + "/c.h5 /snapshots/00000000: no attribute time_s");
+  EXPECT_EQ(error_of([&] { read_snapshot(dir + "/b.h5", 5); }), dir + "/b.h5 /snapshots/00000005: missing");
+}
+
+TEST(RunData, MetricsAreReadInLongFormat) {
+  const std::string dir = temp_dir("metrics");
+  write_text(dir + "/metrics.csv",
+             "step,time_s,node,name,value\n"
+             "1,2e-05,fluid,mean_velocity_m_s,0.0071\n"
+             "1,2e-05,particles,compute_s,0.5\n"
+             "2,4e-05,fluid,mean_velocity_m_s,0.0073\n");
+  const auto m = read_metrics(dir + "/metrics.csv");
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_EQ(m[1].node, "particles");
+  EXPECT_EQ(m[2].step, 2);
+  const auto u = metric_series(m, "mean_velocity_m_s");
+  EXPECT_EQ(u.time_s, (std::vector<double>{2e-5, 4e-5}));
+  EXPECT_EQ(u.value, (std::vector<double>{0.0071, 0.0073}));
+
+  write_text(dir + "/bad.csv", "step,time_s,node,name,value\n1,0,fluid,x,1\n2,0,fluid,x,fast\n");
+  EXPECT_EQ(error_of([&] { read_metrics(dir + "/bad.csv"); }), dir + "/bad.csv:3: value 'fast' is not a number");
+  write_text(dir + "/short.csv", "step,time_s,node,name,value\n1,0,fluid\n");
+  EXPECT_EQ(error_of([&] { read_metrics(dir + "/short.csv"); }), dir + "/short.csv:2: expected 5 fields, found 3");
+  write_text(dir + "/header.csv", "a,b\n");
+  EXPECT_NE(error_of([&] { read_metrics(dir + "/header.csv"); }).find("header"), std::string::npos);
+  EXPECT_EQ(error_of([&] { read_metrics(dir + "/none.csv"); }), dir + "/none.csv: missing");
+}
+
+TEST(RunData, RunDirectoryNeedsItsThreeFiles) {
+  const std::string dir = temp_dir("incomplete");
+  EXPECT_EQ(error_of([&] { open_run(dir + "/nope"); }), dir + "/nope: not a run directory");
+  EXPECT_EQ(error_of([&] { open_run(dir); }), dir + "/scene.toml: missing");
+  write_text(dir + "/scene.toml", "[vessel]\ndiameter_um = -1\n");
+  EXPECT_NE(error_of([&] { open_run(dir); }).find("invalid scene"), std::string::npos);
+}
+
+// A tiny run: 20 um x 40 um vessel, 4 RBCs on the axis region and 2 platelets, three snapshots
+// 0.05 s apart; the fluid reports U such that mu_app/mu = 1.25.
+TEST(Analyze, EndToEndOnAConstructedRun) {
+  const std::string dir = temp_dir("run");
+  write_text(dir + "/scene.toml",
+             "[vessel]\ndiameter_um = 20\nlength_um = 40\n[driving]\nwall_shear_rate_per_s = 800\n"
+             "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
+  const double d = 20 * kUm, u = 800 * d / (8 * 1.25);
+  std::string csv = "step,time_s,node,name,value\n";
+  for (int k = 0; k <= 10; ++k) csv += fmt::format("{},{},fluid,mean_velocity_m_s,{}\n", k, 0.01 * k, u);
+  write_text(dir + "/metrics.csv", csv);
+  std::vector<Snapshot> snaps;
+  for (int k = 0; k < 3; ++k) {
+    Snapshot s;
+    s.step = 5 * k;
+    s.time_s = 0.05 * k;
+    for (int i = 0; i < 4; ++i) add_particle(s, i, kRbc, 4 * kUm, i * kPi / 2, (5 + 10 * i) * kUm, u);
+    add_particle(s, 100, kPlatelet, 9 * kUm, 0.3, 10 * kUm, u);         // in the layer
+    add_particle(s, 101, kPlatelet, (2 + 0.5 * k) * kUm, 0.3, 0, u);  // walks outward 0.5 um per snapshot
+    snaps.push_back(s);
+  }
+  write_particles(dir + "/particles.h5", snaps);
+
+  const auto run = open_run(dir);
+  ASSERT_EQ(run.snapshots.size(), 3u);
+  const auto a = analyze_run(run, 10, 0.1, -1);
+  EXPECT_TRUE(a.window_is_default);
+  EXPECT_DOUBLE_EQ(a.window_start, 0.05);
+  EXPECT_EQ(a.window_snapshots, 2);
+  EXPECT_NEAR(a.rheology.relative_viscosity, 1.25, 1e-12);
+  EXPECT_EQ(a.velocity_samples, 6);
+  EXPECT_NEAR(a.tube_hematocrit, 4 * 90e-18 / (kPi * 1e-10 * 40e-6), 1e-12);
+  // Stations: 4 RBCs give one station; its edge is 4 + 2.78 um, delta = 10 - 6.78 = 3.22 um.
+  EXPECT_EQ(a.stations.count(), 1);
+  EXPECT_NEAR(a.cfl_edge.thickness, 3.22 * kUm, 1e-12);
+  EXPECT_DOUBLE_EQ(a.margination_index, 0.5);  // platelet 100 at 9 um > 6.78 um; 101 is not
+  // MSD: platelet 100 still, 101 moved 0.5 and 1 um: MSD = 0.125 and 0.5 um^2 at 0.05 and 0.1 s;
+  // 2D = (0.05 * 0.125 + 0.1 * 0.5) / (0.05^2 + 0.1^2) um^2/s.
+  ASSERT_EQ(a.msd.size(), 2u);
+  EXPECT_NEAR(a.msd[1].msd_m2, 0.5e-12, 1e-24);
+  EXPECT_EQ(a.diffusion.points, 2);
+  EXPECT_NEAR(a.diffusion.diffusivity, (0.05 * 0.125 + 0.1 * 0.5) / (0.0025 + 0.01) / 2 * 1e-12, 1e-24);
+  // Plug flow, no superficial velocity reported: total flux pi R^2 U, H_D = H_T.
+  EXPECT_NEAR(a.discharge_hematocrit, a.tube_hematocrit, 1e-12);
+
+  hemo::AnalyzeOptions opt;
+  opt.run_dir = dir;
+  opt.bins = 10;
+  EXPECT_EQ(hemo::analyze_command(opt), 0);
+  const std::string json = read_text(dir + "/analysis.json");
+  EXPECT_NE(json.find("\"relative_apparent_viscosity\": 1.25"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"method\": \"edge\""), std::string::npos);
+  const std::string csv_out = read_text(dir + "/profiles.csv");
+  EXPECT_EQ(std::count(csv_out.begin(), csv_out.end(), '\n'), 1 + 10 * (1 + 3));  // header, window, 3 snapshots
+}
