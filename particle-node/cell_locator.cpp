@@ -110,7 +110,23 @@ CellLocator::CellLocator(const mesh_t& mesh) {
     }
   }
 
+  // Wall faces: boundary faces of patches that are not cyclic (all boundary faces when the
+  // mesh names no patches).
+  std::vector<char> wall_face(n_faces, 0);
+  if (mesh.n_patches > 0 && static_cast<int>(mesh.patch_types.size()) == mesh.n_patches &&
+      static_cast<int>(mesh.patch_start.size()) == mesh.n_patches &&
+      static_cast<int>(mesh.patch_size.size()) == mesh.n_patches) {
+    for (int p = 0; p < mesh.n_patches; ++p) {
+      if (mesh.patch_types[p] == "cyclic") continue;
+      for (int f = mesh.patch_start[p]; f < mesh.patch_start[p] + mesh.patch_size[p]; ++f)
+        if (f >= n_internal && f < n_faces) wall_face[f] = 1;
+    }
+  } else {
+    for (int f = n_internal; f < n_faces; ++f) wall_face[f] = 1;
+  }
+
   plane_start_.assign(n_cells + 1, 0);
+  std::vector<char> wall_cell(n_cells, 0);
   tolerance_.resize(n_cells);
   for (int c = 0; c < n_cells; ++c) {
     if (cell_faces[c].size() < 4) bad_mesh("cell " + std::to_string(c) + " has fewer than 4 faces");
@@ -130,6 +146,8 @@ CellLocator::CellLocator(const mesh_t& mesh) {
       plane.normal = sign * n;
       plane.offset = plane.normal.dot(faces[f].centroid);
       plane.across = f < n_internal ? (mesh.owner[f] == c ? mesh.neighbour[f] : mesh.owner[f]) : -1;
+      plane.wall = wall_face[f] != 0;
+      if (plane.wall) wall_cell[c] = 1;
       planes_.push_back(plane);
     }
     plane_start_[c + 1] = static_cast<int>(planes_.size());
@@ -142,6 +160,23 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   if (std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
     bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from vessel_length_m " +
              std::to_string(length_) + " m");
+
+  // The wall gap: how far a point inside the vessel radius can lie behind a wall face.
+  for (int c = 0; c < n_cells; ++c)
+    for (int k = plane_start_[c]; k < plane_start_[c + 1]; ++k) {
+      const Plane& p = planes_[k];
+      if (!p.wall || std::abs(p.normal.z()) > 0.5) continue;  // not a side wall of the vessel
+      wall_gap_ = std::max(wall_gap_, radius_ * std::hypot(p.normal.x(), p.normal.y()) - p.offset);
+    }
+  wall_gap_ = radius_ > 0 ? std::min(wall_gap_, radius_) : 0.0;
+  // Wall cells reach out to the vessel radius for the gap search.
+  for (int c = 0; c < n_cells; ++c)
+    if (wall_cell[c]) {
+      cell_lo[c].head<2>() -= Vec3::Constant(wall_gap_).head<2>();
+      cell_hi[c].head<2>() += Vec3::Constant(wall_gap_).head<2>();
+    }
+  lo.head<2>() -= Vec3::Constant(wall_gap_).head<2>();
+  hi.head<2>() += Vec3::Constant(wall_gap_).head<2>();
 
   // Uniform bins over the mesh's bounding box, about one cell per bin; each bin lists every
   // cell whose bounding box touches it.
@@ -206,6 +241,34 @@ int CellLocator::search_bins(const Vec3& x) const {
       if (inside(bin_cells_[k], x)) return bin_cells_[k];
   ++stats_.outside;
   return -1;
+}
+
+int CellLocator::locate_in_wall_gap(const Vec3& x) const {
+  const Vec3 w = wrap(x);
+  if (!(wall_gap_ > 0) || std::hypot(w.x(), w.y()) > radius_ * (1 + 1e-12)) return -1;
+  const int b = bin_of(w);
+  if (b < 0) return -1;
+  int best = -1;
+  double best_depth = std::numeric_limits<double>::max();
+  for (int k = bin_start_[b]; k < bin_start_[b + 1]; ++k) {
+    const int c = bin_cells_[k];
+    const double tol = tolerance_[c];
+    double depth = 0;  // how far behind a wall face
+    bool ok = true;
+    for (int q = plane_start_[c]; q < plane_start_[c + 1] && ok; ++q) {
+      const double s = signed_distance(planes_[q], w);
+      if (s <= tol) continue;
+      if (planes_[q].wall && s <= wall_gap_ + tol)
+        depth = std::max(depth, s);
+      else
+        ok = false;
+    }
+    if (ok && depth < best_depth) {
+      best = c;
+      best_depth = depth;
+    }
+  }
+  return best;
 }
 
 int CellLocator::locate(const Vec3& x, int hint) const {

@@ -13,6 +13,12 @@
 //
 // The mesh is periodic along z with period vessel_length_m starting at the lowest mesh point;
 // points are wrapped into [z0, z0 + L) before they are located.
+//
+// The wall gap: the fluid mesh's wall is a polygon of flat faces (chords) inside the round
+// vessel the DEM wall bounds, so a particle touching the DEM wall can have its centre in the
+// thin gap between a wall face and the circle (up to R (1 - cos(pi / n)) deep for n faces
+// around). locate() says -1 there, exactly; locate_in_wall_gap() then finds the wall cell
+// whose wall face the point is behind, within wall_gap() of it, and inside the vessel radius.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -33,8 +39,17 @@ class CellLocator {
   // `hint` is a cell to try first (-1: none).
   int locate(const Vec3& x, int hint = -1) const;
 
+  // For a point that locate() found in no cell: the wall cell it lies behind, when it is in
+  // the wall gap (inside the vessel radius, at most wall_gap() behind the cell's wall face and
+  // inside all its other faces); else -1.
+  int locate_in_wall_gap(const Vec3& x) const;
+
   // True when the (already wrapped) point is inside `cell` up to the tolerance.
   bool inside(int cell, const Vec3& x) const;
+
+  // Deepest wall gap of the mesh (m): max over wall faces of R - (distance of the face plane
+  // from the axis).
+  double wall_gap() const { return wall_gap_; }
 
   // x with z wrapped into [z0, z0 + L).
   Vec3 wrap(const Vec3& x) const;
@@ -61,6 +76,7 @@ class CellLocator {
     Vec3 normal;   // unit, pointing out of the cell
     double offset; // normal . (point on the face)
     int across;    // the cell on the other side, -1 for a boundary face
+    bool wall;     // a face of a wall patch (any boundary patch that is not cyclic)
   };
 
   double signed_distance(const Plane& p, const Vec3& x) const { return p.normal.dot(x) - p.offset; }
@@ -73,7 +89,7 @@ class CellLocator {
   std::vector<double> volume_;
   std::vector<double> tolerance_;  // per cell, absolute (m)
 
-  double z0_ = 0, length_ = 0, radius_ = 0;
+  double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};
   std::vector<int> bin_start_;     // CSR: candidate cells per bin

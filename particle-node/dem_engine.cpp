@@ -197,8 +197,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
       continue;
     }
     unwrap_z(t, xi.z());
-    const int cell = locator_->locate(xi, last_cell_[t]);
-    last_cell_[t] = cell;
+    const int cell = cell_of(t, xi);
     if (cell < 0) {
       ++outside_;
       note_problem(t, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
@@ -222,6 +221,14 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     deposition_->add_drag(cell, force, beta, duration);
     if (last) carry_.push_back({cell, beta, force});
   }
+}
+
+int DemEngine::cell_of(int tag, const Vec3& x, bool* in_wall_gap) {
+  int cell = locator_->locate(x, last_cell_[tag]);
+  const bool gap = cell < 0 && (cell = locator_->locate_in_wall_gap(x)) >= 0;
+  if (in_wall_gap) *in_wall_gap = gap;
+  last_cell_[tag] = cell;
+  return cell;
 }
 
 void DemEngine::note_problem(int tag, std::string what) {
@@ -319,8 +326,7 @@ void DemEngine::finish_deposition(Deposition& deposition) {
   double** x = lmp_->atom->x;
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
-    const int cell = locator_->locate(xi, last_cell_[tag[i]]);
-    last_cell_[tag[i]] = cell;
+    const int cell = cell_of(tag[i], xi);
     if (cell >= 0) deposition.add_volume(cell, locator_->wrap(xi), volume_[species_of_type_[type[i]]]);
   }
   int size = 1;
@@ -337,20 +343,22 @@ EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
   const int* tag = lmp_->atom->tag;
   double** x = lmp_->atom->x;
   double** v = lmp_->atom->v;
-  double sums[3] = {0, 0, 0};  // count, particle v_z, fluid u_z
+  double sums[4] = {0, 0, 0, 0};  // count, particle v_z, fluid u_z, particles in the wall gap
   double max_speed = 0;
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     max_speed = std::max(max_speed, Vec3(v[i][0], v[i][1], v[i][2]).norm());
-    if (std::hypot(xi.x(), xi.y()) >= core_r) continue;
-    const int cell = locator_->locate(xi, last_cell_[tag[i]]);
-    if (cell < 0) continue;
+    bool in_gap = false;
+    const int cell = cell_of(tag[i], xi, &in_gap);
+    sums[3] += in_gap;
+    if (cell < 0 || std::hypot(xi.x(), xi.y()) >= core_r) continue;
     sums[0] += 1;
     sums[1] += v[i][2];
     if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_->wrap(xi)).z();
   }
-  MPI_Allreduce(MPI_IN_PLACE, sums, 3, MPI_DOUBLE, MPI_SUM, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
   d.core_particles = static_cast<long>(sums[0]);
+  d.in_wall_gap = static_cast<long>(sums[3]);
   if (sums[0] > 0) {
     d.core_particle_axial_velocity = sums[1] / sums[0];
     d.core_fluid_axial_velocity = sums[2] / sums[0];

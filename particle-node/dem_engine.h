@@ -49,6 +49,7 @@ namespace hemo::particles {
 struct EngineDiagnostics {
   long particles = 0;
   long outside_mesh = 0;            // particles found in no fluid cell during the interval
+  long in_wall_gap = 0;             // particles now between a flat wall face and the round wall
   double core_particle_axial_velocity = 0;  // mean v_z of particles with r < R/2 (m/s)
   double core_fluid_axial_velocity = 0;     // mean fluid u_z sampled at those particles (m/s)
   long core_particles = 0;
@@ -95,6 +96,8 @@ class DemEngine {
   double unwrap_z(int tag, double z);
   void sync_tracking();
   void note_problem(int tag, std::string what);
+  // The fluid cell of a particle: exact, else the wall cell whose gap it is in, else -1.
+  int cell_of(int tag, const Vec3& x, bool* in_wall_gap = nullptr);
   std::string agree_on_problem();
 
   const Scene scene_;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "box_mesh.h"
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace hemo::particles::testing {
@@ -70,6 +72,73 @@ mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double 
         m.cell_centres.push_back({x0 + (x1 - x0) * (i + 0.5) / nx, y0 + (y1 - y0) * (j + 0.5) / ny, length * (k + 0.5) / nz});
         m.cell_volumes.push_back(vol);
       }
+  return m;
+}
+
+mesh_t wedge_mesh(int n, int nz, double radius, double length, const std::string& hash) {
+  mesh_t m;
+  m.mesh_hash = hash;
+  m.vessel_diameter_m = 2 * radius;
+  m.vessel_length_m = length;
+  const double pi = 3.14159265358979323846;
+  // Points: per layer k, the axis point then n ring points.
+  auto axis = [&](int k) { return k * (n + 1); };
+  auto ring = [&](int i, int k) { return k * (n + 1) + 1 + (i % n); };
+  for (int k = 0; k <= nz; ++k) {
+    m.points.push_back({0, 0, length * k / nz});
+    for (int i = 0; i < n; ++i)
+      m.points.push_back({radius * std::cos(2 * pi * i / n), radius * std::sin(2 * pi * i / n), length * k / nz});
+  }
+  m.n_points = static_cast<int>(m.points.size());
+  auto cell = [&](int i, int k) { return k * n + (i % n); };
+  struct Face {
+    std::vector<int> p;
+    int owner, neighbour;
+  };
+  std::vector<Face> internal, wall, zmin, zmax;
+  for (int k = 0; k < nz; ++k)
+    for (int i = 0; i < n; ++i) {
+      const int c = cell(i, k);
+      // Side face between wedge i and i+1 (along ring point i+1); owner the smaller index.
+      const int other = cell(i + 1, k);
+      internal.push_back({{axis(k), ring(i + 1, k), ring(i + 1, k + 1), axis(k + 1)}, std::min(c, other), std::max(c, other)});
+      if (k + 1 < nz) internal.push_back({{axis(k + 1), ring(i, k + 1), ring(i + 1, k + 1)}, c, cell(i, k + 1)});
+      wall.push_back({{ring(i, k), ring(i + 1, k), ring(i + 1, k + 1), ring(i, k + 1)}, c, -1});
+      if (k == 0) zmin.push_back({{axis(0), ring(i + 1, 0), ring(i, 0)}, c, -1});
+      if (k == nz - 1) zmax.push_back({{axis(nz), ring(i, nz), ring(i + 1, nz)}, c, -1});
+    }
+  std::sort(internal.begin(), internal.end(), [](const Face& a, const Face& b) {
+    return a.owner != b.owner ? a.owner < b.owner : a.neighbour < b.neighbour;
+  });
+  auto add = [&](const Face& f) {
+    m.face_offsets.push_back(static_cast<int>(m.face_points.size()));
+    for (int q : f.p) m.face_points.push_back(q);
+    m.owner.push_back(f.owner);
+    if (f.neighbour >= 0) m.neighbour.push_back(f.neighbour);
+  };
+  for (const auto& f : internal) add(f);
+  m.n_internal_faces = static_cast<int>(internal.size());
+  const std::vector<std::pair<std::string, std::vector<Face>*>> patches = {{"wall", &wall}, {"zmin", &zmin}, {"zmax", &zmax}};
+  for (const auto& [name, faces] : patches) {
+    m.patch_names.push_back(name);
+    m.patch_types.push_back(name == "wall" ? "wall" : "cyclic");
+    m.patch_start.push_back(static_cast<int>(m.owner.size()));
+    m.patch_size.push_back(static_cast<int>(faces->size()));
+    for (const auto& f : *faces) add(f);
+  }
+  m.n_patches = 3;
+  m.n_faces = static_cast<int>(m.owner.size());
+  m.n_face_points = static_cast<int>(m.face_points.size());
+  m.n_cells = n * nz;
+  const double dz = length / nz;
+  const double area = 0.5 * radius * radius * std::sin(2 * pi / n);
+  for (int k = 0; k < nz; ++k)
+    for (int i = 0; i < n; ++i) {
+      const double a0 = 2 * pi * i / n, a1 = 2 * pi * (i + 1) / n;
+      m.cell_centres.push_back({radius * (std::cos(a0) + std::cos(a1)) / 3, radius * (std::sin(a0) + std::sin(a1)) / 3,
+                                dz * (k + 0.5)});
+      m.cell_volumes.push_back(area * dz);
+    }
   return m;
 }
 

@@ -18,6 +18,11 @@ namespace hemo::particles::testing {
 mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length,
                 double diameter, const std::string& hash = "box");
 
+// A polygonal vessel: n_around triangular prisms (axis, ring point i, ring point i+1) per layer,
+// nz layers over [0, length]; ring points on the circle of radius `radius`, so the wall faces
+// are chords (wall gap R (1 - cos(pi / n_around))). Patches "wall" and the two cyclic ends.
+mesh_t wedge_mesh(int n_around, int nz, double radius, double length, const std::string& hash = "wedge");
+
 // A fluid state on `mesh` with u and grad u (G[i][j] = d u_j / d x_i) given at each cell centre.
 using FieldAt = std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u,
                                    std::array<double, 9>& grad)>;

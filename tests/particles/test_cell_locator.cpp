@@ -114,3 +114,26 @@ TEST(CellLocator, RejectsInconsistentMeshes) {
   mesh2.vessel_length_m = 3;  // does not match the mesh's z extent
   EXPECT_THROW(CellLocator{mesh2}, std::invalid_argument);
 }
+
+TEST(CellLocator, WallGapOfAPolygonalVessel) {
+  const double R = 25e-6, L = 100e-6;
+  const int n = 8;
+  const CellLocator loc(hemo::particles::testing::wedge_mesh(n, 4, R, L));
+  const double pi = 3.14159265358979323846;
+  const double sag = R * (1 - std::cos(pi / n));
+  EXPECT_NEAR(loc.wall_gap(), sag, 1e-12 * R);
+  // The middle of wedge 0's chord is at angle pi/n; a point behind it, inside the circle.
+  const double a = pi / n;
+  const Vec3 behind((R - 0.3 * sag) * std::cos(a), (R - 0.3 * sag) * std::sin(a), 30e-6);
+  EXPECT_EQ(loc.locate(behind), -1);
+  const int c = loc.locate_in_wall_gap(behind);
+  EXPECT_EQ(c, n * 1 + 0);  // layer 1 (z in [25, 50) um), wedge 0
+  // Inside the chord: located exactly; outside the circle: nowhere.
+  const Vec3 in_front((R - 1.5 * sag) * std::cos(a), (R - 1.5 * sag) * std::sin(a), 30e-6);
+  EXPECT_EQ(loc.locate(in_front), c);
+  const Vec3 beyond((R + 0.01 * sag) * std::cos(a), (R + 0.01 * sag) * std::sin(a), 30e-6);
+  EXPECT_EQ(loc.locate(beyond), -1);
+  EXPECT_EQ(loc.locate_in_wall_gap(beyond), -1);
+  // The box mesh's flat walls leave no gap.
+  EXPECT_EQ(CellLocator(box_mesh(2, 2, 2, -1, 1, -1, 1, 2, 2)).wall_gap(), 0.0);
+}

@@ -1,0 +1,115 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "particle_node.h"
+
+#include "placement.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+namespace hemo::particles {
+
+namespace {
+
+void require_same(double scene_value, double mesh_value, const char* what) {
+  if (std::abs(scene_value - mesh_value) > 1e-9 * std::abs(scene_value))
+    throw std::runtime_error(fmt::format("the fluid mesh's {} is {:.6g} m, the scene's {:.6g} m", what, mesh_value,
+                                         scene_value));
+}
+
+}  // namespace
+
+ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm)
+    : scene_(scene),
+      mesh_hash_(mesh.mesh_hash),
+      comm_(comm),
+      locator_(mesh),
+      fluid_(locator_),
+      deposition_(locator_),
+      run_dir_(run_dir) {
+  MPI_Comm_rank(comm_, &rank_);
+  require_same(scene.vessel.diameter, mesh.vessel_diameter_m, "vessel diameter");
+  require_same(scene.vessel.length, mesh.vessel_length_m, "vessel length");
+  std::filesystem::create_directories(run_dir);
+
+  const auto requests = placement_requests(scene);
+  if (requests.empty()) throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
+  const auto placed = place_particles(locator_.radius(), locator_.length(), locator_.z0(), requests, scene.run.seed);
+  engine_ = std::make_unique<DemEngine>(scene, locator_, run_dir + "/liggghts.log", comm_);
+  engine_->create_particles(placed);
+  set_interval(scene.time.coupling_interval);
+  spdlog::info("particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um)", placed.size(),
+               rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6);
+
+  deposition_.clear_drag();
+  engine_->finish_deposition(deposition_);
+  if (rank_ == 0) output_ = std::make_unique<H5Output>(run_dir + "/particles.h5");
+  write_output(0, 0.0);
+}
+
+void ParticleNode::set_interval(double interval) {
+  if (interval == timing_interval_) return;
+  timing_ = derive_dem_timing(scene_, interval, scene_.time.dem_substeps);
+  timing_interval_ = interval;
+  spdlog::info(
+      "DEM step {:.4g} s = coupling interval {:.4g} s / {} substeps; shortest Hertz contact {:.4g} s ({}), "
+      "Rayleigh time {:.4g} s, drag relaxation time {:.4g} s (exponential drag: not a limit)",
+      timing_.dt, interval, timing_.substeps, timing_.contact_time, timing_.limiting, timing_.rayleigh_time,
+      timing_.relaxation_time);
+}
+
+std::string ParticleNode::check(const fluid_state_t& fluid) const {
+  return FluidSampler::check(fluid, locator_.n_cells(), mesh_hash_);
+}
+
+std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t& fluid) {
+  if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
+    return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
+  fluid_.set_state(fluid);
+  set_interval(order.dt_s);
+  step_ = order.envelope.step;
+  time_ = order.time_s;
+  interval_ = order.dt_s;
+  deposition_.clear_drag();
+  std::string error = engine_->run(step_, timing_.substeps, timing_.dt, fluid_, deposition_);
+  if (!error.empty()) return error;
+  engine_->finish_deposition(deposition_);
+  return {};
+}
+
+particle_feedback_t ParticleNode::feedback() const {
+  particle_feedback_t fb;
+  deposition_.finish(interval_, &fluid_, fb);
+  fb.mesh_hash = mesh_hash_;
+  return fb;
+}
+
+void ParticleNode::write_output(long step, double time_s) {
+  ParticleSnapshot snap = engine_->snapshot(step, time_s);  // collective
+  if (output_) output_->write(snap);
+}
+
+Diagnostics ParticleNode::diagnostics() {
+  const EngineDiagnostics d = engine_->diagnostics(fluid_.has_state() ? &fluid_ : nullptr);
+  const Vec3 f = deposition_.total_force(interval_);
+  return {
+      {"particles", static_cast<double>(d.particles)},
+      {"dem_substeps", static_cast<double>(timing_.substeps)},
+      {"dem_dt_s", timing_.dt},
+      {"total_force_x_N", f.x()},
+      {"total_force_y_N", f.y()},
+      {"total_force_z_N", f.z()},
+      {"core_particle_axial_velocity_m_s", d.core_particle_axial_velocity},
+      {"core_fluid_axial_velocity_m_s", d.core_fluid_axial_velocity},
+      {"core_particles", static_cast<double>(d.core_particles)},
+      {"max_overlap", d.max_overlap},
+      {"max_particle_speed_m_s", d.max_speed},
+      {"particles_outside_mesh", static_cast<double>(d.outside_mesh)},
+      {"particles_in_wall_gap", static_cast<double>(d.in_wall_gap)},
+  };
+}
+
+}  // namespace hemo::particles

@@ -1,0 +1,71 @@
+// The particle node's work per coupling step, in the order main.cpp calls it:
+//
+//   ParticleNode node(scene, mesh, run_dir)   locator, DEM setup, placement, step-0 state
+//   node.feedback()                           per-cell phi, sources, drag coefficient
+//   node.check(fluid)                         the fluid state fits the mesh and is finite
+//   node.advance(order, fluid)                N DEM substeps in that flow, deposition
+//   node.write_output(step, time)             a particle snapshot
+//   node.diagnostics()                        what the coordinator shows and the tests check
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "cell_locator.h"
+#include "dem_engine.h"
+#include "dem_timing.h"
+#include "deposition.h"
+#include "fluid_sampler.h"
+#include "h5_output.h"
+
+#include <mpi.h>
+#include <node_port.h>
+#include <scene.h>
+
+#include <memory>
+#include <string>
+
+namespace hemo::particles {
+
+class ParticleNode {
+ public:
+  // Builds everything for step 0: the locator on the fluid's mesh, LIGGGHTS with the scene's
+  // particles placed at random (seeded), their volumes deposited, snapshot 0 written.
+  // Throws std::exception with a one-line reason when the scene and mesh do not fit together.
+  ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm);
+
+  // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
+  std::string check(const fluid_state_t& fluid) const;
+
+  // Runs the DEM over one coupling interval in `fluid`; "" or a one-line error naming the
+  // particle and the step.
+  std::string advance(const step_order_t& order, const fluid_state_t& fluid);
+
+  // The feedback of the last interval (step 0: volumes only, no forces yet).
+  particle_feedback_t feedback() const;
+
+  void write_output(long step, double time_s);
+  Diagnostics diagnostics();
+
+  long step() const { return step_; }
+  double time() const { return time_; }
+
+ private:
+  void set_interval(double interval);
+
+  Scene scene_;
+  std::string mesh_hash_;
+  MPI_Comm comm_;
+  int rank_ = 0;
+  CellLocator locator_;
+  FluidSampler fluid_;
+  Deposition deposition_;
+  std::unique_ptr<DemEngine> engine_;
+  std::unique_ptr<H5Output> output_;
+  DemTiming timing_;
+  double timing_interval_ = 0;  // the coupling interval timing_ was derived for
+  double interval_ = 0;       // of the last advance (0 before the first)
+  long step_ = 0;
+  double time_ = 0;
+  std::string run_dir_;
+};
+
+}  // namespace hemo::particles
