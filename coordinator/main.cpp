@@ -1,5 +1,6 @@
 // hemocosim: the coordinator of the blood co-simulation.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "analyze.h"
 #include "commands.h"
 #include "scene.h"
 
@@ -26,11 +27,20 @@ int main(int argc, char** argv) {
   mon_cmd->add_option("--interval", mon.interval_s, "Seconds between refreshes")->capture_default_str();
   mon_cmd->add_flag("--plain", mon.plain, "Append tables instead of redrawing the screen");
 
+  hemo::AnalyzeOptions ana;
+  auto* ana_cmd = app.add_subcommand("analyze", "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit");
+  ana_cmd->add_option("run_dir", ana.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
+  ana_cmd->add_flag("--json", ana.json, "Print JSON instead of the table");
+  ana_cmd->add_option("--bins", ana.bins, "Radial bins over [0, R]")->capture_default_str()->check(CLI::PositiveNumber);
+  ana_cmd->add_option("--t-fit", ana.t_fit, "s: D from the MSD over [0, t_fit]")->capture_default_str()->check(CLI::PositiveNumber);
+  ana_cmd->add_option("--window-start", ana.window_start, "s: start of the averaging window (default: second half of the run)");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return hemo::run_command(run);
     if (*check_cmd) return hemo::check_command(check_scene);
     if (*mon_cmd) return hemo::monitor_command(mon);
+    if (*ana_cmd) return hemo::analyze_command(ana);
   } catch (const hemo::SceneError& e) {
     for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
     return 2;

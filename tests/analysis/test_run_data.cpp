@@ -93,7 +93,8 @@ std::string read_text(const std::string& path) {
 }  // namespace
 
 TEST(RunData, SnapshotsRoundTripSortedByStep) {
-  const std::string path = temp_dir("roundtrip") + "/particles.h5";
+  const TempDir tmp("roundtrip");
+  const std::string path = tmp.str() + "/particles.h5";
   write_particles(path, {small_snapshot(10, 2e-4, 1 * kUm), small_snapshot(0, 0, 0)});
   const auto list = list_snapshots(path);
   ASSERT_EQ(list.size(), 2u);
@@ -111,7 +112,8 @@ TEST(RunData, SnapshotsRoundTripSortedByStep) {
 }
 
 TEST(RunData, MissingOrCorruptParticleFileIsOneClearLine) {
-  const std::string dir = temp_dir("corrupt");
+  const TempDir tmp("corrupt");
+  const std::string dir = tmp.str();
   EXPECT_EQ(error_of([&] { list_snapshots(dir + "/particles.h5"); }), dir + "/particles.h5: missing");
   write_text(dir + "/junk.h5", "this is not HDF5\n");
   EXPECT_EQ(error_of([&] { list_snapshots(dir + "/junk.h5"); }),
@@ -129,7 +131,8 @@ TEST(RunData, MissingOrCorruptParticleFileIsOneClearLine) {
 }
 
 TEST(RunData, MetricsAreReadInLongFormat) {
-  const std::string dir = temp_dir("metrics");
+  const TempDir tmp("metrics");
+  const std::string dir = tmp.str();
   write_text(dir + "/metrics.csv",
              "step,time_s,node,name,value\n"
              "1,2e-05,fluid,mean_velocity_m_s,0.0071\n"
@@ -153,7 +156,8 @@ TEST(RunData, MetricsAreReadInLongFormat) {
 }
 
 TEST(RunData, RunDirectoryNeedsItsThreeFiles) {
-  const std::string dir = temp_dir("incomplete");
+  const TempDir tmp("incomplete");
+  const std::string dir = tmp.str();
   EXPECT_EQ(error_of([&] { open_run(dir + "/nope"); }), dir + "/nope: not a run directory");
   EXPECT_EQ(error_of([&] { open_run(dir); }), dir + "/scene.toml: missing");
   write_text(dir + "/scene.toml", "[vessel]\ndiameter_um = -1\n");
@@ -163,7 +167,8 @@ TEST(RunData, RunDirectoryNeedsItsThreeFiles) {
 // A tiny run: 20 um x 40 um vessel, 4 RBCs on the axis region and 2 platelets, three snapshots
 // 0.05 s apart; the fluid reports U such that mu_app/mu = 1.25.
 TEST(Analyze, EndToEndOnAConstructedRun) {
-  const std::string dir = temp_dir("run");
+  const TempDir tmp("run");
+  const std::string dir = tmp.str();
   write_text(dir + "/scene.toml",
              "[vessel]\ndiameter_um = 20\nlength_um = 40\n[driving]\nwall_shear_rate_per_s = 800\n"
              "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
