@@ -15,6 +15,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
+constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
 
 // The averaging window: the second half of the run unless asked otherwise.
 void choose_window(Analysis& a, const RunData& run, double window_start) {
@@ -71,7 +72,8 @@ Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_s
   a.msd_reference_time = first.time_s;
 
   std::vector<StationEdges> edges;
-  std::vector<std::vector<double>> rbc_n, plt_n, rbc_phi;
+  std::vector<std::vector<double>> rbc_n, plt_n;
+  std::vector<double> rbc_centres(kFineBins, 0.0);
   double margination_sum = 0, hematocrit_sum = 0, rbc_flux_sum = 0, cells_flux_sum = 0, rbc_count = 0, plt_count = 0;
   int margination_snapshots = 0;
   std::vector<std::vector<double>> window_platelet_r;
@@ -93,7 +95,8 @@ Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_s
     ++a.window_snapshots;
     rbc_n.push_back(a.frames.back().rbc);
     plt_n.push_back(a.frames.back().platelet);
-    rbc_phi.push_back(radial_volume_fraction(rbc.r, a.rbc_diameter, a.rbc_volume, a.tube, bins));
+    const auto h = centre_histogram(rbc.r, a.tube, kFineBins);
+    for (int k = 0; k < kFineBins; ++k) rbc_centres[k] += h[k];
     if (rbc.size() > 0) edges.push_back(rbc_core_edges(rbc, a.rbc_diameter, a.tube, a.stations));
     window_platelet_r.push_back(plt.r);
     rbc_count += rbc.size();
@@ -109,7 +112,8 @@ Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_s
   a.mean_platelet_count = plt_count / n;
   a.rbc_density = average_profiles(rbc_n);
   a.platelet_density = average_profiles(plt_n);
-  a.rbc_volume_fraction = average_profiles(rbc_phi);
+  for (double& c : rbc_centres) c /= n;
+  a.rbc_volume_fraction = radial_volume_fraction_from_histogram(rbc_centres, a.rbc_diameter, a.rbc_volume, a.tube, bins);
   a.cfl_edge = cfl_thickness_edge(edges, a.tube);
   a.cfl_profile = cfl_thickness_profile(a.rbc_volume_fraction, a.tube);
   if (a.mean_rbc_count == 0) a.notes.push_back("no RBCs: no cell-free layer");

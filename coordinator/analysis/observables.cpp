@@ -145,14 +145,19 @@ double sphere_volume_inside_cylinder(double a, double c, double rho) {
   return 2 * sum;
 }
 
-std::vector<double> radial_volume_fraction(const std::vector<double>& r, double diameter, double cell_volume,
-                                           const Tube& tube, int bins) {
+namespace {
+// Spreads cells (centre distance r_k, weight w_k cells) over the annuli they overlap.
+std::vector<double> spread_spheres(const std::vector<double>& r, const std::vector<double>* weight, double diameter,
+                                   double cell_volume, const Tube& tube, int bins) {
   const double a = diameter / 2;
   const double scale = cell_volume / (kPi / 6 * diameter * diameter * diameter);
   const auto edges = radial_bin_edges(tube, bins);
   const auto vol = annulus_volumes(tube, bins);
   std::vector<double> f(bins, 0.0);
-  for (double c : r) {
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    const double w = weight ? (*weight)[k] : 1.0;
+    if (w == 0) continue;
+    const double c = r[k];
     // Only the annuli the sphere can reach; the part beyond R (soft wall contact) is not in
     // the vessel and is left out.
     const int lo = bin_of(std::max(c - a, 0.0), tube, bins);
@@ -160,12 +165,32 @@ std::vector<double> radial_volume_fraction(const std::vector<double>& r, double 
     double inside_lo = sphere_volume_inside_cylinder(a, c, edges[lo]);
     for (int b = lo; b <= hi; ++b) {
       const double inside_hi = sphere_volume_inside_cylinder(a, c, edges[b + 1]);
-      f[b] += scale * (inside_hi - inside_lo);
+      f[b] += w * scale * (inside_hi - inside_lo);
       inside_lo = inside_hi;
     }
   }
   for (int b = 0; b < bins; ++b) f[b] /= vol[b];
   return f;
+}
+}  // namespace
+
+std::vector<double> radial_volume_fraction(const std::vector<double>& r, double diameter, double cell_volume,
+                                           const Tube& tube, int bins) {
+  return spread_spheres(r, nullptr, diameter, cell_volume, tube, bins);
+}
+
+std::vector<double> centre_histogram(const std::vector<double>& r, const Tube& tube, int fine_bins) {
+  std::vector<double> counts(fine_bins, 0.0);
+  for (double ri : r) counts[bin_of(ri, tube, fine_bins)] += 1;
+  return counts;
+}
+
+std::vector<double> radial_volume_fraction_from_histogram(const std::vector<double>& counts, double diameter,
+                                                          double cell_volume, const Tube& tube, int bins) {
+  const double h = tube.radius / static_cast<double>(counts.size());
+  std::vector<double> middle(counts.size());
+  for (std::size_t k = 0; k < counts.size(); ++k) middle[k] = (k + 0.5) * h;
+  return spread_spheres(middle, &counts, diameter, cell_volume, tube, bins);
 }
 
 // ---- Cell-free layer thickness ---------------------------------------------------------------

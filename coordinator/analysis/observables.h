@@ -73,6 +73,14 @@ double sphere_volume_inside_cylinder(double a, double c, double rho);
 std::vector<double> radial_volume_fraction(const std::vector<double>& r, double diameter, double cell_volume,
                                            const Tube& tube, int bins);
 
+// The same for many snapshots at once, at the cost of one: the window-mean fraction is linear in
+// the centre distribution, so analyze() accumulates centres in a fine histogram (`fine_bins`
+// over [0, R], centres beyond R in the last) and spreads it once, each fine bin's mean count as
+// cells at its middle. With fine_bins = 4096 a centre moves by at most R/8192 (6 nm at R = 50 um).
+std::vector<double> centre_histogram(const std::vector<double>& r, const Tube& tube, int fine_bins);
+std::vector<double> radial_volume_fraction_from_histogram(const std::vector<double>& counts, double diameter,
+                                                          double cell_volume, const Tube& tube, int bins);
+
 // ---- Cell-free layer thickness ---------------------------------------------------------------
 
 // Stations: axial slices x angular sectors.
