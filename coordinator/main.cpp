@@ -34,6 +34,8 @@ int main(int argc, char** argv) {
   ana_cmd->add_option("--bins", ana.bins, "Radial bins over [0, R]")->capture_default_str()->check(CLI::PositiveNumber);
   ana_cmd->add_option("--t-fit", ana.t_fit, "s: D from the MSD over [0, t_fit]")->capture_default_str()->check(CLI::PositiveNumber);
   ana_cmd->add_option("--window-start", ana.window_start, "s: start of the averaging window (default: second half of the run)");
+  ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
+  ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
 
   CLI11_PARSE(app, argc, argv);
   try {

@@ -54,9 +54,12 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
 
 }  // namespace
 
-Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_start) {
+Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
+  const int bins = opt.bins;
+  const double t_fit = opt.t_fit;
   if (run.snapshots.empty()) throw RunDataError(run.particles_path + ": no snapshots");
   if (bins < 1) throw RunDataError(fmt::format("bins must be at least 1 (got {})", bins));
+  if (!(t_fit > 0)) throw RunDataError(fmt::format("t_fit must be positive (got {})", t_fit));
   Analysis a;
   a.run_dir = run.dir;
   a.tube = {run.scene.vessel.radius(), run.scene.vessel.length};
@@ -65,7 +68,7 @@ Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_s
   a.platelet_volume = run.scene.platelet.volume;
   a.bins = bins;
   a.bin_edges = radial_bin_edges(a.tube, bins);
-  choose_window(a, run, window_start);
+  choose_window(a, run, opt.window_start);
 
   const Snapshot first = run.load(0);
   const Cells reference = select_species(first, kPlatelet);
@@ -87,9 +90,11 @@ Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_s
     if (s.time_s < a.window_start) continue;
 
     // Stations are sized once, from the first window snapshot (the RBC count of a periodic
-    // vessel does not change).
+    // vessel does not change); counts given on the command line win.
     if (!stations_chosen) {
       a.stations = default_stations(static_cast<double>(rbc.size()), a.tube);
+      if (opt.slices > 0) a.stations.axial = opt.slices;
+      if (opt.sectors > 0) a.stations.sectors = opt.sectors;
       stations_chosen = true;
     }
     ++a.window_snapshots;
@@ -274,7 +279,7 @@ void write_file(const std::string& path, const std::string& text) {
 
 int analyze_command(const AnalyzeOptions& opt) {
   const auto run = analysis::open_run(opt.run_dir);
-  const auto a = analysis::analyze_run(run, opt.bins, opt.t_fit, opt.window_start);
+  const auto a = analysis::analyze_run(run, opt);
   const std::string json = analysis::format_json(a);
   write_file(opt.run_dir + "/analysis.json", json);
   write_file(opt.run_dir + "/profiles.csv", analysis::format_profiles_csv(a));

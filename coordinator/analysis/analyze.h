@@ -17,6 +17,8 @@ struct AnalyzeOptions {
   int bins = 50;              // radial bins over [0, R]
   double t_fit = 0.1;         // s: D from the MSD over [0, t_fit]
   double window_start = -1;   // s: start of the averaging window; < 0: the second half of the run
+  int slices = 0;             // CFL stations: axial slices; 0: about 20 RBCs per station
+  int sectors = 0;            // CFL stations: angular sectors; 0: about 20 RBCs per station
 };
 
 // Prints the table (or JSON) and writes the two files; throws analysis::RunDataError (one line,
@@ -68,7 +70,7 @@ struct Analysis {
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
 };
 
-Analysis analyze_run(const RunData& run, int bins, double t_fit, double window_start);
+Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt);
 std::string format_table(const Analysis& a);
 std::string format_json(const Analysis& a);
 std::string format_profiles_csv(const Analysis& a);

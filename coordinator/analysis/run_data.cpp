@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 namespace hemo::analysis {
 
@@ -100,11 +99,13 @@ bool parse_double(const std::string& s, double& v) {
 
 std::vector<std::string> split_csv_line(const std::string& line) {
   std::vector<std::string> fields;
-  std::string field;
-  std::istringstream in(line);
-  while (std::getline(in, field, ',')) fields.push_back(field);
-  if (!line.empty() && line.back() == ',') fields.emplace_back();
-  return fields;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.emplace_back(line, start, comma == std::string::npos ? std::string::npos : comma - start);
+    if (comma == std::string::npos) return fields;
+    start = comma + 1;
+  }
 }
 
 }  // namespace

@@ -190,7 +190,10 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
 
   const auto run = open_run(dir);
   ASSERT_EQ(run.snapshots.size(), 3u);
-  const auto a = analyze_run(run, 10, 0.1, -1);
+  hemo::AnalyzeOptions opt;
+  opt.run_dir = dir;
+  opt.bins = 10;
+  const auto a = analyze_run(run, opt);
   EXPECT_TRUE(a.window_is_default);
   EXPECT_DOUBLE_EQ(a.window_start, 0.05);
   EXPECT_EQ(a.window_snapshots, 2);
@@ -210,13 +213,17 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   // Plug flow, no superficial velocity reported: total flux pi R^2 U, H_D = H_T.
   EXPECT_NEAR(a.discharge_hematocrit, a.tube_hematocrit, 1e-12);
 
-  hemo::AnalyzeOptions opt;
-  opt.run_dir = dir;
-  opt.bins = 10;
   EXPECT_EQ(hemo::analyze_command(opt), 0);
   const std::string json = read_text(dir + "/analysis.json");
   EXPECT_NE(json.find("\"relative_apparent_viscosity\": 1.25"), std::string::npos) << json;
   EXPECT_NE(json.find("\"method\": \"edge\""), std::string::npos);
   const std::string csv_out = read_text(dir + "/profiles.csv");
   EXPECT_EQ(std::count(csv_out.begin(), csv_out.end(), '\n'), 1 + 10 * (1 + 3));  // header, window, 3 snapshots
+
+  // Stations given explicitly; a window after the run is refused in one line.
+  opt.slices = 2;
+  opt.sectors = 3;
+  EXPECT_EQ(analyze_run(run, opt).stations.count(), 6);
+  opt.window_start = 5;
+  EXPECT_NE(error_of([&] { analyze_run(run, opt); }).find("after the last snapshot"), std::string::npos);
 }
