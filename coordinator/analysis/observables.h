@@ -63,7 +63,9 @@ std::vector<double> average_profiles(const std::vector<std::vector<double>>& pro
 
 // Volume of a sphere (radius a, centre at distance c from the axis) that lies inside the
 // coaxial cylinder of radius rho. Integrates the exact area of the circle-circle overlap of
-// each z-slice with Gauss-Legendre quadrature in z = a sin(t); relative error below 1e-4.
+// each z-slice with Gauss-Legendre quadrature in z = a sin(t), split where the slices' overlap
+// changes form: error below 1e-7 of the sphere's volume (checked against a 2e6-slice midpoint
+// sum over 72 (c, rho) pairs; the unit tests check 1e-6 on the axis and a lattice count off it).
 double sphere_volume_inside_cylinder(double a, double c, double rho);
 
 // Volume fraction of cells per annulus, each cell a sphere of `diameter` whose volume is spread
