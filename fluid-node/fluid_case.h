@@ -24,7 +24,8 @@ struct FluidSettings {
 };
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from
-// `driving.wall_shear_rate`. Throws std::invalid_argument when neither (or both) is given.
+// `driving.wall_shear_rate` (the pressure drop wins when both are set, as load_scene does).
+// Throws std::invalid_argument when neither is positive.
 double driving_pressure_drop(const Scene& scene);
 
 FluidSettings fluid_settings(const Scene& scene);

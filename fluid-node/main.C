@@ -47,11 +47,13 @@ int main(int argc, char* argv[])
 
             #include "applyFeedback.H"
 
-            // PISO: momentum predictor, then pressure correctors
+            // PISO: momentum predictor, then pressure correctors (nCorrectors, and more
+            // while the pressure equation is still inconsistent: see createFields.H)
             #include "UEqn.H"
-            while (piso.correct())
+            for (pisoCorr = 1; ; ++pisoCorr)
             {
                 #include "pEqn.H"
+                if (pisoDone(pisoCorr, pCorrResidual)) break;
             }
 
             #include "diagnostics.H"

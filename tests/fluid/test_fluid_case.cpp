@@ -28,6 +28,9 @@ TEST(FluidCase, PressureDropFromWallShearRate) {
   t.driving.pressure_drop = 10;
   EXPECT_DOUBLE_EQ(hemo::driving_pressure_drop(t), 10);
   t.driving.wall_shear_rate = 5;
+  EXPECT_DOUBLE_EQ(hemo::driving_pressure_drop(t), 10);
+  t.driving.pressure_drop = 0;
+  t.driving.wall_shear_rate = 0;
   EXPECT_THROW(hemo::driving_pressure_drop(t), std::invalid_argument);
 }
 

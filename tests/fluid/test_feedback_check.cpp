@@ -1,0 +1,55 @@
+// Unit tests of the particle feedback validation.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include <gtest/gtest.h>
+
+#include "feedback_check.h"
+
+#include <limits>
+
+namespace {
+
+hemo::particle_feedback_t good(int n) {
+  hemo::particle_feedback_t fb;
+  fb.envelope.step = 7;
+  fb.mesh_hash = "abc";
+  fb.n_cells = n;
+  fb.solid_fraction.assign(n, 0.2);
+  fb.source_explicit.assign(n, std::vector<double>{1, 2, 3});
+  fb.drag_coefficient.assign(n, 1e3);
+  return fb;
+}
+
+TEST(FeedbackCheck, AcceptsAGoodMessage) { EXPECT_EQ(hemo::feedback_problem(good(5), "abc", 5), ""); }
+
+TEST(FeedbackCheck, NamesEachCauseOnOneLine) {
+  auto expect = [](const hemo::particle_feedback_t& fb, int n, const std::string& words) {
+    const std::string p = hemo::feedback_problem(fb, "abc", n);
+    EXPECT_NE(p.find(words), std::string::npos) << p;
+    EXPECT_EQ(p.find('\n'), std::string::npos) << p;
+    EXPECT_NE(p.find("step 7"), std::string::npos) << p;
+  };
+  auto fb = good(5);
+  fb.mesh_hash = "xyz";
+  expect(fb, 5, "for mesh 'xyz'");
+  expect(good(4), 5, "has 4 cells, the fluid mesh 5");
+  fb = good(5);
+  fb.drag_coefficient.pop_back();
+  expect(fb, 5, "cells");
+  fb = good(5);
+  fb.solid_fraction[3] = 1.0;
+  expect(fb, 5, "cell 3 has solid fraction 1");
+  fb = good(5);
+  fb.solid_fraction[1] = std::numeric_limits<double>::quiet_NaN();
+  expect(fb, 5, "cell 1 has solid fraction nan");
+  fb = good(5);
+  fb.solid_fraction[2] = -0.1;
+  expect(fb, 5, "cell 2 has solid fraction -0.1");
+  fb = good(5);
+  fb.drag_coefficient[4] = -1;
+  expect(fb, 5, "cell 4 has drag coefficient -1");
+  fb = good(5);
+  fb.source_explicit[0][2] = std::numeric_limits<double>::infinity();
+  expect(fb, 5, "cell 0 has a non-finite explicit source");
+}
+
+}  // namespace
