@@ -209,11 +209,19 @@ CellLocator::CellLocator(const mesh_t& mesh) {
 
 Vec3 CellLocator::wrap(const Vec3& x) const {
   Vec3 w = x;
-  double z = std::fmod(x.z() - z0_, length_);
+  double z = x.z() - z0_;
+  if (z >= 0 && z < length_) return w;  // the common case
+  z = std::fmod(z, length_);
   if (z < 0) z += length_;
   if (z >= length_) z = 0;  // rounding of a tiny negative value
   w.z() = z0_ + z;
   return w;
+}
+
+double CellLocator::clearance(int cell, const Vec3& x) const {
+  double d = std::numeric_limits<double>::max();
+  for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k) d = std::min(d, -signed_distance(planes_[k], x));
+  return d;
 }
 
 bool CellLocator::inside(int cell, const Vec3& x) const {
@@ -274,6 +282,10 @@ int CellLocator::locate_in_wall_gap(const Vec3& x) const {
 int CellLocator::locate(const Vec3& x, int hint) const {
   const Vec3 w = wrap(x);
   if (hint >= 0 && hint < n_cells()) {
+    if (inside(hint, w)) {  // fast path: stops at the first violated face
+      ++stats_.hint_hits;
+      return hint;
+    }
     int c = hint;
     for (int step = 0; step <= max_walk_steps_; ++step) {
       // Most violated face of c.
@@ -287,7 +299,7 @@ int CellLocator::locate(const Vec3& x, int hint) const {
         }
       }
       if (worst <= tolerance_[c]) {
-        ++(step == 0 ? stats_.hint_hits : stats_.walk_hits);
+        ++stats_.walk_hits;
         return c;
       }
       if (across < 0) break;  // a boundary (wall or cyclic) lies in the way: ask the bins

@@ -30,6 +30,16 @@
 
 namespace hemo::particles {
 
+// What a moving point remembers between searches: its cell, where it was last located and the
+// distance from there to the nearest face of that cell. While the point stays within that
+// distance of the anchor it is still inside the same cell (each face plane is at least that far),
+// so most DEM steps need one distance instead of a plane test per face.
+struct LocateCache {
+  Vec3 anchor = Vec3::Zero();
+  double clearance = -1;  // < 0: nothing cached
+  int cell = -1;
+};
+
 class CellLocator {
  public:
   // Throws std::invalid_argument when the mesh is inconsistent (sizes, indices, empty cells).
@@ -38,6 +48,22 @@ class CellLocator {
   // The cell containing x (any z; wrapped first), or -1 when x is outside the mesh.
   // `hint` is a cell to try first (-1: none).
   int locate(const Vec3& x, int hint = -1) const;
+
+  // The same answer as locate(x, cache.cell), using and updating the cache.
+  int locate(const Vec3& x, LocateCache& cache) const {
+    if (cache.clearance > 0 && (x - cache.anchor).squaredNorm() < cache.clearance * cache.clearance) {
+      ++stats_.cache_hits;
+      return cache.cell;
+    }
+    const int c = locate(x, cache.cell);
+    cache.cell = c;
+    cache.anchor = x;
+    cache.clearance = c >= 0 ? clearance(c, wrap(x)) : -1;
+    return c;
+  }
+
+  // Distance from a point inside `cell` to the nearest of its face planes (<= 0 outside).
+  double clearance(int cell, const Vec3& x) const;
 
   // For a point that locate() found in no cell: the wall cell it lies behind, when it is in
   // the wall gap (inside the vessel radius, at most wall_gap() behind the cell's wall face and
@@ -64,6 +90,7 @@ class CellLocator {
 
   // Statistics of the searches so far (not thread safe; for diagnostics and tests).
   struct Stats {
+    long cache_hits = 0;
     long hint_hits = 0;
     long walk_hits = 0;
     long bin_searches = 0;

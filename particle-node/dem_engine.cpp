@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 #include <type_traits>
 
 namespace hemo::particles {
@@ -64,7 +65,7 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
   const std::vector<std::string> setup = {
       "units si",
       "atom_style granular",
-      "atom_modify map array",
+      "atom_modify map array sort 0 0.0",  // ids keep their spatial order (see create_particles)
       "boundary f f p",
       "newton off",
       "communicate single vel yes",
@@ -140,9 +141,18 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
     used[p.species] = true;
   }
   setup_box(used);
-  for (const auto& p : particles)
-    command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type_of_[p.species],
-                        p.position.x(), p.position.y(), p.position.z()));
+  // Tags follow a spatial order (axial slabs, then rows): neighbours in space are neighbours in
+  // memory, for LIGGGHTS (atom sorting is off) and for our per-tag arrays alike.
+  std::vector<const PlacedParticle*> order;
+  for (const auto& p : particles) order.push_back(&p);
+  auto key = [&](const PlacedParticle* p) {
+    return std::make_tuple(std::floor((p->position.z() - locator_->z0()) / d_max_), std::floor(p->position.y() / d_max_),
+                           p->position.x());
+  };
+  std::stable_sort(order.begin(), order.end(), [&](auto* a, auto* b) { return key(a) < key(b); });
+  for (const PlacedParticle* p : order)
+    command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type_of_[p->species],
+                        p->position.x(), p->position.y(), p->position.z()));
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
     if (!used[sp]) continue;
     // LIGGGHTS sets the mass from diameter and density: density = m / (pi d^3 / 6).
@@ -153,23 +163,22 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   if (n_particles_ != static_cast<long>(particles.size()))
     throw std::runtime_error(fmt::format("LIGGGHTS created {} of {} particles (some outside the box?)", n_particles_,
                                          particles.size()));
-  last_cell_.assign(n_particles_ + 1, -1);
-  crossings_.assign(n_particles_ + 1, 0.0);
-  last_z_.assign(n_particles_ + 1, 0.0);
-  for (std::size_t i = 0; i < particles.size(); ++i) last_z_[i + 1] = particles[i].position.z();
+  tracked_.assign(n_particles_ + 1, Tracked{});
+  for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
 }
 
 long DemEngine::dem_timestep() const { return static_cast<long>(lmp_->update->ntimestep); }
 
 double DemEngine::unwrap_z(int tag, double z) {
   const double half = 0.5 * locator_->length();
-  const double dz = z - last_z_[tag];
+  Tracked& t = tracked_[tag];
+  const double dz = z - t.last_z;
   if (dz < -half)
-    crossings_[tag] += 1;
+    t.crossings += 1;
   else if (dz > half)
-    crossings_[tag] -= 1;
-  last_z_[tag] = z;
-  return z + crossings_[tag] * locator_->length();
+    t.crossings -= 1;
+  t.last_z = z;
+  return z + t.crossings * locator_->length();
 }
 
 void DemEngine::force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f) {
@@ -224,10 +233,11 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
 }
 
 int DemEngine::cell_of(int tag, const Vec3& x, bool* in_wall_gap) {
-  int cell = locator_->locate(x, last_cell_[tag]);
+  LocateCache& where = tracked_[tag].where;
+  int cell = locator_->locate(x, where);
   const bool gap = cell < 0 && (cell = locator_->locate_in_wall_gap(x)) >= 0;
+  if (gap) where.cell = cell;  // a good first guess next time; the cache stays invalid
   if (in_wall_gap) *in_wall_gap = gap;
-  last_cell_[tag] = cell;
   return cell;
 }
 
@@ -306,15 +316,15 @@ void DemEngine::sync_tracking() {
   // Each rank contributes its own atoms; the sum is everyone's current view.
   const int nlocal = lmp_->atom->nlocal;
   const int* tag = lmp_->atom->tag;
-  std::vector<double> buf(2 * last_z_.size(), 0.0);
+  std::vector<double> buf(2 * tracked_.size(), 0.0);
   for (int i = 0; i < nlocal; ++i) {
-    buf[2 * tag[i]] = last_z_[tag[i]];
-    buf[2 * tag[i] + 1] = crossings_[tag[i]];
+    buf[2 * tag[i]] = tracked_[tag[i]].last_z;
+    buf[2 * tag[i] + 1] = tracked_[tag[i]].crossings;
   }
   MPI_Allreduce(MPI_IN_PLACE, buf.data(), static_cast<int>(buf.size()), MPI_DOUBLE, MPI_SUM, comm_);
-  for (std::size_t t = 0; t < last_z_.size(); ++t) {
-    last_z_[t] = buf[2 * t];
-    crossings_[t] = buf[2 * t + 1];
+  for (std::size_t t = 0; t < tracked_.size(); ++t) {
+    tracked_[t].last_z = buf[2 * t];
+    tracked_[t].crossings = buf[2 * t + 1];
   }
 }
 

@@ -116,10 +116,13 @@ class DemEngine {
   std::array<int, kSpeciesCount> type_of_{};      // LIGGGHTS atom type of a species (0: none)
   std::array<int, kSpeciesCount + 2> species_of_type_{};
 
-  // Per tag (index = LIGGGHTS atom tag, 0 unused).
-  std::vector<int> last_cell_;
-  std::vector<double> last_z_;
-  std::vector<double> crossings_;   // periodic crossings along +z (integer valued)
+  // Per tag (index = LIGGGHTS atom tag, 0 unused), packed for one cache line per particle.
+  struct Tracked {
+    LocateCache where;      // fluid cell
+    double last_z = 0;      // z when last seen (as LIGGGHTS had it)
+    double crossings = 0;   // periodic crossings along +z (integer valued)
+  };
+  std::vector<Tracked> tracked_;
 
   // State of the run in progress (read by the callback).
   const FluidSampler* fluid_ = nullptr;

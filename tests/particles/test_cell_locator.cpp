@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -136,4 +137,21 @@ TEST(CellLocator, WallGapOfAPolygonalVessel) {
   EXPECT_EQ(loc.locate_in_wall_gap(beyond), -1);
   // The box mesh's flat walls leave no gap.
   EXPECT_EQ(CellLocator(box_mesh(2, 2, 2, -1, 1, -1, 1, 2, 2)).wall_gap(), 0.0);
+}
+
+TEST(CellLocator, CacheGivesTheSameAnswerAsASearch) {
+  const CellLocator loc(box_mesh(5, 4, 6, -1, 1, -1, 1, 3, 2));
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> ux(-0.99, 0.99), step(-0.02, 0.02);
+  for (int p = 0; p < 50; ++p) {
+    hemo::particles::LocateCache cache;
+    Vec3 x(ux(rng), ux(rng), 1.5);
+    for (int n = 0; n < 400; ++n) {  // a random walk, crossing faces and the periodic ends
+      x += Vec3(step(rng), step(rng), 5 * step(rng));
+      x.x() = std::clamp(x.x(), -0.99, 0.99);
+      x.y() = std::clamp(x.y(), -0.99, 0.99);
+      ASSERT_EQ(loc.locate(x, cache), loc.locate(x)) << "point " << x.transpose();
+    }
+  }
+  EXPECT_GT(loc.stats().cache_hits, 5000);
 }
