@@ -125,6 +125,21 @@ CellLocator::CellLocator(const mesh_t& mesh) {
     for (int f = n_internal; f < n_faces; ++f) wall_face[f] = 1;
   }
 
+  // A wall face leaves a gap to the round vessel only when its corners lie on the vessel's
+  // circle (a chord); other wall faces are taken as the vessel's true boundary.
+  radius_ = mesh.vessel_diameter_m / 2;
+  std::vector<char> on_circle(n_faces, 0);
+  for (int f = n_internal; f < n_faces; ++f) {
+    if (!wall_face[f] || !(radius_ > 0)) continue;
+    const int end = f + 1 < n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points;
+    bool all = true;
+    for (int k = mesh.face_offsets[f]; k < end && all; ++k) {
+      const Vec3& p = points[mesh.face_points[k]];
+      all = std::abs(std::hypot(p.x(), p.y()) - radius_) <= 1e-6 * radius_;
+    }
+    on_circle[f] = all;
+  }
+
   plane_start_.assign(n_cells + 1, 0);
   std::vector<char> wall_cell(n_cells, 0);
   tolerance_.resize(n_cells);
@@ -147,7 +162,10 @@ CellLocator::CellLocator(const mesh_t& mesh) {
       plane.offset = plane.normal.dot(faces[f].centroid);
       plane.across = f < n_internal ? (mesh.owner[f] == c ? mesh.neighbour[f] : mesh.owner[f]) : -1;
       plane.wall = wall_face[f] != 0;
-      if (plane.wall) wall_cell[c] = 1;
+      plane.gap = 0;
+      if (on_circle[f] && std::abs(plane.normal.z()) < 0.5)  // a side wall of the vessel
+        plane.gap = std::max(0.0, radius_ * std::hypot(plane.normal.x(), plane.normal.y()) - plane.offset);
+      if (plane.gap > 0) wall_cell[c] = 1;
       planes_.push_back(plane);
     }
     plane_start_[c + 1] = static_cast<int>(planes_.size());
@@ -156,19 +174,12 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   // Periodicity along z.
   z0_ = lo.z();
   length_ = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : hi.z() - lo.z();
-  radius_ = mesh.vessel_diameter_m / 2;
   if (std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
     bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from vessel_length_m " +
              std::to_string(length_) + " m");
 
   // The wall gap: how far a point inside the vessel radius can lie behind a wall face.
-  for (int c = 0; c < n_cells; ++c)
-    for (int k = plane_start_[c]; k < plane_start_[c + 1]; ++k) {
-      const Plane& p = planes_[k];
-      if (!p.wall || std::abs(p.normal.z()) > 0.5) continue;  // not a side wall of the vessel
-      wall_gap_ = std::max(wall_gap_, radius_ * std::hypot(p.normal.x(), p.normal.y()) - p.offset);
-    }
-  wall_gap_ = radius_ > 0 ? std::min(wall_gap_, radius_) : 0.0;
+  for (const Plane& p : planes_) wall_gap_ = std::max(wall_gap_, p.gap);
   // Wall cells reach out to the vessel radius for the gap search.
   for (int c = 0; c < n_cells; ++c)
     if (wall_cell[c]) {
@@ -266,7 +277,7 @@ int CellLocator::locate_in_wall_gap(const Vec3& x) const {
     for (int q = plane_start_[c]; q < plane_start_[c + 1] && ok; ++q) {
       const double s = signed_distance(planes_[q], w);
       if (s <= tol) continue;
-      if (planes_[q].wall && s <= wall_gap_ + tol)
+      if (s <= planes_[q].gap + tol)
         depth = std::max(depth, s);
       else
         ok = false;

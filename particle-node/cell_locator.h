@@ -18,7 +18,8 @@
 // vessel the DEM wall bounds, so a particle touching the DEM wall can have its centre in the
 // thin gap between a wall face and the circle (up to R (1 - cos(pi / n)) deep for n faces
 // around). locate() says -1 there, exactly; locate_in_wall_gap() then finds the wall cell
-// whose wall face the point is behind, within wall_gap() of it, and inside the vessel radius.
+// whose wall face the point is behind, within that face's own gap, and inside the vessel
+// radius. Only wall faces whose corners lie on the vessel circle (chords) have a gap.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -73,7 +74,7 @@ class CellLocator {
   // True when the (already wrapped) point is inside `cell` up to the tolerance.
   bool inside(int cell, const Vec3& x) const;
 
-  // Deepest wall gap of the mesh (m): max over wall faces of R - (distance of the face plane
+  // Deepest wall gap of the mesh (m): max over wall chords of R - (distance of the face plane
   // from the axis).
   double wall_gap() const { return wall_gap_; }
 
@@ -104,6 +105,7 @@ class CellLocator {
     double offset; // normal . (point on the face)
     int across;    // the cell on the other side, -1 for a boundary face
     bool wall;     // a face of a wall patch (any boundary patch that is not cyclic)
+    double gap;    // wall chord on the vessel circle: how far behind it the circle reaches (m)
   };
 
   double signed_distance(const Plane& p, const Vec3& x) const { return p.normal.dot(x) - p.offset; }

@@ -40,10 +40,13 @@ void Deposition::finish(double interval, const FluidSampler* fluid, particle_fee
 }
 
 Vec3 Deposition::total_force(double interval) const {
+  // The same arithmetic as finish(), so that both give the same bits.
   Vec3 total = Vec3::Zero();
   if (!(interval > 0)) return total;
-  for (std::size_t i = 0; i < acc_.size(); i += kStride) total += Vec3(acc_[i], acc_[i + 1], acc_[i + 2]);
-  return total / interval;
+  const double inv_t = 1.0 / interval;
+  for (std::size_t i = 0; i < acc_.size(); i += kStride)
+    total += Vec3(acc_[i] * inv_t, acc_[i + 1] * inv_t, acc_[i + 2] * inv_t);
+  return total;
 }
 
 double Deposition::total_volume() const {

@@ -155,3 +155,16 @@ TEST(CellLocator, CacheGivesTheSameAnswerAsASearch) {
   }
   EXPECT_GT(loc.stats().cache_hits, 5000);
 }
+
+TEST(CellLocator, NoWallGapWhereTheMeshStopsShortOfTheVessel) {
+  // Mesh points at half the vessel radius: its wall faces are not chords of the vessel, so a
+  // point between the mesh and the vessel wall is outside the mesh, not in a gap.
+  const double R = 25e-6;
+  auto mesh = hemo::particles::testing::wedge_mesh(8, 4, 0.5 * R, 100e-6);
+  mesh.vessel_diameter_m = 2 * R;
+  const CellLocator loc(mesh);
+  EXPECT_EQ(loc.wall_gap(), 0.0);
+  EXPECT_EQ(loc.locate(Vec3(0.7 * R, 0, 10e-6)), -1);
+  EXPECT_EQ(loc.locate_in_wall_gap(Vec3(0.7 * R, 0, 10e-6)), -1);
+  EXPECT_GE(loc.locate(Vec3(0.3 * R, 0.01 * R, 10e-6)), 0);
+}

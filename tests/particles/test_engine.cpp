@@ -126,6 +126,23 @@ TEST(DemEngine, UnwrapsZAcrossThePeriodicEnds) {
   EXPECT_EQ(fx.engine.diagnostics(&fx.fluid).outside_mesh, 0);
 }
 
+TEST(DemEngine, ParticleOutsideTheMeshStopsTheRunNamingIt) {
+  // The fluid mesh covers only r < R/2 of the vessel the DEM wall bounds.
+  const double R = 25e-6, L = 100e-6;
+  const auto scene = blood_scene(2 * R, L, 0.05);
+  auto mesh = wedge_mesh(8, 4, 0.5 * R, L);
+  mesh.vessel_diameter_m = 2 * R;
+  const CellLocator locator(mesh);
+  FluidSampler fluid(locator);
+  fluid.set_state(fluid_state(mesh, poiseuille(R, 0.01)));
+  Deposition deposition(locator);
+  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+  engine.create_particles(place_particles(R, L, 0, placement_requests(scene), 4));
+  const std::string error = engine.run(7, 10, 1e-7, fluid, deposition);
+  EXPECT_NE(error.find("particle 1 is outside the fluid mesh at coupling step 7"), std::string::npos) << error;
+  EXPECT_GT(engine.diagnostics(&fluid).outside_mesh, 0);
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);

@@ -1,0 +1,84 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The node's steps without the bus: set-up, step-0 feedback, a few coupled steps in a synthetic
+// Poiseuille flow on a polygonal vessel mesh, output, diagnostics, fluid-state checks.
+#include "box_mesh.h"
+#include "h5_output.h"
+#include "particle_node.h"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+using namespace hemo::particles;
+using namespace hemo::particles::testing;
+
+TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
+  const double R = 25e-6, L = 100e-6;
+  const auto scene = blood_scene(2 * R, L, 0.15);
+  const auto mesh = wedge_mesh(16, 8, R, L, "wedge16");
+  const auto dir = std::filesystem::temp_directory_path() / ("hemo_node_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  ParticleNode node(scene, mesh, dir.string(), MPI_COMM_WORLD);
+
+  // Step 0: the volumes, no force yet.
+  auto fb = node.feedback();
+  ASSERT_EQ(fb.n_cells, mesh.n_cells);
+  EXPECT_EQ(fb.mesh_hash, "wedge16");
+  double solid = 0;
+  for (int c = 0; c < fb.n_cells; ++c) solid += fb.solid_fraction[c] * mesh.cell_volumes[c];
+  EXPECT_NEAR(solid, rbc_count(scene) * scene.rbc.volume + platelet_count(scene) * scene.platelet.volume, 1e-6 * solid);
+  EXPECT_EQ(fb.total_particle_force[2], 0.0);
+
+  auto fluid = fluid_state(mesh, poiseuille(R, 799 * R / 2));
+  EXPECT_EQ(node.check(fluid), "");
+  for (int k = 1; k <= 5; ++k) {
+    hemo::step_order_t order;
+    order.envelope.step = k;
+    order.dt_s = 1e-5;
+    order.time_s = k * 1e-5;
+    ASSERT_EQ(node.advance(order, fluid), "");
+    if (k == 5) node.write_output(node.step(), node.time());
+  }
+  fb = node.feedback();
+  std::map<std::string, double> diag;
+  for (const auto& [name, value] : node.diagnostics()) diag[name] = value;
+  for (const char* name : {"particles", "dem_substeps", "total_force_x_N", "total_force_y_N", "total_force_z_N",
+                           "core_particle_axial_velocity_m_s", "core_fluid_axial_velocity_m_s", "max_overlap",
+                           "particles_outside_mesh"})
+    EXPECT_TRUE(diag.count(name)) << name;
+  EXPECT_EQ(diag["particles"], rbc_count(scene) + platelet_count(scene));
+  EXPECT_EQ(diag["particles_outside_mesh"], 0);
+  EXPECT_NEAR(diag["core_particle_axial_velocity_m_s"], diag["core_fluid_axial_velocity_m_s"],
+              0.02 * diag["core_fluid_axial_velocity_m_s"]);
+  EXPECT_EQ(diag["total_force_z_N"], fb.total_particle_force[2]);
+  // The fluid gets back minus the particle force: sum over cells of (S - K u_c) V = -F.
+  double back = 0;
+  for (int c = 0; c < fb.n_cells; ++c)
+    back += (fb.source_explicit[c][2] - fb.drag_coefficient[c] * fluid.velocity[c][2]) * mesh.cell_volumes[c];
+  EXPECT_NEAR(back, -fb.total_particle_force[2], 1e-12 * std::abs(diag["core_fluid_axial_velocity_m_s"] * 1e-6));
+
+  EXPECT_EQ(list_snapshots((dir / "particles.h5").string()), (std::vector<long>{0, 5}));
+  const auto snap = read_snapshot((dir / "particles.h5").string(), 5);
+  EXPECT_DOUBLE_EQ(snap.time_s, 5e-5);
+  EXPECT_EQ(static_cast<double>(snap.size()), diag["particles"]);
+
+  // A fluid state of another mesh, or with a NaN, is refused with a reason.
+  auto other = fluid;
+  other.mesh_hash = "other";
+  EXPECT_NE(node.check(other).find("mesh"), std::string::npos);
+  auto nan = fluid;
+  nan.velocity_gradient[3][4] = std::nan("");
+  EXPECT_NE(node.check(nan).find("cell 3"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  const int result = RUN_ALL_TESTS();
+  MPI_Finalize();
+  return result;
+}
