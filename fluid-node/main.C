@@ -42,9 +42,7 @@ int main(int argc, char* argv[])
 
         while (auto step = port.advance(state, diagnostics))
         {
-            runTime.setDeltaT(step->order.dt_s);
-            ++runTime;
-
+            #include "advanceTime.H"
             #include "applyFeedback.H"
 
             // PISO: momentum predictor, then pressure correctors (nCorrectors, and more
