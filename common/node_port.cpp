@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 
 namespace hemo {
 
@@ -40,7 +41,8 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
     auto it = pending_.find({kind, step});
     if (it != pending_.end()) {
       Received r = std::move(it->second);
-      pending_.erase(pending_.begin(), std::next(it));  // older steps are of no use any more
+      // Older steps of this kind are of no use any more; other kinds may be early, keep them.
+      pending_.erase(pending_.lower_bound({kind, INT64_MIN}), std::next(it));
       return r;
     }
     bus_->poll(0.05, [&](const Received& msg) {
