@@ -11,6 +11,7 @@
 #include <openssl/hmac.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -168,8 +169,10 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   while (inbox_.empty()) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
     if (left <= 0) break;
-    if (lcm_.handleTimeout(static_cast<int>(left)) < 0)
+    if (lcm_.handleTimeout(static_cast<int>(left)) < 0) {
+      if (errno == EINTR) break;  // a signal: let the caller look at it
       throw std::runtime_error("LCM receive failed on " + ctx_.lcm_url);
+    }
   }
   while (lcm_.handleTimeout(0) > 0) {}  // drain what is already queued
   std::vector<Received> batch;
