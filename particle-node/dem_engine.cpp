@@ -12,6 +12,7 @@
 #include <update.h>
 
 #include <fmt/format.h>
+#include <units.h>
 
 #include <algorithm>
 #include <cmath>
@@ -50,6 +51,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
     if (!(s.diameter > 0) || !(s.mass > 0) || !(s.volume > 0))
       throw std::invalid_argument(s.name + ": diameter, mass and volume must be positive");
     drag_[sp] = make_drag_closure(s, scene.plasma);
+    if (s.lift != "none")  // lift closures come with issue #4; never ignore one silently
+      throw std::invalid_argument(s.name + ": lift closure '" + s.lift + "' is not implemented yet (known: none)");
     volume_[sp] = s.volume;
     diameter_[sp] = s.diameter;
     mass_[sp] = s.mass;
@@ -156,7 +159,7 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
     if (!used[sp]) continue;
     // LIGGGHTS sets the mass from diameter and density: density = m / (pi d^3 / 6).
-    const double density = mass_[sp] / (M_PI / 6 * std::pow(diameter_[sp], 3));
+    const double density = mass_[sp] / (units::pi / 6 * std::pow(diameter_[sp], 3));
     command(fmt::format("set type {} diameter {:.17g} density {:.17g}", type_of_[sp], diameter_[sp], density));
   }
   n_particles_ = static_cast<long>(lmp_->atom->natoms);

@@ -143,6 +143,17 @@ TEST(DemEngine, ParticleOutsideTheMeshStopsTheRunNamingIt) {
   EXPECT_GT(engine.diagnostics(&fluid).outside_mesh, 0);
 }
 
+TEST(DemEngine, RefusesClosuresItDoesNotHave) {
+  const auto mesh = box_mesh(2, 2, 2, -25e-6, 25e-6, -25e-6, 25e-6, 100e-6, 50e-6);
+  const CellLocator locator(mesh);
+  auto scene = blood_scene(50e-6, 100e-6);
+  scene.platelet.lift = "saffman";
+  EXPECT_THROW(DemEngine(scene, locator, "none", MPI_COMM_WORLD), std::invalid_argument);
+  scene.platelet.lift = "none";
+  scene.rbc.drag = "unknown";
+  EXPECT_THROW(DemEngine(scene, locator, "none", MPI_COMM_WORLD), std::invalid_argument);
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
