@@ -52,6 +52,7 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option("--secret-file", secret_file, "File holding the run's HMAC secret")->required();
   app.add_option("--timeout", timeout_s, "Seconds without any message from the run before giving up")
       ->capture_default_str();
+  app.add_option("--ranks", ranks, "MPI ranks to run this node on")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
 }

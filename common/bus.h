@@ -32,8 +32,9 @@ struct RunContext {
   double timeout_s = 30;              // give up waiting for peers after this long
   double retry_s = 0.5;               // ask again for a missing message after this long
   int drop_every = 0;                 // fault injection: drop every n-th received message (0: none)
+  int ranks = 1;                      // MPI ranks the node should run on (it launches them itself)
 
-  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout
+  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --drop-every
   void load_secret();                 // reads secret_file; throws with a one-line reason
 };
 

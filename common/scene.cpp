@@ -148,6 +148,10 @@ Scene load_scene(const std::string& path) {
   r.read("run.startup_timeout_s", s.run.startup_timeout);
   r.read("run.step_timeout_s", s.run.step_timeout);
   r.read("run.drop_every", s.run.drop_every);
+  r.read("run.fluid_ranks", s.run.fluid_ranks);
+  r.read("run.particle_ranks", s.run.particle_ranks);
+  r.check(s.run.fluid_ranks >= 1, "run.fluid_ranks", "must be at least 1");
+  r.check(s.run.particle_ranks >= 1, "run.particle_ranks", "must be at least 1");
   r.check(s.run.drop_every >= 0, "run.drop_every", "must not be negative (0: no fault injection)");
   r.read("run.fluid_command", s.run.fluid_command);
   r.read("run.particle_command", s.run.particle_command);

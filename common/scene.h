@@ -77,6 +77,8 @@ struct RunSettings {
   double node_timeout = 30;         // s without a heartbeat before a node is declared dead
   double startup_timeout = 120;     // s for both nodes to finish step 0
   double step_timeout = 3600;       // s for both nodes to finish any later step
+  int fluid_ranks = 1;              // MPI ranks of the fluid node
+  int particle_ranks = 1;           // MPI ranks of the particle node
   int drop_every = 0;               // fault injection: every process drops every n-th message it receives
   std::string fluid_command;        // empty: the built-in fluid node
   std::string particle_command;     // empty: the built-in particle node

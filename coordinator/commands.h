@@ -9,6 +9,8 @@ namespace hemo {
 struct RunOptions {
   std::string scene;
   std::string out;     // run directory; default runs/<name>-<time>
+  int fluid_ranks = 0;     // 0: as the scene says
+  int particle_ranks = 0;
 };
 int run_command(const RunOptions& opt);
 

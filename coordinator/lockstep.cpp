@@ -37,8 +37,8 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx)
   heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
   metrics_.open(dir_.metrics_file());
   metrics_ << "step,time_s,node,name,value\n";
-  launch("fluid", scene.run.fluid_command, "hemocosim-fluid");
-  launch("particles", scene.run.particle_command, "hemocosim-particles");
+  launch("fluid", scene.run.fluid_command, "hemocosim-fluid", scene.run.fluid_ranks);
+  launch("particles", scene.run.particle_command, "hemocosim-particles", scene.run.particle_ranks);
 }
 
 Lockstep::~Lockstep() {
@@ -46,14 +46,14 @@ Lockstep::~Lockstep() {
     if (node.process) node.process->terminate();
 }
 
-void Lockstep::launch(const std::string& node, const std::string& command, const char* default_program) {
+void Lockstep::launch(const std::string& node, const std::string& command, const char* default_program, int ranks) {
   auto argv = split(command);
   if (argv.empty()) argv.push_back(self_dir() + "/" + default_program);
   for (const auto& a : {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path,
                         std::string("--run-id"), ctx_.run_id, std::string("--lcm-url"), ctx_.lcm_url,
                         std::string("--secret-file"), ctx_.secret_file, std::string("--timeout"),
                         fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
-                        fmt::format("{}", ctx_.drop_every)})
+                        fmt::format("{}", ctx_.drop_every), std::string("--ranks"), fmt::format("{}", ranks)})
     argv.push_back(a);
   auto& state = nodes_[node];
   state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));

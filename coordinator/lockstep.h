@@ -39,7 +39,7 @@ class Lockstep {
     long done_step = -1;
     double compute = 0, wait = 0;
   };
-  void launch(const std::string& node, const std::string& command, const char* default_program);
+  void launch(const std::string& node, const std::string& command, const char* default_program, int ranks);
   void check_health(long step);
   void record(const Received& msg);
 

@@ -15,6 +15,11 @@ int main(int argc, char** argv) {
   auto* run_cmd = app.add_subcommand("run", "Run a scene: launch the fluid and particle nodes and couple them");
   run_cmd->add_option("scene", run.scene, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
   run_cmd->add_option("--out", run.out, "Run directory to create (default runs/<name>-<time>)");
+  run_cmd->add_option("--np-fluid", run.fluid_ranks, "MPI ranks of the fluid node (overrides run.fluid_ranks)")
+      ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--np-particles", run.particle_ranks,
+                      "MPI ranks of the particle node (overrides run.particle_ranks)")
+      ->check(CLI::PositiveNumber);
 
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");

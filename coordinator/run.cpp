@@ -27,7 +27,9 @@ std::string default_run_dir(const Scene& scene) {
 }  // namespace
 
 int run_command(const RunOptions& opt) {
-  const Scene scene = load_scene(opt.scene);
+  Scene scene = load_scene(opt.scene);
+  if (opt.fluid_ranks > 0) scene.run.fluid_ranks = opt.fluid_ranks;
+  if (opt.particle_ranks > 0) scene.run.particle_ranks = opt.particle_ranks;
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
   ctx.drop_every = scene.run.drop_every;
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
