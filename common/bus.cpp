@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
 #include <openssl/hmac.h>
@@ -109,8 +110,23 @@ std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len
   return env;
 }
 
+// LCM's UDP multicast drops large (fragmented) messages when the kernel's receive buffer is
+// small; deploy/install-deps.sh raises it where it may. Say so once when it could not.
+static void warn_if_small_receive_buffer(const std::string& url) {
+  if (url.rfind("udpm", 0) != 0) return;
+  static bool warned = false;
+  std::ifstream in("/proc/sys/net/core/rmem_max");
+  long bytes = 0;
+  if (!(in >> bytes) || bytes >= (2L << 20) || warned) return;
+  warned = true;
+  spdlog::warn("net.core.rmem_max is {} bytes; LCM over UDP may drop large messages (they are asked for again, "
+               "at a cost in time). Raise it: sysctl -w net.core.rmem_max=8388608 net.core.rmem_default=8388608",
+               bytes);
+}
+
 Bus::Bus(const RunContext& ctx, std::string sender) : ctx_(ctx), sender_(std::move(sender)), lcm_(ctx.lcm_url) {
   if (!lcm_.good()) throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
+  warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
   lcm_.subscribe(ctx_.run_id + "/.*", &Bus::on_raw, this);
 }
