@@ -66,7 +66,7 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
   done.node = role_;
   done.ok = ok;
   done.error = error;
-  done.compute_s = now() - step_started_;
+  done.compute_s = times_.compute_s;
   done.wait_s = times_.wait_s;
   done.n_diagnostics = static_cast<int32_t>(diag.size());
   for (const auto& [name, value] : diag) {
@@ -77,6 +77,7 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
 }
 
 void NodePort::fail(const std::string& error) {
+  times_.compute_s = now() - step_started_;
   // Several copies: the coordinator must learn why, even if UDP drops one.
   for (int i = 0; i < 3; ++i) report_done(false, error, {});
 }

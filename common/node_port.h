@@ -65,6 +65,7 @@ class NodePort {
                                                                 const std::string& input_kind,
                                                                 int input_offset,
                                                                 const Diagnostics& diag) {
+    times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
     bus_->publish(out_kind, out, step_, /*keep=*/true);
     report_done(true, "", diag);
     bus_->forget_before(step_ - 1);

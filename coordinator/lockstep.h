@@ -32,12 +32,18 @@ class Lockstep {
   double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
   double wait_s(const std::string& node) const { return nodes_.at(node).wait; }
 
+  // Where the time of the coupled steps went: per node, compute and wait and the phases the
+  // node reports (diagnostics named phase_*_s), and the coupling overhead of the lockstep
+  // itself (step wall time not spent computing in either node). Written to RUN_DIR/profile.csv.
+  std::string profile_report(double wall_s, long steps) const;
+
  private:
   struct NodeState {
     std::unique_ptr<NodeProcess> process;
     double last_heard = 0;
     long done_step = -1;
     double compute = 0, wait = 0;
+    std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks);
   void check_health(long step);
@@ -51,6 +57,8 @@ class Lockstep {
   std::map<std::string, NodeState> nodes_;
   std::ofstream metrics_;
   double step_time_s_ = 0;
+  double ordered_at_ = 0;       // wall clock when the current step was ordered
+  double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time
 };
 
 }  // namespace hemo

@@ -51,6 +51,7 @@ int run_command(const RunOptions& opt) {
                                    lockstep.compute_s("particles")));
   }
   lockstep.stop(steps + 1);
+  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), steps));
   fmt::print(stderr, "hemocosim: done in {:.1f} s; results in {}\n", progress.seconds(), dir.path);
   return 0;
 }

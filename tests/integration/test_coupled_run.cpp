@@ -31,6 +31,7 @@ double relative_difference(double a, double b) { return std::abs(a - b) / std::m
 TEST(CoupledRun, LeavesScenePidsMetricsAndParticleSnapshots) {
   const auto& dir = small_run();
   EXPECT_TRUE(std::filesystem::exists(dir + "/scene.toml"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/profile.csv"));
   const auto names = snapshot_names(dir + "/particles.h5");
   // step 0 and every 10th of 40 steps
   EXPECT_EQ(names.size(), 5u);
