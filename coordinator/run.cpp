@@ -4,6 +4,7 @@
 #include "lockstep.h"
 #include "progress.h"
 #include "scene.h"
+#include "xdmf.h"
 
 #include <fmt/format.h>
 
@@ -24,19 +25,8 @@ std::string default_run_dir(const Scene& scene) {
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::localtime(&t));
   return fmt::format("runs/{}-{}", scene.run.name, stamp);
 }
-}  // namespace
-
-int run_command(const RunOptions& opt) {
-  Scene scene = load_scene(opt.scene);
-  if (opt.fluid_ranks > 0) scene.run.fluid_ranks = opt.fluid_ranks;
-  if (opt.particle_ranks > 0) scene.run.particle_ranks = opt.particle_ranks;
-  auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
-  ctx.drop_every = scene.run.drop_every;
-  std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
-
+// The lockstep from start-up to the stop order, with progress and the final profile.
+void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
   Lockstep lockstep(scene, dir, ctx);
   lockstep.await(0, scene.run.startup_timeout);
 
@@ -53,6 +43,30 @@ int run_command(const RunOptions& opt) {
   lockstep.stop(steps + 1);
   fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), steps));
   fmt::print(stderr, "hemocosim: done in {:.1f} s; results in {}\n", progress.seconds(), dir.path);
+}
+}  // namespace
+
+int run_command(const RunOptions& opt) {
+  Scene scene = load_scene(opt.scene);
+  if (opt.fluid_ranks > 0) scene.run.fluid_ranks = opt.fluid_ranks;
+  if (opt.particle_ranks > 0) scene.run.particle_ranks = opt.particle_ranks;
+  auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
+  ctx.drop_every = scene.run.drop_every;
+  std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
+
+  try {
+    drive(scene, dir, ctx);
+  } catch (...) {
+    // The nodes are stopped by now; make what they wrote openable before reporting.
+    try { write_paraview_sidecars(dir.path); } catch (const std::exception&) {}
+    throw;
+  }
+  const int snapshots = write_paraview_sidecars(dir.path);
+  fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
+             snapshots, dir.path);
   return 0;
 }
 

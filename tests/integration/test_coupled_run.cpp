@@ -8,6 +8,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <sstream>
 
 using namespace hemo::test;
 
@@ -24,6 +26,29 @@ const std::string& small_run() {
   return dir;
 }
 
+// Every dataset the XDMF sidecar points at exists in particles.h5 with the declared dimensions.
+void expect_xdmf_matches_h5(const std::string& dir) {
+  std::ifstream in(dir + "/particles.xmf");
+  ASSERT_TRUE(in) << "no particles.xmf";
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string xml = ss.str();
+  EXPECT_NE(xml.find("</Xdmf>"), std::string::npos);
+  const std::regex item(R"re(Dimensions="(\d+)(?: (\d+))?">particles\.h5:([^<]+)</DataItem>)re");
+  int checked = 0;
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), item); it != std::sregex_iterator(); ++it) {
+    const std::string path = (*it)[3];
+    const auto snap = path.substr(std::string("/snapshots/").size(), 8);
+    const auto s = read_snapshot(dir + "/particles.h5", snap);
+    const std::size_t rows = std::stoul((*it)[1]);
+    EXPECT_EQ(rows, s.id.size()) << path;
+    const bool quaternion = path.size() > 11 && path.substr(path.size() - 11) == "orientation";
+    if ((*it)[2].matched) EXPECT_EQ(std::stoul((*it)[2]), quaternion ? 4u : 3u) << path;
+    ++checked;
+  }
+  EXPECT_GE(checked, 4 * static_cast<int>(snapshot_names(dir + "/particles.h5").size()));  // + orientation
+}
+
 double relative_difference(double a, double b) { return std::abs(a - b) / std::max(std::abs(a), std::abs(b)); }
 
 }  // namespace
@@ -32,6 +57,8 @@ TEST(CoupledRun, LeavesScenePidsMetricsAndParticleSnapshots) {
   const auto& dir = small_run();
   EXPECT_TRUE(std::filesystem::exists(dir + "/scene.toml"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/profile.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/fluid/fluid.foam"));
+  expect_xdmf_matches_h5(dir);
   const auto names = snapshot_names(dir + "/particles.h5");
   // step 0 and every 10th of 40 steps
   EXPECT_EQ(names.size(), 5u);
