@@ -9,7 +9,8 @@
 #include <spdlog/spdlog.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
-#include <openssl/hmac.h>
+#include <openssl/core_names.h>
+#include <openssl/params.h>
 
 #include <atomic>
 #include <cerrno>
@@ -76,18 +77,30 @@ std::size_t tag_offset(const std::uint8_t* buf, std::size_t len) {
   return pos;
 }
 
-static std::array<std::uint8_t, kTagBytes> compute_tag(std::vector<std::uint8_t> buf, std::size_t off,
+// HMAC-SHA256 of the message as if its tag bytes were zero, without copying the message.
+static std::array<std::uint8_t, kTagBytes> compute_tag(const std::uint8_t* buf, std::size_t len, std::size_t off,
                                                        const std::vector<std::uint8_t>& secret) {
-  std::memset(buf.data() + off, 0, kTagBytes);
+  static const std::uint8_t zeros[kTagBytes] = {0};
   std::array<std::uint8_t, kTagBytes> tag{};
-  unsigned int n = 0;
-  HMAC(EVP_sha256(), secret.data(), static_cast<int>(secret.size()), buf.data(), buf.size(), tag.data(), &n);
+  struct Ctx {
+    EVP_MAC* mac = EVP_MAC_fetch(nullptr, "HMAC", nullptr);
+    EVP_MAC_CTX* ctx = mac ? EVP_MAC_CTX_new(mac) : nullptr;
+    ~Ctx() { EVP_MAC_CTX_free(ctx); EVP_MAC_free(mac); }
+  } c;
+  char digest[] = "SHA256";
+  OSSL_PARAM params[] = {OSSL_PARAM_construct_utf8_string("digest", digest, 0), OSSL_PARAM_construct_end()};
+  std::size_t n = 0;
+  if (!c.ctx || !EVP_MAC_init(c.ctx, secret.data(), secret.size(), params) ||
+      !EVP_MAC_update(c.ctx, buf, off) || !EVP_MAC_update(c.ctx, zeros, kTagBytes) ||
+      !EVP_MAC_update(c.ctx, buf + off + kTagBytes, len - off - kTagBytes) ||
+      !EVP_MAC_final(c.ctx, tag.data(), &n, tag.size()))
+    throw std::runtime_error("HMAC-SHA256 unavailable from OpenSSL");
   return tag;
 }
 
 void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
   const auto off = tag_offset(buf.data(), buf.size());
-  const auto tag = compute_tag(buf, off, secret);
+  const auto tag = compute_tag(buf.data(), buf.size(), off, secret);
   std::memcpy(buf.data() + off, tag.data(), kTagBytes);
 }
 
@@ -98,7 +111,7 @@ bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t
   } catch (const std::exception&) {
     return false;
   }
-  const auto tag = compute_tag(buf, off, secret);
+  const auto tag = compute_tag(buf.data(), buf.size(), off, secret);
   return CRYPTO_memcmp(tag.data(), buf.data() + off, kTagBytes) == 0;
 }
 

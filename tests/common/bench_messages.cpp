@@ -1,0 +1,111 @@
+// Cost of the coupling messages at the paper's mesh (1,536 cells): encode, sign, verify, decode,
+// and one exchange over real LCM on loopback (publish a fluid state, the peer receives and
+// verifies it, answers with a feedback message, the first receives that).
+// Run: build/bin/bench_messages   (Google Benchmark; figures in docs/performance.md)
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "bus.h"
+#include "test_helpers.h"
+
+#include <hemo/fluid_state_t.hpp>
+#include <hemo/particle_feedback_t.hpp>
+
+#include <benchmark/benchmark.h>
+
+#include <atomic>
+#include <thread>
+
+using namespace hemo;
+
+namespace {
+constexpr int kPaperCells = 1536;
+
+fluid_state_t make_state(int cells) {
+  fluid_state_t s{};
+  s.mesh_hash = "0123456789abcdef";
+  s.n_cells = cells;
+  s.velocity.assign(cells, std::vector<double>(3, 1e-3));
+  s.velocity_gradient.assign(cells, std::vector<double>(9, 10.0));
+  return s;
+}
+
+particle_feedback_t make_feedback(int cells) {
+  particle_feedback_t f{};
+  f.mesh_hash = "0123456789abcdef";
+  f.n_cells = cells;
+  f.solid_fraction.assign(cells, 0.15);
+  f.source_explicit.assign(cells, std::vector<double>(3, 1.0));
+  f.drag_coefficient.assign(cells, 1e6);
+  return f;
+}
+
+void BM_EncodeSignFluidState(benchmark::State& st) {
+  auto ctx = test::make_context("bench");
+  auto s = make_state(static_cast<int>(st.range(0)));
+  std::vector<std::uint8_t> buf;
+  for (auto _ : st) {
+    buf.resize(static_cast<std::size_t>(s.getEncodedSize()));
+    s.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    sign(buf, ctx.secret);
+    benchmark::DoNotOptimize(buf.data());
+  }
+  st.SetBytesProcessed(static_cast<int64_t>(st.iterations() * buf.size()));
+}
+BENCHMARK(BM_EncodeSignFluidState)->Arg(kPaperCells)->Arg(10000)->Arg(100000);
+
+void BM_VerifyDecodeFluidState(benchmark::State& st) {
+  auto ctx = test::make_context("bench");
+  auto s = make_state(static_cast<int>(st.range(0)));
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(s.getEncodedSize()));
+  s.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  sign(buf, ctx.secret);
+  for (auto _ : st) {
+    if (!verify(buf, ctx.secret)) st.SkipWithError("tag did not verify");
+    fluid_state_t out;
+    out.decode(buf.data(), 0, static_cast<int>(buf.size()));
+    benchmark::DoNotOptimize(out.velocity.data());
+  }
+  st.SetBytesProcessed(static_cast<int64_t>(st.iterations() * buf.size()));
+}
+BENCHMARK(BM_VerifyDecodeFluidState)->Arg(kPaperCells)->Arg(10000)->Arg(100000);
+
+// One coupling exchange over LCM on loopback: fluid state one way, feedback the other.
+void BM_LoopbackExchange(benchmark::State& st) {
+  const int cells = static_cast<int>(st.range(0));
+  auto ctx = test::make_context("xchg");
+  std::atomic<bool> done{false};
+  std::thread peer([&] {
+    Bus bus(ctx, "particles");
+    auto fb = make_feedback(cells);
+    while (!done) {
+      bus.poll(0.05, [&](const Received& m) {
+        if (m.kind == channel::fluid_state) {
+          auto s = m.as<fluid_state_t>();
+          bus.publish(channel::particle_feedback, fb, m.envelope.step);
+        }
+      });
+    }
+  });
+  Bus bus(ctx, "fluid");
+  auto s = make_state(cells);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the peer subscribe
+  std::int64_t step = 0;
+  for (auto _ : st) {
+    bus.publish(channel::fluid_state, s, ++step);
+    bool got = false;
+    while (!got) {
+      bus.poll(1.0, [&](const Received& m) {
+        if (m.kind == channel::particle_feedback && m.envelope.step == step) {
+          benchmark::DoNotOptimize(m.as<particle_feedback_t>());
+          got = true;
+        }
+      });
+      if (!got) { st.SkipWithError("exchange lost"); break; }
+    }
+  }
+  done = true;
+  peer.join();
+}
+BENCHMARK(BM_LoopbackExchange)->Arg(kPaperCells)->Arg(10000)->Unit(benchmark::kMicrosecond)->UseRealTime();
+}  // namespace
+
+BENCHMARK_MAIN();
