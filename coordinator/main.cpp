@@ -2,7 +2,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
 #include "commands.h"
+#include "plot.h"
 #include "scene.h"
+#include "study.h"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -42,12 +44,29 @@ int main(int argc, char** argv) {
   ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
   ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
 
+  hemo::PlotOptions plot;
+  auto* plot_cmd = app.add_subcommand("plot", "PNG figures of analysed runs: profiles over time, MSD and D, observables against the swept key");
+  plot_cmd->add_option("run_dirs", plot.run_dirs, "Run directories (analysed first when analysis.json is missing or stale)")->required();
+  plot_cmd->add_option("--out", plot.out, "Directory for the PNG files (default RUN_DIR/figures for one run, ./figures for several)");
+  plot_cmd->add_option("--key", plot.key, "Swept scene key, dotted (default: the one key whose value differs between the runs)");
+  plot_cmd->add_option("--labels", plot.labels, "Names of the runs in the figures, one per run")->delimiter(',');
+  plot_cmd->add_flag("--reanalyze", plot.reanalyze, "Analyse again even when analysis.json is up to date");
+
+  hemo::StudyOptions study;
+  auto* study_cmd = app.add_subcommand("study", "Run every scene of a study (resuming), analyse them, write report.md with figures");
+  study_cmd->add_option("study", study.study, "Study name (scenes/studies/<name>.toml) or study file")->required();
+  study_cmd->add_option("--out", study.out, "Study directory (default runs/study-<name>, runs/study-<name>-reduced)");
+  study_cmd->add_flag("--reduced", study.reduced, "Shrink every scene (vessel, mesh, time) so the study runs in minutes");
+  study_cmd->add_flag("--no-plot", study.no_plot, "Write the report without figures");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return hemo::run_command(run);
     if (*check_cmd) return hemo::check_command(check_scene);
     if (*mon_cmd) return hemo::monitor_command(mon);
     if (*ana_cmd) return hemo::analyze_command(ana);
+    if (*plot_cmd) return hemo::plot_command(plot);
+    if (*study_cmd) return hemo::study_command(study);
   } catch (const hemo::SceneError& e) {
     for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
     return 2;

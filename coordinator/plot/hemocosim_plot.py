@@ -1,0 +1,356 @@
+#!/usr/bin/env python3
+# hemocosim plot: the paper-style figures of one or more analysed runs, as PNG.
+# SPDX-License-Identifier: GPL-3.0-or-later
+#
+# `hemocosim plot` runs this script after making sure every run directory holds the files of
+# `hemocosim analyze` (analysis.json, profiles.csv); it can also be run by hand:
+#
+#   python3 hemocosim_plot.py --out DIR [--key scene.key] [--labels a,b,...] RUN_DIR [RUN_DIR ...]
+#
+# Per run:    <run>_profiles.png  radial number density of RBCs and platelets at t = 0, 0.5, 1, 2 s
+#                                 (or at 0, 1/4, 1/2, 1 of a shorter run: the snapshots nearest)
+#             <run>_msd.png       radial MSD of the platelets with the fitted line MSD = 2 D t
+# Several:    sweep.png           CFL thickness (edge and profile methods), D and mu_app/mu against
+#                                 the swept scene key (--key, or the one key whose value differs)
+#             compare_profiles.png, compare_msd.png: the runs' window-mean profiles and MSD overlaid
+#
+# Reads only analysis.json, profiles.csv and scene.toml (no HDF5): the observables are computed
+# once, by `hemocosim analyze` (MODEL.md §5), never here.
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+
+os.environ.setdefault("MPLBACKEND", "Agg")  # headless: never needs a display
+
+try:
+    import tomllib  # Python >= 3.11
+except ImportError:  # pragma: no cover - Debian 12 has 3.11
+    tomllib = None
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+except ImportError as e:  # one clear line, the C++ side checks this too
+    sys.exit(f"hemocosim plot: error: {e.name} is not installed (Debian: apt-get install python3-matplotlib python3-numpy)")
+
+UM = 1e-6
+PER_UL = 1e-9  # 1/m^3 -> 1/ul
+PAPER_TIMES = [0.0, 0.5, 1.0, 2.0]  # s, the paper's profile snapshots
+
+
+def fail(msg):
+    sys.exit(f"hemocosim plot: error: {msg}")
+
+
+class Run:
+    """One analysed run directory: its analysis, its profiles and its scene."""
+
+    def __init__(self, path):
+        self.path = path.rstrip("/") or path
+        self.name = os.path.basename(os.path.abspath(self.path))
+        for f in ("analysis.json", "profiles.csv"):
+            if not os.path.isfile(os.path.join(path, f)):
+                fail(f"{os.path.join(path, f)}: missing (run `hemocosim analyze {path}` first)")
+        with open(os.path.join(path, "analysis.json")) as f:
+            self.a = json.load(f)
+        self.scene = {}
+        scene_path = os.path.join(path, "scene.toml")
+        if tomllib is not None and os.path.isfile(scene_path):
+            with open(scene_path, "rb") as f:
+                self.scene = tomllib.load(f)
+        self.mean = None  # (t0, t1, r_mid_over_R, rbc, plt, rbc_fraction)
+        frames = {}
+        with open(os.path.join(path, "profiles.csv")) as f:
+            rows = list(csv.DictReader(f))
+        if not rows:
+            fail(f"{os.path.join(path, 'profiles.csv')}: no profiles (no snapshots?)")
+        blocks = {}
+        for row in rows:
+            key = (float(row["t_start_s"]), float(row["t_end_s"]))
+            blocks.setdefault(key, []).append(row)
+        for (t0, t1), block in blocks.items():
+            x = np.array([float(r["r_mid_over_R"]) for r in block])
+            rbc = np.array([float(r["rbc_per_m3"]) for r in block])
+            plt_ = np.array([float(r["platelet_per_m3"]) for r in block])
+            if t1 > t0:
+                phi = np.array([float(r["rbc_volume_fraction"] or "nan") for r in block])
+                self.mean = (t0, t1, x, rbc, plt_, phi)
+            else:
+                frames[t0] = (x, rbc, plt_)
+        self.frames = sorted(frames.items())  # [(t, (x, rbc, plt))]
+
+    def scene_value(self, dotted):
+        node = self.scene
+        for part in dotted.split("."):
+            if not isinstance(node, dict) or part not in node:
+                return None
+            node = node[part]
+        return node
+
+    def get(self, *path):
+        node = self.a
+        for p in path:
+            if node is None:
+                return None
+            node = node.get(p) if isinstance(node, dict) else None
+        return node
+
+
+def num(v):
+    return float("nan") if v is None else float(v)
+
+
+def pick_frames(frames):
+    """The snapshots nearest the paper's t = 0, 0.5, 1, 2 s, or 0, 1/4, 1/2, 1 of a shorter run."""
+    if not frames:
+        return []
+    times = [t for t, _ in frames]
+    t0, t1 = times[0], times[-1]
+    targets = PAPER_TIMES if t1 - t0 >= PAPER_TIMES[-1] * 0.99 else [t0 + f * (t1 - t0) for f in (0, 0.25, 0.5, 1)]
+    chosen = []
+    for target in targets:
+        i = min(range(len(times)), key=lambda k: abs(times[k] - target))
+        if i not in chosen:
+            chosen.append(i)
+    return [frames[i] for i in sorted(chosen)]
+
+
+def time_label(t):
+    return f"t = {t:.3g} s"
+
+
+def cfl_edge_over_R(run):
+    delta = run.get("cfl", "edge", "thickness_m")
+    radius = run.get("vessel", "radius_m")
+    if delta is None or not radius:
+        return None
+    return 1 - delta / radius
+
+
+def plot_profiles(run, out):
+    chosen = pick_frames(run.frames)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    colours = plt.cm.viridis(np.linspace(0, 0.9, max(len(chosen), 1)))
+    for ax, idx, title in ((axes[0], 1, "RBC"), (axes[1], 2, "platelets")):
+        for colour, (t, data) in zip(colours, chosen):
+            ax.plot(data[0], data[idx] * PER_UL, "-o", ms=2.5, lw=1.2, color=colour, label=time_label(t))
+        if run.mean is not None:
+            t0, t1 = run.mean[0], run.mean[1]
+            ax.plot(run.mean[2], run.mean[idx + 2] * PER_UL, "k--", lw=1.2,
+                    label=f"mean over {t0:.3g}..{t1:.3g} s")
+        edge = cfl_edge_over_R(run)
+        if edge is not None:
+            ax.axvline(edge, color="tab:red", ls=":", lw=1, label="RBC core edge (edge method)")
+        ax.set_xlabel("r / R")
+        ax.set_ylabel("number density (1/µl)")
+        ax.set_title(title)
+        ax.set_xlim(0, 1)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    axes[1].legend(fontsize=8)
+    fig.suptitle(f"{run.name}: radial number density")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def msd_points(run):
+    pts = run.get("diffusion", "msd") or []
+    lag = np.array([num(p.get("lag_s")) for p in pts])
+    msd = np.array([num(p.get("msd_m2")) for p in pts])
+    ok = np.isfinite(lag) & np.isfinite(msd)
+    return lag[ok], msd[ok]
+
+
+def d_label(run):
+    d = run.get("diffusion", "D_m2_s")
+    if d is None:
+        return "no D (no MSD point in the fit window)"
+    end = num(run.get("diffusion", "window_end_s"))
+    n = run.get("diffusion", "points")
+    return f"D = {d:.3g} m²/s (MSD = 2Dt over [0, {end:.3g}] s, {n} points)"
+
+
+def plot_msd(run, out):
+    lag, msd = msd_points(run)
+    fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+    ax.plot(lag, msd / UM**2, "o", ms=3, label="platelets, radial MSD")
+    d = run.get("diffusion", "D_m2_s")
+    if d is not None and len(lag):
+        end = num(run.get("diffusion", "window_end_s"))
+        t = np.linspace(0, end, 50)
+        ax.plot(t, 2 * d * t / UM**2, "-", color="tab:red", label=d_label(run))
+        ax.axvspan(0, end, color="tab:red", alpha=0.06)
+    else:
+        ax.text(0.05, 0.9, d_label(run), transform=ax.transAxes)
+    ax.set_xlabel("lag t (s)")
+    ax.set_ylabel("MSD of r (µm²)")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"{run.name}: platelet radial MSD")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def flatten(table, prefix=""):
+    out = {}
+    for k, v in table.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def guess_key(runs):
+    """The one scene key (outside [run]) whose value differs between the runs, if there is one."""
+    flat = [flatten(r.scene) for r in runs]
+    keys = set().union(*flat)
+    differing = sorted(k for k in keys if not k.startswith("run.") and len({repr(f.get(k)) for f in flat}) > 1)
+    return differing[0] if len(differing) == 1 else None
+
+
+def sweep_axis(runs, key, labels):
+    """x positions, tick labels and the axis title of the sweep figure."""
+    values = [r.scene_value(key) for r in runs] if key else [None] * len(runs)
+    numeric = key is not None and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    if numeric:
+        return [float(v) for v in values], None, key
+    ticks = labels or [str(v) if v is not None else r.name for v, r in zip(values, runs)]
+    return list(range(len(runs))), ticks, key or "run"
+
+
+def plot_sweep(runs, key, labels, out):
+    x, ticks, title = sweep_axis(runs, key, labels)
+    order = sorted(range(len(runs)), key=lambda i: x[i])
+    xs = [x[i] for i in order]
+    series = [
+        ("CFL thickness δ (µm)", [
+            ("edge method", [num(runs[i].get("cfl", "edge", "thickness_m")) / UM for i in order]),
+            ("profile method", [num(runs[i].get("cfl", "profile", "thickness_m")) / UM for i in order]),
+        ]),
+        ("platelet D (m²/s)", [("radial MSD", [num(runs[i].get("diffusion", "D_m2_s")) for i in order])]),
+        ("µ_app / µ", [("γ̇ / (8Ū/d)", [num(runs[i].get("rheology", "relative_apparent_viscosity")) for i in order])]),
+    ]
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4), constrained_layout=True)
+    for ax, (ylabel, lines) in zip(axes, series):
+        for name, ys in lines:
+            ax.plot(xs, ys, "-o", ms=4, label=name)
+        ax.set_xlabel(title)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        if ticks is not None:
+            ax.set_xticks(xs)
+            ax.set_xticklabels([ticks[i] for i in order], rotation=20)
+        if len(lines) > 1:
+            ax.legend(fontsize=8)
+    axes[1].ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
+    fig.suptitle(f"observables against {title} ({len(runs)} runs)")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def run_labels(runs, key, labels):
+    if labels:
+        return labels
+    if key:
+        return [f"{key.split('.')[-1]} = {r.scene_value(key)}" for r in runs]
+    return [r.name for r in runs]
+
+
+def plot_compare_profiles(runs, names, out):
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    for run, name in zip(runs, names):
+        if run.mean is not None:
+            x, rbc, plt_ = run.mean[2], run.mean[3], run.mean[4]
+            suffix = f" ({run.mean[0]:.3g}..{run.mean[1]:.3g} s)"
+        elif run.frames:
+            t, (x, rbc, plt_) = run.frames[-1]
+            suffix = f" (t = {t:.3g} s)"
+        else:
+            continue
+        # Normalised by the species' mean density so that runs of other sizes compare.
+        for ax, n in ((axes[0], rbc), (axes[1], plt_)):
+            w = x  # annulus weights are proportional to r
+            mean = np.sum(n * w) / np.sum(w) if np.sum(w) > 0 else 0
+            ax.plot(x, n / mean if mean > 0 else n * 0, "-", lw=1.3, label=name + suffix)
+    for ax, title in zip(axes, ("RBC", "platelets")):
+        ax.set_xlabel("r / R")
+        ax.set_ylabel("n / n̄ (window mean)")
+        ax.set_title(title)
+        ax.set_xlim(0, 1)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    axes[1].legend(fontsize=7)
+    fig.suptitle("radial number density, normalised by the mean over the vessel")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def plot_compare_msd(runs, names, out):
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    for run, name in zip(runs, names):
+        lag, msd = msd_points(run)
+        d = run.get("diffusion", "D_m2_s")
+        label = name + (f": D = {d:.3g} m²/s" if d is not None else ": no D")
+        ax.plot(lag, msd / UM**2, "-o", ms=2.5, lw=1, label=label)
+    ax.set_xlabel("lag t (s)")
+    ax.set_ylabel("MSD of r (µm²)")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title("platelet radial MSD")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def main():
+    p = argparse.ArgumentParser(description="Paper-style figures of analysed hemocosim runs (PNG)")
+    p.add_argument("runs", nargs="+", help="run directories holding analysis.json and profiles.csv")
+    p.add_argument("--out", required=True, help="directory for the PNG files")
+    p.add_argument("--key", help="the swept scene key, dotted (default: the one key that differs)")
+    p.add_argument("--labels", help="comma-separated names of the runs, in order")
+    args = p.parse_args()
+
+    for d in args.runs:
+        if not os.path.isdir(d):
+            fail(f"{d}: no such run directory")
+    runs = [Run(d) for d in args.runs]
+    labels = args.labels.split(",") if args.labels else None
+    if labels and len(labels) != len(runs):
+        fail(f"--labels names {len(labels)} runs, {len(runs)} given")
+    os.makedirs(args.out, exist_ok=True)
+
+    # Per-run file names from the directory names, numbered when two runs share one.
+    names = [r.name for r in runs]
+    stems = [f"{i + 1:02d}-{n}" if names.count(n) > 1 else n for i, n in enumerate(names)]
+    written = []
+    for run, stem in zip(runs, stems):
+        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd)):
+            path = os.path.join(args.out, f"{stem}_{kind}.png")
+            draw(run, path)
+            written.append(path)
+    if len(runs) > 1:
+        key = args.key or guess_key(runs)
+        names = run_labels(runs, key, labels)
+        for fname, draw in (("sweep.png", lambda o: plot_sweep(runs, key, labels, o)),
+                            ("compare_profiles.png", lambda o: plot_compare_profiles(runs, names, o)),
+                            ("compare_msd.png", lambda o: plot_compare_msd(runs, names, o))):
+            path = os.path.join(args.out, fname)
+            draw(path)
+            written.append(path)
+    for w in written:
+        print(w)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,382 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "study.h"
+
+#include "child_process.h"
+#include "plot.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace hemo {
+
+namespace {
+
+volatile std::sig_atomic_t interrupted = 0;
+void on_signal(int) { interrupted = 1; }
+
+// FNV-1a, 64 bit: a stable fingerprint of a scene's text for the finished marker.
+std::string fingerprint(const std::string& text) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return fmt::format("{:016x}", h);
+}
+
+std::string utc_now() {
+  char buf[32];
+  const std::time_t t = std::time(nullptr);
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The last line of a log that says what went wrong.
+std::string failure_line(const std::string& log_path) {
+  std::ifstream in(log_path);
+  std::string line, last, error;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    last = line;
+    if (line.find("error") != std::string::npos) error = line;
+  }
+  return !error.empty() ? error : last;
+}
+
+// Removes an unfinished run directory before it is redone; refuses anything that does not look
+// like one (a run directory always has its scene.toml from the first moment).
+void remove_unfinished(const std::string& run_dir) {
+  std::error_code ec;
+  if (!fs::exists(run_dir, ec)) return;
+  if (!fs::is_directory(run_dir) || (!fs::is_empty(run_dir) && !fs::exists(fs::path(run_dir) / "scene.toml")))
+    throw StudyError(run_dir + " exists and is not a run directory; move it away");
+  fs::remove_all(run_dir);
+}
+
+SceneRunner child_runner(const std::string& hemocosim) {
+  return [hemocosim](const std::string& scene, const std::string& run_dir, const std::string& log_path,
+                     const std::function<void(const std::string&)>& progress) {
+    std::ofstream log(log_path, std::ios::app);
+    log << "$ " << hemocosim << " run " << scene << " --out " << run_dir << "\n";
+    log.flush();
+    ChildOptions opt;
+    opt.merge_stderr = true;
+    opt.on_line = [&](const std::string& line) {
+      log << line << "\n";
+      log.flush();
+      if (progress && (line.rfind("step ", 0) == 0 || line.find("error") != std::string::npos)) progress(line);
+    };
+    const auto r = run_child({hemocosim, "run", scene, "--out", run_dir}, opt);
+    log << "# hemocosim run " << r.describe() << "\n";
+    return r.exit_code;
+  };
+}
+
+// ---- Report ----------------------------------------------------------------------------------
+
+std::string fixed(double v, int digits, double scale = 1) {
+  return std::isfinite(v) ? fmt::format("{:.{}f}", v / scale, digits) : "n/a";
+}
+std::string sci(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "n/a"; }
+std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : ""; }
+
+const char* state_name(StudyRunStatus::State s) {
+  switch (s) {
+    case StudyRunStatus::State::ran: return "ran";
+    case StudyRunStatus::State::skipped: return "finished earlier";
+    case StudyRunStatus::State::failed: return "failed";
+  }
+  return "";
+}
+
+struct Row {
+  const StudyRunStatus* run = nullptr;
+  bool analysed = false;
+  analysis::Analysis a;
+  std::string error;
+};
+
+std::string swept_header(const Study& s) {
+  std::string h;
+  for (const auto& k : s.keys) h += (h.empty() ? "" : ", ") + k;
+  return h;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string summary_csv(const Study& study, const std::vector<Row>& rows) {
+  std::string c = "index,label,swept_value,status,end_time_s,rbc_count,platelet_count,cfl_edge_m,cfl_profile_m,D_m2_s,"
+                  "D_fit_end_s,relative_apparent_viscosity,mean_velocity_m_s,tube_hematocrit,discharge_hematocrit,"
+                  "margination_index,wall_s,run_dir\n";
+  for (const auto& r : rows) {
+    const auto& a = r.a;
+    const auto& st = *r.run;
+    const bool ok = r.analysed;
+    c += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{}\n", st.study_case.index + 1,
+                     csv_field(st.study_case.label), csv_field(study.value_text(st.study_case.index)), state_name(st.state),
+                     ok ? csv_num(a.window_end) : "", ok ? csv_num(a.mean_rbc_count) : "", ok ? csv_num(a.mean_platelet_count) : "",
+                     ok ? csv_num(a.cfl_edge.thickness) : "", ok ? csv_num(a.cfl_profile.thickness) : "",
+                     ok ? csv_num(a.diffusion.diffusivity) : "", ok ? csv_num(a.diffusion.window_end) : "",
+                     ok ? csv_num(a.rheology.relative_viscosity) : "", ok ? csv_num(a.rheology.mean_velocity) : "",
+                     ok ? csv_num(a.tube_hematocrit) : "", ok ? csv_num(a.discharge_hematocrit) : "",
+                     ok ? csv_num(a.margination_index) : "", st.wall_s, csv_field(st.run_dir));
+  }
+  return c;
+}
+
+std::string report_md(const Study& study, const StudyOptions& opt, const Reduction* reduction, const std::string& out,
+                      const std::vector<Row>& rows, const std::vector<std::string>& figures, const std::string& figure_error) {
+  std::string m;
+  m += fmt::format("# Study: {}\n\n", study.name);
+  if (!study.title.empty()) m += study.title + "\n\n";
+  m += fmt::format("- study file: `{}` (copy: `study.toml`)\n", study.path);
+  m += fmt::format("- base scene: `{}`\n", study.base);
+  m += fmt::format("- swept: `{}` over {} values\n", swept_header(study), study.size());
+  if (!study.set_toml.empty()) m += "- fixed for every run ([set] of the study file): see `study.toml`\n";
+  m += fmt::format("- generated: {} by `hemocosim study {}{}`\n", utc_now(), opt.study, opt.reduced ? " --reduced" : "");
+  if (reduction)
+    m += fmt::format("- **reduced** (`--reduced`): {}\n", reduction->describe());
+  else
+    m += "- full size: the scenes as the study file and base scene give them\n";
+  if (!study.expectation.empty()) m += fmt::format("\nWhat the paper reports (MODEL.md §4): {}\n", study.expectation);
+  if (reduction)
+    m += "\nThese are reduced runs: compare them with the expectation above only where they are long enough to "
+         "show it; the numbers below are what the reduced runs give, nothing more.\n";
+
+  m += "\n## Observables\n\n";
+  m += "δ: cell-free layer thickness (edge method of MODEL.md §5, and profile method); D: platelet radial diffusivity "
+       "from MSD = 2 D t through the origin (fit window in brackets); µ_app/µ = γ̇ / (8Ū/d); H_T, H_D: tube and "
+       "discharge hematocrit; margination: platelets with r > R − δ (edge). Window: second half of each run.\n\n";
+  m += fmt::format("| {} | run | t end (s) | RBCs | PLTs | δ edge (µm) | δ profile (µm) | D (m²/s) | µ_app/µ | H_T | H_D | "
+                   "margination | wall (s) | status |\n",
+                   swept_header(study));
+  m += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& r : rows) {
+    const auto& st = *r.run;
+    const auto& a = r.a;
+    const std::string value = study.value_text(st.study_case.index);
+    if (!r.analysed) {
+      m += fmt::format("| {} | {} | | | | | | | | | | | {:.1f} | {} |\n", value, st.study_case.dir_name, st.wall_s,
+                       st.state == StudyRunStatus::State::failed ? "failed" : "not analysed");
+      continue;
+    }
+    m += fmt::format("| {} | {} | {:.4g} | {} | {} | {} | {} | {} [0, {:.3g} s] | {} | {} | {} | {} | {:.1f} | {} |\n", value,
+                     st.study_case.dir_name, a.window_end, fixed(a.mean_rbc_count, 0), fixed(a.mean_platelet_count, 0),
+                     fixed(a.cfl_edge.thickness, 2, 1e-6), fixed(a.cfl_profile.thickness, 2, 1e-6),
+                     sci(a.diffusion.diffusivity), a.diffusion.window_end, fixed(a.rheology.relative_viscosity, 3),
+                     fixed(a.tube_hematocrit, 3), fixed(a.discharge_hematocrit, 3), fixed(a.margination_index, 3),
+                     st.wall_s, state_name(st.state));
+  }
+  m += "\nThe same as CSV: `summary.csv`. Each run's full analysis: `runs/<run>/analysis.json` "
+       "(`hemocosim analyze runs/<run>` prints it as a table).\n";
+
+  m += "\n## Figures\n\n";
+  if (!figure_error.empty()) m += fmt::format("Figures not drawn: {}\n", figure_error);
+  for (const auto& f : figures) {
+    const std::string rel = fs::path(f).lexically_relative(out).string();
+    m += fmt::format("![{}]({})\n\n", fs::path(f).stem().string(), rel);
+  }
+
+  std::string notes;
+  for (const auto& r : rows) {
+    for (const auto& n : r.a.notes) notes += fmt::format("- {}: {}\n", r.run->study_case.dir_name, n);
+    if (!r.error.empty()) notes += fmt::format("- {}: {}\n", r.run->study_case.dir_name, r.error);
+    if (!r.run->why.empty()) notes += fmt::format("- {}: {}\n", r.run->study_case.dir_name, r.run->why);
+  }
+  if (!notes.empty()) m += "\n## Notes\n\n" + notes;
+  return m;
+}
+
+}  // namespace
+
+int StudyResult::failed() const {
+  int n = 0;
+  for (const auto& r : runs) n += r.state == StudyRunStatus::State::failed;
+  return n;
+}
+
+void write_finished_marker(const std::string& run_dir, const std::string& scene_text, double wall_s) {
+  std::ofstream out(fs::path(run_dir) / kFinishedMarker);
+  out << "# Written by `hemocosim study` when this run ended cleanly; a study skips runs that have it.\n";
+  out << fmt::format("scene_fingerprint = \"{}\"\nwall_s = {:.3f}\nfinished = \"{}\"\n", fingerprint(scene_text), wall_s, utc_now());
+  if (!out) throw StudyError(run_dir + ": cannot write " + kFinishedMarker);
+}
+
+bool run_finished(const std::string& run_dir, const std::string& scene_text, std::string* why, double* wall_s) {
+  auto say = [why](const std::string& s) {
+    if (why) *why = s;
+    return false;
+  };
+  std::error_code ec;
+  if (!fs::exists(run_dir, ec)) return say("no run yet");
+  const fs::path marker = fs::path(run_dir) / kFinishedMarker;
+  if (!fs::exists(marker, ec)) return say("unfinished (no " + std::string(kFinishedMarker) + "): redone");
+  toml::table t;
+  try {
+    t = toml::parse_file(marker.string());
+  } catch (const toml::parse_error&) {
+    return say("unreadable " + std::string(kFinishedMarker) + ": redone");
+  }
+  if (t["scene_fingerprint"].value_or(std::string()) != fingerprint(scene_text))
+    return say("the scene changed since it ran: redone");
+  if (wall_s) *wall_s = t["wall_s"].value_or(0.0);
+  if (why) why->clear();
+  return true;
+}
+
+StudyResult run_study(const StudyOptions& opt) {
+  const Study study = load_study(resolve_study(opt.study));
+  const Reduction reduction_spec;
+  const Reduction* reduction = opt.reduced ? &reduction_spec : nullptr;
+  StudyResult result;
+  result.out = !opt.out.empty() ? opt.out : fmt::format("runs/study-{}{}", study.name, opt.reduced ? "-reduced" : "");
+  const fs::path out(result.out);
+  fs::create_directories(out / "runs");
+  fs::create_directories(out / "logs");
+  fs::copy_file(study.path, out / "study.toml", fs::copy_options::overwrite_existing);
+  const auto cases = expand_study(study, (out / "scenes").string(), reduction);
+
+  auto say = [&opt](const std::string& line) {
+    if (!opt.quiet) fmt::print(stderr, "{}\n", line);
+  };
+  const std::string hemocosim = !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
+  const SceneRunner runner = opt.runner ? opt.runner : child_runner(hemocosim);
+
+  // Decide first, so that the plan is printed before anything runs.
+  std::vector<bool> done(cases.size());
+  std::vector<std::string> why(cases.size());
+  std::vector<double> earlier_wall(cases.size(), 0.0);
+  int todo = 0;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const std::string dir = (out / "runs" / cases[i].dir_name).string();
+    done[i] = run_finished(dir, cases[i].scene_text, &why[i], &earlier_wall[i]);
+    todo += !done[i];
+  }
+  say(fmt::format("study {}: {} runs of {} in {}{}; {} finished earlier, {} to run", study.name, cases.size(),
+                  swept_header(study), result.out, opt.reduced ? " (reduced)" : "", cases.size() - todo, todo));
+
+  const auto n = cases.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& c = cases[i];
+    StudyRunStatus st;
+    st.study_case = c;
+    st.run_dir = (out / "runs" / c.dir_name).string();
+    const std::string tag = fmt::format("[{}/{} {}]", i + 1, n, c.label);
+    if (done[i]) {
+      st.state = StudyRunStatus::State::skipped;
+      st.wall_s = earlier_wall[i];
+      say(fmt::format("{} finished earlier: skipped ({})", tag, st.run_dir));
+      result.runs.push_back(st);
+      continue;
+    }
+    if (why[i] != "no run yet") {
+      say(fmt::format("{} {}", tag, why[i]));
+      st.why = why[i];
+    }
+    remove_unfinished(st.run_dir);
+    const std::string log = (out / "logs" / (c.dir_name + ".log")).string();
+    say(fmt::format("{} {} = {}: running into {}", tag, swept_header(study), study.value_text(i), st.run_dir));
+    const auto start = std::chrono::steady_clock::now();
+    const int code = runner(c.scene_path, st.run_dir, log, [&](const std::string& line) { say(tag + " " + line); });
+    st.wall_s = seconds_since(start);
+    if (interrupted) throw StudyError(fmt::format("interrupted during run {}; rerun the same command to resume", c.dir_name));
+    if (code == 0) {
+      write_finished_marker(st.run_dir, c.scene_text, st.wall_s);
+      st.state = StudyRunStatus::State::ran;
+      say(fmt::format("{} done in {:.1f} s", tag, st.wall_s));
+    } else {
+      st.state = StudyRunStatus::State::failed;
+      const std::string line = failure_line(log);
+      st.why = fmt::format("run failed (exit {}): {} (log: {})", code, line, log);
+      say(fmt::format("{} FAILED (exit {}): {}; log in {}", tag, code, line, log));
+    }
+    result.runs.push_back(st);
+  }
+
+  // Observables of every finished run, then the figures and the report.
+  std::vector<Row> rows;
+  std::vector<std::string> plotted, labels;
+  for (const auto& st : result.runs) {
+    Row r;
+    r.run = &st;
+    if (st.state != StudyRunStatus::State::failed) {
+      try {
+        r.a = analyze_run_dir(st.run_dir);
+        r.analysed = true;
+        plotted.push_back(st.run_dir);
+        labels.push_back(st.study_case.label);
+      } catch (const std::exception& e) {
+        r.error = std::string("analysis failed: ") + e.what();
+        say(fmt::format("[{}] {}", st.study_case.label, r.error));
+      }
+    }
+    rows.push_back(std::move(r));
+  }
+  std::vector<std::string> figures;
+  std::string figure_error;
+  if (opt.no_plot) {
+    figure_error = "--no-plot";
+  } else if (plotted.empty()) {
+    figure_error = "no finished run";
+  } else {
+    try {
+      PlotOptions p;
+      p.run_dirs = plotted;
+      p.out = (out / "figures").string();
+      if (study.keys.size() == 1) p.key = study.keys.front();
+      p.labels = labels;
+      figures = plot_runs(p);
+      // The comparisons first, then run by run.
+      std::stable_partition(figures.begin(), figures.end(), [&](const std::string& f) {
+        const auto name = fs::path(f).filename().string();
+        return name == "sweep.png" || name.rfind("compare_", 0) == 0;
+      });
+    } catch (const std::exception& e) {
+      figure_error = e.what();
+      say(fmt::format("figures not drawn: {}", figure_error));
+    }
+  }
+  std::ofstream(out / "summary.csv") << summary_csv(study, rows);
+  result.report_path = (out / "report.md").string();
+  std::ofstream(result.report_path) << report_md(study, opt, reduction, result.out, rows, figures, figure_error);
+  say(fmt::format("study {}: {} of {} runs finished{}; report {}", study.name, n - result.failed(), n,
+                  result.failed() ? fmt::format(" ({} failed: rerun the same command to retry them)", result.failed()) : "",
+                  result.report_path));
+  return result;
+}
+
+int study_command(const StudyOptions& opt) {
+  interrupted = 0;
+  auto old_int = std::signal(SIGINT, on_signal);
+  auto old_term = std::signal(SIGTERM, on_signal);
+  struct Restore {
+    decltype(old_int) i, t;
+    ~Restore() {
+      std::signal(SIGINT, i);
+      std::signal(SIGTERM, t);
+    }
+  } restore{old_int, old_term};
+  const auto r = run_study(opt);
+  return r.failed() ? 1 : 0;
+}
+
+}  // namespace hemo
