@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
   study_cmd->add_option("--out", study.out, "Study directory (default runs/study-<name>, runs/study-<name>-reduced)");
   study_cmd->add_flag("--reduced", study.reduced, "Shrink every scene (vessel, mesh, time) so the study runs in minutes");
   study_cmd->add_flag("--no-plot", study.no_plot, "Write the report without figures");
+  study_cmd->add_flag("--check", study.check_only, "Only expand and validate the study's scenes and print the plan");
 
   CLI11_PARSE(app, argc, argv);
   try {

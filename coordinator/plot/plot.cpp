@@ -106,6 +106,8 @@ std::vector<std::string> plot_runs(const PlotOptions& opt) {
   for (const auto& d : opt.run_dirs) {
     std::error_code ec;
     if (!fs::is_directory(d, ec)) throw std::runtime_error(d + ": no such run directory");
+    if (!fs::exists(fs::path(d) / "scene.toml", ec) && !fs::exists(fs::path(d) / "particles.h5", ec))
+      throw std::runtime_error(d + ": not a run directory (no scene.toml, no particles.h5)");
   }
   // Analysis first, so that a run without snapshots fails here with the reader's one line.
   for (const auto& d : opt.run_dirs) ensure_analysis(d, opt.reanalyze);

@@ -3,6 +3,7 @@
 
 #include "child_process.h"
 #include "plot.h"
+#include "scene.h"
 
 #include <fmt/format.h>
 
@@ -14,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -364,7 +366,38 @@ StudyResult run_study(const StudyOptions& opt) {
   return result;
 }
 
+std::vector<std::string> check_study(const StudyOptions& opt) {
+  const Study study = load_study(resolve_study(opt.study));
+  const Reduction reduction_spec;
+  const fs::path tmp = fs::temp_directory_path() / fmt::format("hemocosim-study-check-{}", ::getpid());
+  struct Cleanup {
+    fs::path p;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  } cleanup{tmp};
+  const auto cases = expand_study(study, tmp.string(), opt.reduced ? &reduction_spec : nullptr);
+  std::vector<std::string> lines;
+  lines.push_back(fmt::format("{}: ok, {} runs of {} (base {}){}", study.path, cases.size(), swept_header(study), study.base,
+                              opt.reduced ? ", reduced" : ""));
+  for (const auto& c : cases) {
+    const Scene s = load_scene(c.scene_path);
+    const double volume = 3.14159265358979323846 * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+    const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;
+    const long platelets = s.platelet.present ? std::lround(s.platelet.number_density * volume) : 0;
+    lines.push_back(fmt::format("  {:<14} {:<36} d = {:g} um, l = {:g} um, {} RBCs, {} platelets, {:g} s", c.dir_name,
+                                study.value_text(c.index), s.vessel.diameter * 1e6, s.vessel.length * 1e6,
+                                rbcs, platelets, s.time.coupling_steps * s.time.coupling_interval));
+  }
+  return lines;
+}
+
 int study_command(const StudyOptions& opt) {
+  if (opt.check_only) {
+    for (const auto& l : check_study(opt)) fmt::print("{}\n", l);
+    return 0;
+  }
   interrupted = 0;
   auto old_int = std::signal(SIGINT, on_signal);
   auto old_term = std::signal(SIGTERM, on_signal);

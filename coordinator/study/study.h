@@ -33,6 +33,7 @@ struct StudyOptions {
   std::string hemocosim;    // the hemocosim executable for child runs; default: this one
   SceneRunner runner;       // default: `hemocosim run SCENE --out RUN_DIR` as a child process
   bool quiet = false;       // no progress lines
+  bool check_only = false;  // expand and validate every scene, print the plan, run nothing
 };
 
 // What became of one run.
@@ -55,6 +56,10 @@ struct StudyResult {
 // on, and the report says which failed.
 StudyResult run_study(const StudyOptions& opt);
 int study_command(const StudyOptions& opt);
+
+// --check: the study's scenes expanded (into a temporary folder, removed after) and validated;
+// returns the plan as printable lines. Throws StudyError like run_study.
+std::vector<std::string> check_study(const StudyOptions& opt);
 
 // The marker of a run that ended cleanly, and whether a run directory holds one for this scene.
 inline constexpr const char* kFinishedMarker = "study-finished.toml";

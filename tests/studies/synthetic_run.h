@@ -1,0 +1,40 @@
+// A small run directory in the format `hemocosim run` writes (scene.toml, particles.h5,
+// metrics.csv), with made-up but plausible data, for the plot and study tests.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <string>
+
+namespace hemo::studytest {
+
+struct SyntheticRun {
+  int snapshots = 6;         // at t = 0, dt, 2 dt, ...
+  double dt_s = 0.01;
+  int rbcs = 60;
+  int platelets = 20;
+  double drift = 0.2;        // platelets move this fraction of the way to the wall by the end
+  unsigned seed = 1;
+};
+
+// Writes into `dir` (created): scene.toml copied from `scene_path`, and particles.h5 and
+// metrics.csv for a tube of the scene's size. `spec.snapshots == 0` writes a particles.h5
+// without snapshots.
+void write_synthetic_run(const std::string& dir, const std::string& scene_path, const SyntheticRun& spec = {});
+
+// A fresh directory under the temp dir, removed with everything in it when the object goes.
+class ScratchDir {
+ public:
+  explicit ScratchDir(const std::string& name);
+  ~ScratchDir();
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  const std::string& str() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+std::string read_text(const std::string& path);
+void write_text(const std::string& path, const std::string& text);
+
+}  // namespace hemo::studytest
