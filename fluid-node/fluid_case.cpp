@@ -78,8 +78,8 @@ std::string fv_solution() {
        "    p\n    {\n        solver          GAMG;\n        smoother        GaussSeidel;\n"
        "        tolerance       1e-10;\n        relTol          0.01;\n    }\n"
        "    pFinal\n    {\n        $p;\n        relTol          0;\n    }\n"
-       "    U\n    {\n        solver          smoothSolver;\n        smoother        symGaussSeidel;\n"
-       "        tolerance       1e-12;\n        relTol          0;\n    }\n"
+       "    U\n    {\n        solver          GAMG;\n        smoother        symGaussSeidel;\n"
+       "        tolerance       1e-12;\n        relTol          0;\n        maxIter         100;\n    }\n"
        "}\n\n"
        "PISO\n{\n    momentumPredictor yes;\n    nCorrectors     2;\n"
        "    maxCorrectors   20;      // more correctors while the p residual is above:\n"
@@ -96,7 +96,9 @@ double driving_pressure_drop(const Scene& scene) {
   if (scene.driving.wall_shear_rate > 0)
     return 4 * scene.plasma.viscosity * scene.vessel.length * scene.driving.wall_shear_rate /
            scene.vessel.diameter;
-  throw std::invalid_argument("driving: neither pressure_drop nor wall_shear_rate is positive");
+  // Neither: no driving (a scene that gives pressure_drop_Pa = 0; flow only from sources).
+  if (scene.driving.pressure_drop == 0 && scene.driving.wall_shear_rate == 0) return 0;
+  throw std::invalid_argument("driving: pressure_drop and wall_shear_rate must not be negative");
 }
 
 FluidSettings fluid_settings(const Scene& scene) {

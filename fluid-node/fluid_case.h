@@ -25,7 +25,7 @@ struct FluidSettings {
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from
 // `driving.wall_shear_rate` (the pressure drop wins when both are set, as load_scene does).
-// Throws std::invalid_argument when neither is positive.
+// Both zero: no driving, 0. Throws std::invalid_argument when either is negative.
 double driving_pressure_drop(const Scene& scene);
 
 FluidSettings fluid_settings(const Scene& scene);

@@ -54,6 +54,7 @@ int main(int argc, char* argv[])
                 if (pisoDone(pisoCorr, pCorrResidual)) break;
             }
 
+            #include "momentumBudget.H"
             #include "diagnostics.H"
             #include "publishState.H"
 

@@ -16,7 +16,8 @@
 //   wrong-mesh  like none, but from --bad-at-step on the feedback names another mesh hash
 //
 // It reports, with each STEP_DONE, what it saw of the fluid (fluid_momentum_{x,y,z}_kg_m_s =
-// sum rho (1 - phi) u V with the phi the fluid was given for that step, fluid_time_s) and
+// sum rho (1 - phi) u V with the phi the fluid was given for that step, fluid_drag_{x,y,z}_N =
+// sum K u V with the K it was given, fluid_time_s) and
 // what it sent (solid_volume_m3, source_total_{x,y,z}_N). With --record FILE it writes the
 // last fluid state it received, per cell, to RUN_DIR/FILE (CSV: cell, centre, volume, phi,
 // u, grad u) for tests that need the fields.
@@ -167,14 +168,22 @@ hemo::Diagnostics diagnostics(const hemo::mesh_t& mesh, const hemo::particle_fee
   d.push_back({"source_total_z_N", source[2]});
   if (fluid != nullptr && fluid->n_cells == mesh.n_cells && sent_before.n_cells == mesh.n_cells) {
     // The fluid state of step k was computed with the feedback of step k-1.
-    double p[3] = {0, 0, 0};
+    // Its momentum, and the implicit drag it felt at the velocity it reached (sum K u V).
+    double p[3] = {0, 0, 0}, drag[3] = {0, 0, 0};
     for (int c = 0; c < mesh.n_cells; ++c) {
-      const double m = density * (1 - sent_before.solid_fraction[c]) * mesh.cell_volumes[c];
-      for (int k = 0; k < 3; ++k) p[k] += m * fluid->velocity[c][k];
+      const double V = mesh.cell_volumes[c];
+      const double m = density * (1 - sent_before.solid_fraction[c]) * V;
+      for (int k = 0; k < 3; ++k) {
+        p[k] += m * fluid->velocity[c][k];
+        drag[k] += sent_before.drag_coefficient[c] * fluid->velocity[c][k] * V;
+      }
     }
     d.push_back({"fluid_momentum_x_kg_m_s", p[0]});
     d.push_back({"fluid_momentum_y_kg_m_s", p[1]});
     d.push_back({"fluid_momentum_z_kg_m_s", p[2]});
+    d.push_back({"fluid_drag_x_N", drag[0]});
+    d.push_back({"fluid_drag_y_N", drag[1]});
+    d.push_back({"fluid_drag_z_N", drag[2]});
     d.push_back({"fluid_time_s", fluid->time_s});
   }
   return d;

@@ -31,6 +31,8 @@ TEST(FluidCase, PressureDropFromWallShearRate) {
   EXPECT_DOUBLE_EQ(hemo::driving_pressure_drop(t), 10);
   t.driving.pressure_drop = 0;
   t.driving.wall_shear_rate = 0;
+  EXPECT_DOUBLE_EQ(hemo::driving_pressure_drop(t), 0);  // no driving: flow from sources only
+  t.driving.pressure_drop = -1;
   EXPECT_THROW(hemo::driving_pressure_drop(t), std::invalid_argument);
 }
 
