@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <poll.h>
 #include <filesystem>
 #include <stdexcept>
 #include <sys/wait.h>
@@ -59,11 +60,22 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
     if (!opt.quiet) std::fprintf(stderr, "cannot execute %s: %s\n", args[0], std::strerror(errno));
     ::_exit(127);
   }
+  bool stop_sent = false;
+  auto forward_stop = [&]() {
+    if (opt.stop_flag && *opt.stop_flag && !stop_sent) {
+      ::kill(pid, SIGINT);
+      stop_sent = true;
+    }
+  };
   if (piped) {
     ::close(fds[1]);
     std::string line;
     char buf[4096];
     for (;;) {
+      pollfd p{fds[0], POLLIN, 0};
+      const int ready = ::poll(&p, 1, 200);
+      forward_stop();
+      if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
       const ssize_t n = ::read(fds[0], buf, sizeof buf);
       if (n < 0 && errno == EINTR) continue;
       if (n <= 0) break;
@@ -80,8 +92,14 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
     ::close(fds[0]);
   }
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) throw std::runtime_error(fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
+  for (;;) {
+    const pid_t r = ::waitpid(pid, &status, opt.stop_flag ? WNOHANG : 0);
+    if (r == pid) break;
+    if (r < 0 && errno != EINTR) throw std::runtime_error(fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
+    if (r == 0) {
+      forward_stop();
+      ::usleep(100 * 1000);
+    }
   }
   ChildResult r;
   if (WIFEXITED(status)) {

@@ -25,6 +25,10 @@ struct ChildOptions {
   std::function<void(const std::string&)> on_line;
   bool merge_stderr = false;
   bool quiet = false;  // discard all output (probing a program)
+  // When set, polled while the child runs: once it reads non-zero, the child gets SIGINT (a
+  // signal handler of the caller sets it, e.g. on SIGTERM from a batch system's time limit,
+  // which only reaches this process).
+  const volatile int* stop_flag = nullptr;
 };
 
 // Runs argv[0] (searched in PATH when it has no '/'); throws std::runtime_error only when the

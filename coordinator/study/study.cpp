@@ -23,7 +23,7 @@ namespace hemo {
 
 namespace {
 
-volatile std::sig_atomic_t interrupted = 0;
+volatile int interrupted = 0;  // set by study_command's SIGINT/SIGTERM handler
 void on_signal(int) { interrupted = 1; }
 
 // FNV-1a, 64 bit: a stable fingerprint of a scene's text for the finished marker.
@@ -77,6 +77,7 @@ SceneRunner child_runner(const std::string& hemocosim) {
     log.flush();
     ChildOptions opt;
     opt.merge_stderr = true;
+    opt.stop_flag = &interrupted;  // SIGTERM (batch time limit) reaches only us: pass it on as SIGINT
     opt.on_line = [&](const std::string& line) {
       log << line << "\n";
       log.flush();
@@ -279,6 +280,7 @@ StudyResult run_study(const StudyOptions& opt) {
   const auto n = cases.size();
   for (std::size_t i = 0; i < n; ++i) {
     const auto& c = cases[i];
+    if (interrupted) throw StudyError(fmt::format("interrupted before run {}; rerun the same command to resume", c.dir_name));
     StudyRunStatus st;
     st.study_case = c;
     st.run_dir = (out / "runs" / c.dir_name).string();

@@ -45,7 +45,8 @@ struct Reduction {
   double length_um = 60;         // vessel length (if the scene's is longer)
   int core_cells = 2;            // mesh: 2 x 2 core, ring 2 (20 cells per section) ...
   int ring_cells = 2;
-  int axial_cells = 6;           // ... 6 axial cells (10 um at 60 um)
+  int axial_cells = 3;           // ... 3 axial cells (20 um at 60 um). Unresolved coupling needs cells
+                                 // larger than an RBC: at d = 50 um the smallest cell is (6.3 um)^3.
   double end_time_s = 0.02;      // physical time (if the scene's is longer), at the scene's coupling interval
   int snapshots = 20;            // particle snapshots over the run
   std::string describe() const;
