@@ -268,7 +268,7 @@ StudyResult run_study(const StudyOptions& opt) {
   std::vector<bool> done(cases.size());
   std::vector<std::string> why(cases.size());
   std::vector<double> earlier_wall(cases.size(), 0.0);
-  int todo = 0;
+  std::size_t todo = 0;
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const std::string dir = (out / "runs" / cases[i].dir_name).string();
     done[i] = run_finished(dir, cases[i].scene_text, &why[i], &earlier_wall[i]);
@@ -278,6 +278,8 @@ StudyResult run_study(const StudyOptions& opt) {
                   swept_header(study), result.out, opt.reduced ? " (reduced)" : "", cases.size() - todo, todo));
 
   const auto n = cases.size();
+  double ran_s = 0;  // wall time of the runs done in this call, for the estimate of the rest
+  std::size_t ran = 0, failed_now = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& c = cases[i];
     if (interrupted) throw StudyError(fmt::format("interrupted before run {}; rerun the same command to resume", c.dir_name));
@@ -306,9 +308,14 @@ StudyResult run_study(const StudyOptions& opt) {
     if (code == 0) {
       write_finished_marker(st.run_dir, c.scene_text, st.wall_s);
       st.state = StudyRunStatus::State::ran;
-      say(fmt::format("{} done in {:.1f} s", tag, st.wall_s));
+      ran_s += st.wall_s;
+      ++ran;
+      const std::size_t left = todo - ran - failed_now;
+      say(fmt::format("{} done in {:.1f} s{}", tag, st.wall_s,
+                      left > 0 ? fmt::format("; {} to go, about {:.0f} s more", left, left * ran_s / ran) : ""));
     } else {
       st.state = StudyRunStatus::State::failed;
+      ++failed_now;
       const std::string line = failure_line(log);
       st.why = fmt::format("run failed (exit {}): {} (log: {})", code, line, log);
       say(fmt::format("{} FAILED (exit {}): {}; log in {}", tag, code, line, log));
