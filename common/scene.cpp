@@ -94,6 +94,17 @@ class Reader {
   std::vector<SceneProblem> problems_;
 };
 
+void read_name(Reader& r, const std::string& key, std::string& out, const std::vector<std::string>& known) {
+  r.read(key, out);
+  bool ok = false;
+  std::string list;
+  for (const auto& k : known) {
+    ok |= k == out;
+    list += (list.empty() ? "" : ", ") + k;
+  }
+  r.check(ok, key, "unknown name '" + out + "' (known: " + list + ")");
+}
+
 void read_species(Reader& r, Species& s, bool rbc) {
   const std::string p = s.name + ".";
   s.present = false;
@@ -118,8 +129,25 @@ void read_species(Reader& r, Species& s, bool rbc) {
     s.present = r.read(p + "number_density_per_ul", s.number_density, units::per_ul);
     r.check(s.number_density >= 0, p + "number_density_per_ul", "must not be negative");
   }
-  r.read(p + "drag", s.drag);
-  r.read(p + "lift", s.lift);
+  s.drag = rbc ? "rbc_fit" : "oblate";
+  s.lift = rbc ? "rbc_lift" : "oblate";
+  s.torque = rbc ? "none" : "oblate";
+  read_name(r, p + "drag", s.drag, known_drag_closures());
+  read_name(r, p + "lift", s.lift, known_lift_closures());
+  read_name(r, p + "torque", s.torque, known_torque_closures());
+  if (rbc) {
+    for (const auto& [key, name] : {std::pair{"drag", s.drag}, {"lift", s.lift}, {"torque", s.torque}})
+      r.check(name != "oblate", p + key, "the oblate closures are for platelets (RBCs are spheres)");
+  } else {
+    s.semi_axis_a = 2.06 * units::um;
+    s.semi_axis_c = 0.52 * units::um;
+    r.read(p + "semi_axis_a_um", s.semi_axis_a, units::um);
+    r.read(p + "semi_axis_c_um", s.semi_axis_c, units::um);
+    r.check(s.semi_axis_a > 0, p + "semi_axis_a_um", "must be positive");
+    r.check(s.semi_axis_c > 0 && s.semi_axis_c < s.semi_axis_a, p + "semi_axis_c_um",
+            "must be positive and below semi_axis_a_um (an oblate spheroid)");
+    read_name(r, p + "orientation_integrator", s.orientation_integrator, {"splitting", "euler"});
+  }
   r.check(s.diameter > 0, p + "diameter_um", "must be positive");
   r.check(s.volume > 0, p + "volume_um3", "must be positive");
   r.check(s.mass > 0, p + (rbc ? "density_kg_m3" : "mass_pg"), "must be positive");
@@ -210,6 +238,11 @@ Scene load_scene(const std::string& path) {
   r.read("time.coupling_interval_s", s.time.coupling_interval);
   r.read("time.coupling_steps", s.time.coupling_steps);
   r.read("time.dem_substeps", s.time.dem_substeps);
+  r.read("time.dem_steps_per_contact", s.time.steps_per_contact);
+  r.read("time.dem_step_max_relaxation_times", s.time.relaxation_factor);
+  r.check(s.time.steps_per_contact >= 1, "time.dem_steps_per_contact", "must be at least 1");
+  r.check(s.time.relaxation_factor >= 0, "time.dem_step_max_relaxation_times",
+          "must not be negative (0: the drag relaxation time does not limit the DEM step)");
   r.check(s.time.coupling_interval > 0, "time.coupling_interval_s", "must be positive");
   r.check(s.time.coupling_steps >= 1, "time.coupling_steps", "must be at least 1");
   r.check(s.time.dem_substeps >= 0, "time.dem_substeps", "must not be negative (0 derives it)");
@@ -217,7 +250,12 @@ Scene load_scene(const std::string& path) {
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");
 
+  r.read("gravity.x_m_s2", s.gravity.x);
+  r.read("gravity.y_m_s2", s.gravity.y);
+  r.read("gravity.z_m_s2", s.gravity.z);
+
   r.read("coupling.two_way", s.two_way);
+  read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
 
   r.report_unknown();
   if (!r.problems().empty()) throw SceneError(path, r.problems());

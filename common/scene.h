@@ -47,9 +47,35 @@ struct Species {
   double volume = 0;              // m^3, the cell's own volume (deposited as solid fraction)
   double hematocrit = 0;          // rbc: volume fraction of the vessel
   double number_density = 0;      // platelet: per m^3 of blood
-  std::string drag = "stokes";    // closure chosen by name
+  // Closures chosen by name (particle-node/closures/; MODEL.md §2, §3). A scene file's defaults
+  // are the paper's models: RBC "rbc_fit" + "rbc_lift", platelet "oblate" for all three
+  // (spherical surrogate: drag "schiller_naumann", lift "shear_lift", torque "none"). A Species
+  // built in code starts from plain Stokes drag without lift or torque.
+  std::string drag = "stokes";
   std::string lift = "none";
+  std::string torque = "none";
+  // Platelet shape: the oblate spheroid's semi-axes (two equal a, c along the symmetry axis) and
+  // how its orientation is integrated: "splitting" (second order, exact torque-free rotation)
+  // or "euler" (MODEL.md §3.3 as printed, first order). Orientation is tracked only when a
+  // closure needs it.
+  double semi_axis_a = 0;         // m
+  double semi_axis_c = 0;         // m
+  std::string orientation_integrator = "splitting";
 };
+
+// Names the scene accepts per closure slot (the particle node implements each of them).
+inline const std::vector<std::string>& known_drag_closures() {
+  static const std::vector<std::string> n = {"stokes", "rbc_fit", "oblate", "schiller_naumann"};
+  return n;
+}
+inline const std::vector<std::string>& known_lift_closures() {
+  static const std::vector<std::string> n = {"none", "rbc_lift", "oblate", "shear_lift"};
+  return n;
+}
+inline const std::vector<std::string>& known_torque_closures() {
+  static const std::vector<std::string> n = {"none", "oblate"};
+  return n;
+}
 
 struct Contact {
   double cell_youngs_modulus = 7.5e5;   // Pa
@@ -65,6 +91,17 @@ struct Timing {
   double coupling_interval = 1e-5;  // s, one fluid step and N DEM substeps
   long coupling_steps = 10;
   int dem_substeps = 0;             // 0: derived from contact time and drag relaxation
+  // The DEM step is at most contact_time / steps_per_contact and at most
+  // relaxation_factor x the shortest drag relaxation time m / beta(0) (0: drag does not limit
+  // it; the exponential drag update is stable at any step, particle-node/README.md measures
+  // what a step above the relaxation time costs).
+  double steps_per_contact = 10;
+  double relaxation_factor = 0;
+};
+
+// Body force on the particles (m g); MODEL.md §1: off by default.
+struct Gravity {
+  double x = 0, y = 0, z = 0;       // m/s^2
 };
 
 struct Output {
@@ -94,9 +131,14 @@ struct Scene {
   Species rbc{"rbc"};
   Species platelet{"platelet"};
   Contact contact;
+  Gravity gravity;
   Timing time;
   Output output;
   bool two_way = true;              // particles push back on the fluid
+  // How a particle's volume, drag and coefficient are shared among fluid cells:
+  // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
+  // face of its cell) or "centre_cell" (all to the cell holding its centre).
+  std::string solid_fraction = "sphere_overlap";
 };
 
 // One problem found in a scene, with where it is.

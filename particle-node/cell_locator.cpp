@@ -141,6 +141,7 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   }
 
   plane_start_.assign(n_cells + 1, 0);
+  std::vector<Vec3> plane_point;  // a point on each plane (the face centroid)
   std::vector<char> wall_cell(n_cells, 0);
   tolerance_.resize(n_cells);
   for (int c = 0; c < n_cells; ++c) {
@@ -162,11 +163,13 @@ CellLocator::CellLocator(const mesh_t& mesh) {
       plane.offset = plane.normal.dot(faces[f].centroid);
       plane.across = f < n_internal ? (mesh.owner[f] == c ? mesh.neighbour[f] : mesh.owner[f]) : -1;
       plane.wall = wall_face[f] != 0;
+      plane.beyond = plane.across;
       plane.gap = 0;
       if (on_circle[f] && std::abs(plane.normal.z()) < 0.5)  // a side wall of the vessel
         plane.gap = std::max(0.0, radius_ * std::hypot(plane.normal.x(), plane.normal.y()) - plane.offset);
       if (plane.gap > 0) wall_cell[c] = 1;
       planes_.push_back(plane);
+      plane_point.push_back(faces[f].centroid);
     }
     plane_start_[c + 1] = static_cast<int>(planes_.size());
   }
@@ -216,6 +219,16 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   for (int b = 0; b < total_bins; ++b) bin_start_[b + 1] = bin_start_[b] + static_cast<int>(lists[b].size());
   bin_cells_.reserve(bin_start_.back());
   for (auto& l : lists) bin_cells_.insert(bin_cells_.end(), l.begin(), l.end());
+
+  // The periodic partner beyond each cyclic face: the cell just across it, after wrapping.
+  for (int c = 0; c < n_cells; ++c)
+    for (int k = plane_start_[c]; k < plane_start_[c + 1]; ++k) {
+      Plane& p = planes_[k];
+      if (p.across >= 0 || p.wall) continue;
+      const double step = 1e-6 * std::cbrt(volume_[c]);
+      const int partner = locate(plane_point[k] + step * p.normal);
+      p.beyond = partner;  // may be c itself with one axial layer
+    }
 }
 
 Vec3 CellLocator::wrap(const Vec3& x) const {

@@ -71,6 +71,29 @@ class CellLocator {
   // inside all its other faces); else -1.
   int locate_in_wall_gap(const Vec3& x) const;
 
+  // Calls f(signed distance of x from the face plane (< 0 on the cell's side), the cell beyond
+  // the face, the face's outward unit normal) for each face of `cell`; beyond is the neighbour,
+  // the periodic partner across a cyclic face, or -1 beyond a wall. x already wrapped.
+  template <class F>
+  void for_each_face(int cell, const Vec3& x, F&& f) const {
+    for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k)
+      f(signed_distance(planes_[k], x), planes_[k].beyond, planes_[k].normal);
+  }
+  // The cell beyond the face of `cell` whose outward normal is closest to `direction` (unit), if
+  // that face turns toward it by less than ~45 degrees; else -1 (also beyond a wall).
+  int cell_toward(int cell, const Vec3& direction) const {
+    double best = 0.7;
+    int beyond = -1;
+    for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k) {
+      const double c = planes_[k].normal.dot(direction);
+      if (c > best) {
+        best = c;
+        beyond = planes_[k].beyond;
+      }
+    }
+    return beyond;
+  }
+
   // True when the (already wrapped) point is inside `cell` up to the tolerance.
   bool inside(int cell, const Vec3& x) const;
 
@@ -104,6 +127,7 @@ class CellLocator {
     Vec3 normal;   // unit, pointing out of the cell
     double offset; // normal . (point on the face)
     int across;    // the cell on the other side, -1 for a boundary face
+    int beyond;    // across, or the periodic partner of a cyclic face (-1: wall)
     bool wall;     // a face of a wall patch (any boundary patch that is not cyclic)
     double gap;    // wall chord on the vessel circle: how far behind it the circle reaches (m)
   };

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_engine.h"
 
-#include "closures/exponential_drag.h"
 #include "overlap.h"
 
 #include <atom.h>
+#include <fix.h>
 #include <fix_external.h>
 #include <input.h>
 #include <lammps.h>
@@ -27,6 +27,10 @@ static_assert(std::is_same_v<LAMMPS_NS::bigint, std::int64_t>, "LIGGGHTS built w
 namespace {
 
 constexpr const char* kFluidFix = "hemo_fluid";
+constexpr const char* kImpulseFix = "hemo_impulse";
+constexpr const char* kRotationFix = "hemo_rotation";
+constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
+constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
@@ -50,15 +54,21 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
     if (!s.present) continue;
     if (!(s.diameter > 0) || !(s.mass > 0) || !(s.volume > 0))
       throw std::invalid_argument(s.name + ": diameter, mass and volume must be positive");
-    drag_[sp] = make_drag_closure(s, scene.plasma);
-    if (s.lift != "none")  // lift closures come with issue #4; never ignore one silently
-      throw std::invalid_argument(s.name + ": lift closure '" + s.lift + "' is not implemented yet (known: none)");
+    forces_[sp] = std::make_unique<SpeciesForces>(s, scene);
+    if (forces_[sp]->needs_orientation()) {
+      if (!(s.semi_axis_a > 0) || !(s.semi_axis_c > 0))
+        throw std::invalid_argument(s.name + ": an oblate closure needs the semi-axes a and c");
+      rotation_[sp] = make_orientation_integrator(
+          s.orientation_integrator, SymmetricTop::oblate_spheroid(s.mass, s.semi_axis_a, s.semi_axis_c));
+      any_orientation_ = true;
+    }
     volume_[sp] = s.volume;
     diameter_[sp] = s.diameter;
     mass_[sp] = s.mass;
     d_max = std::max(d_max, s.diameter);
   }
   if (d_max == 0) throw std::invalid_argument("the scene has no particle species");
+  gravity_ = Vec3(scene.gravity.x, scene.gravity.y, scene.gravity.z);
 
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log", log_path};
   std::vector<char*> argv;
@@ -76,6 +86,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
       "soft_particles yes",
       "processors 1 1 *",
       "thermo 0",
+      // A lost atom is our error (named, one line), not LIGGGHTS's exit.
+      "thermo_modify lost ignore",
   };
   for (const auto& line : setup) command(line);
   d_max_ = d_max;
@@ -125,13 +137,24 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
       fmt::format("fix hemo_wall all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} 0 0",
                   wall_type, R),
       "fix hemo_integrate all nve/sphere",
+      fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix,
+                  " 0 0 0 0 0 0 0 0"),
+      // Defined after the wall: its post_force sees the contact forces and torques of the step.
       fmt::format("fix {} all external pf/callback 1 1", kFluidFix),
   };
   for (const auto& line : setup) command(line);
-  const int ifix = lmp_->modify->find_fix(kFluidFix);
-  if (ifix < 0) throw std::runtime_error("LIGGGHTS did not create the fluid force fix");
-  static_cast<LAMMPS_NS::FixExternal*>(lmp_->modify->fix[ifix])->set_callback(&DemEngine::force_callback, this);
+  if (any_orientation_) command(fmt::format("fix {} all property/atom hemoRotation vector yes no no 1 0 0 0 0 0 0", kRotationFix));
+  auto find = [&](const char* id) {
+    const int ifix = lmp_->modify->find_fix(id);
+    if (ifix < 0) throw std::runtime_error(std::string("LIGGGHTS did not create the fix ") + id);
+    return lmp_->modify->fix[ifix];
+  };
+  static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix))->set_callback(&DemEngine::force_callback, this);
+  impulse_fix_ = find(kImpulseFix);
+  if (any_orientation_) rotation_fix_ = find(kRotationFix);
 }
+
+double** DemEngine::per_atom(LAMMPS_NS::Fix* fix) { return fix != nullptr ? fix->array_atom : nullptr; }
 
 void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   if (n_particles_ > 0 || type_of_[kRbc] + type_of_[kPlatelet] > 0)
@@ -139,7 +162,7 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   if (particles.empty()) throw std::invalid_argument("no particles to simulate");
   std::array<bool, kSpeciesCount> used{};
   for (const auto& p : particles) {
-    if (p.species < 0 || p.species >= kSpeciesCount || !drag_[p.species])
+    if (p.species < 0 || p.species >= kSpeciesCount || !forces_[p.species])
       throw std::invalid_argument("a placed particle has a species the scene does not have");
     used[p.species] = true;
   }
@@ -195,11 +218,21 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   const bool last = ntimestep == run_start_ + run_steps_;
   const bool half = last || ntimestep == run_start_;
   const double duration = (half ? 0.5 : 1.0) * dt_;
+  // Orientation: a step's kick is applied once, at its first evaluation (a `pre yes` setup
+  // re-evaluates the step the previous run ended on); the drift to this step comes first.
+  const bool advance = ntimestep > last_rotation_step_;
+  const bool drift = advance && last_rotation_step_ >= 0;
   const int* type = lmp_->atom->type;
   double** v = lmp_->atom->v;
+  double** contact = lmp_->atom->f;        // pair and wall forces of this step so far
+  double** contact_torque = lmp_->atom->torque;
+  double** omega = lmp_->atom->omega;
+  double** impulse = per_atom(impulse_fix_);
+  double** rot = per_atom(rotation_fix_);
   for (int i = 0; i < nlocal; ++i) {
     const int t = tag[i];
     const int sp = species_of_type_[type[i]];
+    const SpeciesForces& forces = *forces_[sp];
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     const Vec3 vi(v[i][0], v[i][1], v[i][2]);
     f[i][0] = f[i][1] = f[i][2] = 0.0;
@@ -217,21 +250,64 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
                                   t, coupling_step_, ntimestep, xi.x(), xi.y(), xi.z(), std::hypot(xi.x(), xi.y())));
       continue;
     }
-    const Vec3 slip = fluid_->velocity(cell, locator_->wrap(xi)) - vi;
-    double beta, beta_eff;
-    if (beta_eff_[sp] >= 0) {
-      beta = beta_[sp];
-      beta_eff = beta_eff_[sp];
-    } else {
-      beta = drag_[sp]->coefficient(slip);
-      beta_eff = exponential_drag_coefficient(mass_[sp], beta, dt_);
+    ParticleFlow flow;
+    flow.velocity = fluid_->velocity(cell, locator_->wrap(xi));
+    flow.slip = flow.velocity - vi;
+    if (forces.needs_gradient()) {
+      flow.gradient = fluid_->gradient(cell);
+      flow.shear_rate = fluid_->shear_rate(cell);
+      flow.centreline_speed = centreline_speed_;
     }
-    const Vec3 force = beta_eff * slip;
-    f[i][0] = force.x();
-    f[i][1] = force.y();
-    f[i][2] = force.z();
-    deposition_->add_drag(cell, force, beta, duration);
-    if (last) carry_.push_back({cell, beta, force});
+    const OrientationIntegrator* rotation = rotation_[sp].get();
+    Quat q = Quat::Identity();
+    Vec3 l = Vec3::Zero();
+    if (rotation) {
+      q = Quat(rot[i][0], rot[i][1], rot[i][2], rot[i][3]);
+      l = Vec3(rot[i][4], rot[i][5], rot[i][6]);
+      if (drift) rotation->drift(q, l, rotation_dt_);
+      flow.axis = symmetry_axis(q);
+    }
+    const Vec3 weight = mass_[sp] * gravity_;
+    const Vec3 other = Vec3(contact[i][0], contact[i][1], contact[i][2]) + weight;
+    const FluidForce ff = forces.evaluate(flow, other, dt_);
+    if (!ff.finite()) {
+      note_problem(t, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
+                                  "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
+                                  t, coupling_step_, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(), ff.lift.x(),
+                                  ff.lift.y(), ff.lift.z(), flow.slip.norm()));
+      continue;
+    }
+    max_re_[sp] = std::max(max_re_[sp], ff.reynolds);
+    const Vec3 fluid_force = ff.total();
+    const Vec3 applied = fluid_force + weight;
+    f[i][0] = applied.x();
+    f[i][1] = applied.y();
+    f[i][2] = applied.z();
+    double* acc = impulse[i];
+    for (int d = 0; d < 3; ++d) acc[d] += duration * fluid_force[d];
+    acc[3] += duration * ff.beta;
+    if (last) {
+      for (int d = 0; d < 3; ++d) acc[4 + d] = fluid_force[d];
+      acc[7] = ff.beta;
+    }
+    if (rotation) {
+      const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
+      if (advance) rotation->kick(q, l, torque, dt_);
+      const Vec3 w = rotation->top().angular_velocity(q, l);
+      rot[i][0] = q.w();
+      rot[i][1] = q.x();
+      rot[i][2] = q.y();
+      rot[i][3] = q.z();
+      for (int d = 0; d < 3; ++d) {
+        rot[i][4 + d] = l[d];
+        omega[i][d] = w[d];       // the contacts of the next step see the platelet's own rotation
+        contact_torque[i][d] = 0;  // and nve/sphere leaves omega alone
+      }
+    }
+  }
+  if (advance) {
+    last_rotation_step_ = ntimestep;
+    rotation_dt_ = dt_;
   }
 }
 
@@ -268,33 +344,33 @@ std::string DemEngine::agree_on_problem() {
   return msg;
 }
 
-std::string DemEngine::run(long coupling_step, int substeps, double dt, const FluidSampler& fluid,
-                           Deposition& deposition) {
+void DemEngine::start_accumulators(bool carry) {
+  // With `pre no` the last force of the previous run acts for the first half step of this one:
+  // its impulse belongs to this interval.
+  double** acc = per_atom(impulse_fix_);
+  const int nlocal = lmp_->atom->nlocal;
+  for (int i = 0; i < nlocal; ++i)
+    for (int d = 0; d < 4; ++d) acc[i][d] = carry ? 0.5 * dt_ * acc[i][4 + d] : 0.0;
+}
+
+std::string DemEngine::run(long coupling_step, int substeps, double dt, const FluidSampler& fluid) {
   if (n_particles_ == 0) return {};
   if (substeps < 1 || !(dt > 0)) throw std::invalid_argument("DEM run needs at least one step of positive length");
   fluid_ = &fluid;
-  deposition_ = &deposition;
+  centreline_speed_ = fluid.max_cell_speed();
   coupling_step_ = coupling_step;
   run_steps_ = substeps;
   callbacks_ = 0;
   outside_ = 0;
+  max_re_.fill(0.0);
   first_problem_.clear();
   const bool new_dt = dt != dt_;
   dt_ = dt;
-  for (int sp = 0; sp < kSpeciesCount; ++sp) {
-    beta_eff_[sp] = -1;
-    if (drag_[sp] && drag_[sp]->slip_independent()) {
-      beta_[sp] = drag_[sp]->coefficient(Vec3::Zero());
-      beta_eff_[sp] = exponential_drag_coefficient(mass_[sp], beta_[sp], dt);
-    }
-  }
   // `pre no` skips re-initialisation between runs and keeps the forces of the last step, whose
-  // second half kick comes first in this run: its impulse belongs to this interval. A new step
-  // size needs `pre yes` (integrator factors), which recomputes the forces instead.
+  // second half kick comes first in this run. A new step size needs `pre yes` (integrator
+  // factors), which recomputes the forces instead.
   const bool pre = first_run_ || new_dt;
-  if (!pre)
-    for (const auto& c : carry_) deposition.add_drag(c.cell, c.force, c.beta, 0.5 * dt);
-  carry_.clear();
+  start_accumulators(!pre);
   if (new_dt) command(fmt::format("timestep {:.17g}", dt));
   if (log_path_ != "none" && coupling_step % kLogRotateSteps == 1)
     command("log " + log_path_ + ".steps");  // restarts the run log: bounded size, recent errors kept
@@ -302,14 +378,32 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   command(fmt::format("run {} pre {} post no", substeps, pre ? "yes" : "no"));
   first_run_ = false;
   fluid_ = nullptr;
-  deposition_ = nullptr;
   const long expected = pre ? substeps + 1 : substeps;  // `pre yes` adds the setup evaluation
   if (callbacks_ != expected)
     throw std::runtime_error(fmt::format("LIGGGHTS evaluated the fluid forces {} times in a run of {} steps, not {}",
                                          callbacks_, substeps, expected));
   sync_tracking();
   outside_total_ = static_cast<long>(sum_all(static_cast<double>(outside_), comm_));
-  return agree_on_problem();
+  for (double& re : max_re_) re = max_all(re, comm_);
+  std::string problem = agree_on_problem();
+  if (problem.empty()) problem = check_lost(coupling_step);
+  return problem;
+}
+
+std::string DemEngine::check_lost(long coupling_step) {
+  // LIGGGHTS drops an atom that leaves the box (thermo_modify lost ignore): name the first.
+  const long have = static_cast<long>(sum_all(static_cast<double>(lmp_->atom->nlocal), comm_));
+  lost_ = n_particles_ - have;
+  if (lost_ == 0) return {};
+  std::vector<double> present(n_particles_ + 1, 0.0);
+  for (int i = 0; i < lmp_->atom->nlocal; ++i) present[lmp_->atom->tag[i]] = 1;
+  MPI_Allreduce(MPI_IN_PLACE, present.data(), static_cast<int>(present.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  long first = 0;
+  for (long t = 1; t <= n_particles_ && first == 0; ++t)
+    if (present[t] == 0) first = t;
+  return fmt::format("particle {} was lost by LIGGGHTS (it left the DEM box) during coupling step {}; {} particle{} lost "
+                     "in all",
+                     first, coupling_step, lost_, lost_ == 1 ? "" : "s");
 }
 
 void DemEngine::sync_tracking() {
@@ -331,16 +425,20 @@ void DemEngine::sync_tracking() {
   }
 }
 
-void DemEngine::finish_deposition(Deposition& deposition) {
-  deposition.clear_volume();
+void DemEngine::deposit(Deposition& deposition) {
+  deposition.clear();
   const int nlocal = lmp_->atom->nlocal;
   const int* tag = lmp_->atom->tag;
   const int* type = lmp_->atom->type;
   double** x = lmp_->atom->x;
+  double** acc = per_atom(impulse_fix_);
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     const int cell = cell_of(tag[i], xi);
-    if (cell >= 0) deposition.add_volume(cell, locator_->wrap(xi), volume_[species_of_type_[type[i]]]);
+    const int sp = species_of_type_[type[i]];
+    if (cell >= 0)
+      deposition.add_particle(cell, locator_->wrap(xi), 0.5 * diameter_[sp], volume_[sp],
+                              Vec3(acc[i][0], acc[i][1], acc[i][2]), acc[i][3]);
   }
   int size = 1;
   MPI_Comm_size(comm_, &size);
@@ -377,6 +475,9 @@ EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
     d.core_fluid_axial_velocity = sums[2] / sums[0];
   }
   d.max_speed = max_all(max_speed, comm_);
+  d.max_reynolds[0] = max_re_[0];
+  d.max_reynolds[1] = max_re_[1];
+  d.lost = lost_;
 
   const ParticleSnapshot all = snapshot(0, 0.0);
   std::vector<Vec3> pos(all.size());
@@ -391,22 +492,30 @@ EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
 
 ParticleSnapshot DemEngine::snapshot(long step, double time_s) {
   const std::size_t n = static_cast<std::size_t>(n_particles_);
-  // Per tag: species, position (3), velocity (3); summed over ranks (each atom on one rank).
-  std::vector<double> buf(7 * n, 0.0);
+  // Per tag: species, position (3), velocity (3), orientation (4); summed over ranks (each atom
+  // on one rank). A tag no rank has (lost) keeps zeros.
+  constexpr int kPer = 11;
+  std::vector<double> buf(kPer * n, 0.0);
   const int nlocal = lmp_->atom->nlocal;
   const int* tag = lmp_->atom->tag;
   const int* type = lmp_->atom->type;
   double** x = lmp_->atom->x;
   double** v = lmp_->atom->v;
+  double** rot = per_atom(rotation_fix_);
   for (int i = 0; i < nlocal; ++i) {
-    const std::size_t k = 7 * static_cast<std::size_t>(tag[i] - 1);
-    buf[k] = species_of_type_[type[i]];
+    const std::size_t k = kPer * static_cast<std::size_t>(tag[i] - 1);
+    const int sp = species_of_type_[type[i]];
+    buf[k] = sp;
     buf[k + 1] = x[i][0];
     buf[k + 2] = x[i][1];
     buf[k + 3] = unwrap_z(tag[i], x[i][2]);
     buf[k + 4] = v[i][0];
     buf[k + 5] = v[i][1];
     buf[k + 6] = v[i][2];
+    if (rotation_[sp])
+      for (int d = 0; d < 4; ++d) buf[k + 7 + d] = rot[i][d];
+    else
+      buf[k + 7] = 1;
   }
   int size = 1;
   MPI_Comm_size(comm_, &size);
@@ -418,15 +527,30 @@ ParticleSnapshot DemEngine::snapshot(long step, double time_s) {
   s.species.resize(n);
   s.position.resize(3 * n);
   s.velocity.resize(3 * n);
+  s.orientation.resize(4 * n);
   for (std::size_t t = 0; t < n; ++t) {
     s.id[t] = static_cast<std::int64_t>(t + 1);
-    s.species[t] = static_cast<std::int8_t>(buf[7 * t]);
+    s.species[t] = static_cast<std::int8_t>(buf[kPer * t]);
     for (int d = 0; d < 3; ++d) {
-      s.position[3 * t + d] = buf[7 * t + 1 + d];
-      s.velocity[3 * t + d] = buf[7 * t + 4 + d];
+      s.position[3 * t + d] = buf[kPer * t + 1 + d];
+      s.velocity[3 * t + d] = buf[kPer * t + 4 + d];
     }
+    for (int d = 0; d < 4; ++d) s.orientation[4 * t + d] = buf[kPer * t + 7 + d];
   }
   return s;
+}
+
+void DemEngine::set_orientation(long id, const Quat& q) {
+  double** rot = per_atom(rotation_fix_);
+  if (rot == nullptr) throw std::logic_error("no particle of this scene tracks an orientation");
+  const Quat u = q.normalized();
+  for (int i = 0; i < lmp_->atom->nlocal; ++i)
+    if (lmp_->atom->tag[i] == id) {
+      rot[i][0] = u.w();
+      rot[i][1] = u.x();
+      rot[i][2] = u.y();
+      rot[i][3] = u.z();
+    }
 }
 
 }  // namespace hemo::particles

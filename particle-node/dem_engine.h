@@ -2,11 +2,19 @@
 //
 // Particles are LIGGGHTS granular atoms (type 1 = RBC, 2 = platelet, 3 = the vessel wall's
 // material; LIGGGHTS wants types from 1 without holes, so a scene without RBCs has platelets
-// as type 1 and the wall as type 2) in SI units, Hertz contacts with tangential history, the vessel wall a
-// `wall/gran` zcylinder primitive, the box periodic along z with the mesh's period. The fluid
-// acts through `fix external pf/callback`: every DEM step our callback locates each particle's
-// fluid cell, samples the plasma velocity there, applies the drag with the exponential
-// integrator, and accumulates the force for the interval-mean feedback.
+// as type 1 and the wall as type 2) in SI units, Hertz–Mindlin contacts with tangential history
+// between all cells and with the wall (`pair gran` and a `wall/gran` zcylinder primitive), the
+// box periodic along z with the mesh's period. The fluid acts through `fix external
+// pf/callback`: every DEM step our callback locates each particle's fluid cell, samples the
+// plasma there, evaluates the species' closures (SpeciesForces), applies the drag with the
+// exponential update (the contact forces LIGGGHTS computed for the step count as the step's
+// other forces), and accumulates each particle's impulse for the feedback.
+//
+// Platelets with an oblate closure carry an orientation: quaternion and angular momentum in a
+// LIGGGHTS `fix property/atom` (so they migrate between ranks with their atom), advanced in
+// the same callback (orientation.h: kick with the hydrodynamic + contact torque, drift), the
+// resulting angular velocity written to LIGGGHTS's omega (contacts see it) and their torque
+// zeroed so that nve/sphere leaves it alone. RBCs rotate as LIGGGHTS spheres.
 //
 // Velocity Verlet applies the force of a callback in two half kicks. The first `run N` (and any
 // run after a change of step size) evaluates the forces at setup too; later runs use `pre no`,
@@ -17,17 +25,19 @@
 // weighs the forces the same way: over every interval the fluid receives exactly the impulse
 // the particles got.
 //
-// Per-particle data lives in arrays indexed by the LIGGGHTS atom tag (atoms are reordered and
-// migrate between ranks). Per-cell and per-particle arrays are summed over MPI ranks where a
-// global view is needed; one rank is what runs today.
+// Each particle's interval impulse (integral of F dt and of beta dt, and its last force for the
+// next interval's first half kick) lives in a `fix property/atom` too; after a run every rank
+// deposits its own atoms (deposit()) and the per-cell arrays are summed over ranks. The locate
+// cache and z-unwrapping data are arrays indexed by the atom tag, synchronised after each run.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
 #include "cell_locator.h"
-#include "closures/drag_closure.h"
 #include "deposition.h"
+#include "fluid_forces.h"
 #include "fluid_sampler.h"
 #include "h5_output.h"
+#include "orientation.h"
 #include "placement.h"
 
 #include <mpi.h>
@@ -41,6 +51,7 @@
 
 namespace LAMMPS_NS {
 class LAMMPS;
+class Fix;
 }
 
 namespace hemo::particles {
@@ -55,6 +66,8 @@ struct EngineDiagnostics {
   long core_particles = 0;
   double max_overlap = 0;           // largest overlap / smaller diameter (pairs and wall)
   double max_speed = 0;             // m/s
+  double max_reynolds[2] = {0, 0};  // per species, over the last run
+  long lost = 0;                    // particles LIGGGHTS no longer has
 };
 
 class DemEngine {
@@ -70,21 +83,30 @@ class DemEngine {
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return n_particles_; }
 
-  // Runs `substeps` DEM steps of `dt` in `fluid`, accumulating the drag applied into
-  // `deposition` (not cleared here). `coupling_step` only labels errors. Returns an empty
-  // string, or a one-line error (particle outside the mesh, non-finite state) naming the
+  // Runs `substeps` DEM steps of `dt` in `fluid`, each particle accumulating the impulse the
+  // fluid gave it. `coupling_step` only labels errors. Returns an empty string, or a one-line
+  // error (particle outside the mesh, non-finite state or force, particle lost) naming the
   // particle and the step; the error is the same on every rank.
-  std::string run(long coupling_step, int substeps, double dt, const FluidSampler& fluid, Deposition& deposition);
+  std::string run(long coupling_step, int substeps, double dt, const FluidSampler& fluid);
 
-  // Deposits every particle's volume at its current position (clears volumes first) and sums
-  // the per-cell accumulators over ranks. Collective.
-  void finish_deposition(Deposition& deposition);
+  // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
+  // its current position, and sums the per-cell accumulators over ranks. Collective.
+  void deposit(Deposition& deposition);
+
+  // Largest particle Reynolds number per species in the last run, and whether it exceeded the
+  // drag law's range for the first time (the node warns once per run).
+  double max_reynolds(int species) const { return max_re_[species]; }
 
   // Diagnostics at the current state in `fluid` (collective).
   EngineDiagnostics diagnostics(const FluidSampler* fluid);
 
   // Every particle, sorted by id, z unwrapped (collective; complete on every rank).
   ParticleSnapshot snapshot(long step, double time_s);
+
+  // Sets a particle's orientation (tests); its angular momentum is kept.
+  void set_orientation(long id, const Quat& q);
+  bool tracks_orientation(int species) const { return rotation_[species] != nullptr; }
+  const SpeciesForces& forces(int species) const { return *forces_[species]; }
 
   long dem_timestep() const;
 
@@ -99,18 +121,27 @@ class DemEngine {
   // The fluid cell of a particle: exact, else the wall cell whose gap it is in, else -1.
   int cell_of(int tag, const Vec3& x, bool* in_wall_gap = nullptr);
   std::string agree_on_problem();
+  std::string check_lost(long coupling_step);
+  double** per_atom(LAMMPS_NS::Fix* fix);
+  void start_accumulators(bool carry);
 
   const Scene scene_;
   const CellLocator* locator_;
   MPI_Comm comm_;
   std::string log_path_;
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
-  std::array<std::unique_ptr<DragClosure>, kSpeciesCount> drag_;
+  std::array<std::unique_ptr<SpeciesForces>, kSpeciesCount> forces_;
+  std::array<std::unique_ptr<OrientationIntegrator>, kSpeciesCount> rotation_;  // null: a sphere
   std::array<double, kSpeciesCount> volume_{};    // m^3, deposited as solid
   std::array<double, kSpeciesCount> diameter_{};  // m
   std::array<double, kSpeciesCount> mass_{};      // kg
-  std::array<double, kSpeciesCount> beta_{};      // N s/m, for slip-independent closures
-  std::array<double, kSpeciesCount> beta_eff_{};  // exponential-integrator coefficient; < 0: per particle
+  std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
+  Vec3 gravity_ = Vec3::Zero();
+  bool any_orientation_ = false;
+  LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
+  LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)
+  std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
+  double rotation_dt_ = 0;                 // the step length of that kick
   long n_particles_ = 0;
   double d_max_ = 0;
   std::array<int, kSpeciesCount> type_of_{};      // LIGGGHTS atom type of a species (0: none)
@@ -126,7 +157,7 @@ class DemEngine {
 
   // State of the run in progress (read by the callback).
   const FluidSampler* fluid_ = nullptr;
-  Deposition* deposition_ = nullptr;
+  double centreline_speed_ = 0;
   double dt_ = 0;
   std::int64_t run_start_ = 0;
   int run_steps_ = 0;
@@ -137,12 +168,7 @@ class DemEngine {
   std::string first_problem_;      // on this rank
   int first_problem_tag_ = 0;
   bool first_run_ = true;
-  struct Carry {
-    int cell;
-    double beta;
-    Vec3 force;
-  };
-  std::vector<Carry> carry_;        // last forces of the previous run: their second half is still due
+  long lost_ = 0;
 };
 
 }  // namespace hemo::particles

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_timing.h"
 
+#include "fluid_forces.h"
+
 #include <units.h>
 
 #include <algorithm>
@@ -78,9 +80,13 @@ DemTiming derive_dem_timing(const Scene& s, double coupling_interval, int subste
              a.sp->name + "-wall");
     t.rayleigh_time = std::min(t.rayleigh_time, rayleigh_time(a.r, a.density, c.cell_youngs_modulus, c.cell_poisson_ratio));
     if (s.plasma.viscosity > 0)
-      t.relaxation_time = std::min(t.relaxation_time, a.sp->mass / (3 * units::pi * s.plasma.viscosity * 2 * a.r));
+      t.relaxation_time = std::min(t.relaxation_time, a.sp->mass / SpeciesForces(*a.sp, s).max_coefficient_at_rest());
   }
-  const double dt_max = t.contact_time / kStepsPerContact;
+  double dt_max = t.contact_time / s.time.steps_per_contact;
+  if (s.time.relaxation_factor > 0 && s.time.relaxation_factor * t.relaxation_time < dt_max) {
+    dt_max = s.time.relaxation_factor * t.relaxation_time;
+    t.relaxation_limited = true;
+  }
   t.substeps = substeps_override > 0 ? substeps_override
                                      : std::max(1, static_cast<int>(std::ceil(coupling_interval / dt_max * (1 - 1e-12))));
   t.dt = coupling_interval / t.substeps;

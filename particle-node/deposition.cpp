@@ -1,10 +1,103 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "deposition.h"
 
+#include <algorithm>
+
+#include <stdexcept>
+
 namespace hemo::particles {
+
+int SphereOverlapFraction::share(int cell, const Vec3& x, double radius, CellShare* out) const {
+  out[0] = {cell, 1.0};
+  if (!(radius > 0)) return 1;
+  // The faces whose plane cuts the sphere, grouped into directions.
+  struct Cut {
+    double fraction;
+    int beyond;
+    Vec3 normal;
+  };
+  struct Direction {
+    Cut side[2];
+    int n = 0;
+  };
+  constexpr int kMaxDirections = 6;
+  Direction dirs[kMaxDirections];
+  int n_dirs = 0;
+  const double inv_r3 = 1 / (4 * radius * radius * radius);
+  locator_->for_each_face(cell, x, [&](double signed_distance, int beyond, const Vec3& normal) {
+    const double inside = std::max(0.0, -signed_distance);
+    if (inside >= radius) return;
+    const double h = radius - inside;  // cap height beyond the plane
+    const Cut cut{h * h * (3 * radius - h) * inv_r3, beyond, normal};
+    for (int k = 0; k < n_dirs; ++k)
+      if (dirs[k].n == 1 && dirs[k].side[0].normal.dot(normal) < -0.5) {
+        dirs[k].side[dirs[k].n++] = cut;
+        return;
+      }
+    if (n_dirs == kMaxDirections) return;  // more cut faces than a cell of ours has: keep them
+    Direction& d = dirs[n_dirs++];
+    d.side[0] = cut;
+    d.n = 1;
+  });
+  if (n_dirs == 0) return 1;
+  // Opposite caps cannot overlap, but keep each direction's split a distribution.
+  for (int k = 0; k < n_dirs; ++k) {
+    const double total = dirs[k].side[0].fraction + (dirs[k].n > 1 ? dirs[k].side[1].fraction : 0);
+    if (total > 1)
+      for (int j = 0; j < dirs[k].n; ++j) dirs[k].side[j].fraction /= total;
+  }
+  // Every combination of (stay, cross side 0, cross side 1) over the directions.
+  int n = 0;
+  int choice[kMaxDirections] = {0};
+  while (true) {
+    double w = 1;
+    int target = cell;
+    for (int k = 0; k < n_dirs && w > 0; ++k) {
+      const Direction& d = dirs[k];
+      if (choice[k] == 0) {
+        w *= 1 - d.side[0].fraction - (d.n > 1 ? d.side[1].fraction : 0);
+        continue;
+      }
+      const Cut& c = d.side[choice[k] - 1];
+      w *= c.fraction;
+      // From the centre's cell straight across the face; from a neighbour, across its face
+      // that looks the same way. Behind a wall: stay.
+      const int next = target == cell ? c.beyond : locator_->cell_toward(target, c.normal);
+      if (next >= 0) target = next;
+    }
+    if (w > 0) {
+      int k = 0;
+      while (k < n && out[k].cell != target) ++k;
+      if (k < n)
+        out[k].fraction += w;
+      else if (n < kMaxShares)
+        out[n++] = {target, w};
+      else
+        out[0].fraction += w;  // no room: the centre's cell keeps it
+    }
+    int k = 0;  // next combination
+    while (k < n_dirs && ++choice[k] > dirs[k].n) choice[k++] = 0;
+    if (k == n_dirs) break;
+  }
+  if (n == 0 || out[0].cell != cell) {  // keep the documented order: the centre's cell first
+    int k = 0;
+    while (k < n && out[k].cell != cell) ++k;
+    if (k == n && n < kMaxShares) out[n++] = {cell, 0.0};
+    if (k < n) std::swap(out[0], out[k]);
+  }
+  return n;
+}
+
+std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator) {
+  if (name == "centre_cell") return std::make_unique<CentreCellFraction>();
+  if (name == "sphere_overlap") return std::make_unique<SphereOverlapFraction>(locator);
+  throw std::invalid_argument("unknown solid fraction model '" + name + "' (known: centre_cell, sphere_overlap)");
+}
 
 Deposition::Deposition(const CellLocator& locator, std::unique_ptr<SolidFractionModel> model)
     : locator_(&locator), model_(std::move(model)), acc_(static_cast<std::size_t>(locator.n_cells()) * kStride, 0.0) {}
+
+void Deposition::clear() { std::fill(acc_.begin(), acc_.end(), 0.0); }
 
 void Deposition::clear_drag() {
   for (std::size_t i = 0; i < acc_.size(); i += kStride)

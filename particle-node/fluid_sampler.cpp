@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "fluid_sampler.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -32,6 +33,8 @@ void FluidSampler::set_state(const fluid_state_t& s) {
                                 std::to_string(n));
   velocity_.resize(n);
   gradient_.resize(n);
+  shear_rate_.resize(n);
+  max_speed_ = 0;
   for (int c = 0; c < n; ++c) {
     if (s.velocity[c].size() != 3 || s.velocity_gradient[c].size() != 9)
       throw std::invalid_argument("fluid state cell " + std::to_string(c) + " has malformed vectors");
@@ -40,13 +43,12 @@ void FluidSampler::set_state(const fluid_state_t& s) {
       for (int j = 0; j < 3; ++j) gradient_[c](i, j) = s.velocity_gradient[c][3 * i + j];
     if (!velocity_[c].allFinite() || !gradient_[c].allFinite())
       throw std::invalid_argument("fluid state is not finite in cell " + std::to_string(c));
+    const Mat3 strain = 0.5 * (gradient_[c] + gradient_[c].transpose());
+    shear_rate_[c] = std::sqrt(2.0 * (strain.array() * strain.array()).sum());
+    max_speed_ = std::max(max_speed_, velocity_[c].norm());
   }
 }
 
-double FluidSampler::shear_rate(int cell) const {
-  const Mat3& g = gradient_[cell];
-  const Mat3 s = 0.5 * (g + g.transpose());
-  return std::sqrt(2.0 * (s.array() * s.array()).sum());
-}
+
 
 }  // namespace hemo::particles

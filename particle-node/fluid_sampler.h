@@ -35,7 +35,9 @@ class FluidSampler {
   // G[i][j] = d u_j / d x_i
   const Mat3& gradient(int cell) const { return gradient_[cell]; }
   // gamma_dot = sqrt(2 S:S), S = (G + G^T)/2
-  double shear_rate(int cell) const;
+  double shear_rate(int cell) const { return shear_rate_[cell]; }
+  // The largest cell speed |u_c| of the state (the closures' centre-line speed u_max).
+  double max_cell_speed() const { return max_speed_; }
 
   const CellLocator& locator() const { return *locator_; }
 
@@ -43,6 +45,8 @@ class FluidSampler {
   const CellLocator* locator_;
   std::vector<Vec3> velocity_;
   std::vector<Mat3> gradient_;
+  std::vector<double> shear_rate_;
+  double max_speed_ = 0;
 };
 
 }  // namespace hemo::particles

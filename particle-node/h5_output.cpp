@@ -70,7 +70,8 @@ H5Output::~H5Output() {
 
 bool H5Output::write(const ParticleSnapshot& s) {
   const std::size_t n = s.id.size();
-  if (s.species.size() != n || s.position.size() != 3 * n || s.velocity.size() != 3 * n)
+  if (s.species.size() != n || s.position.size() != 3 * n || s.velocity.size() != 3 * n ||
+      s.orientation.size() != 4 * n)
     fail("snapshot arrays of step " + std::to_string(s.step) + " have inconsistent sizes");
   const std::string name = snapshot_name(s.step);
   const hid_t parent = static_cast<hid_t>(snapshots_);
@@ -86,6 +87,7 @@ bool H5Output::write(const ParticleSnapshot& s) {
   write_dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, s.species.data());
   write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
   write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
+  write_dataset(g, "orientation", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 4, s.orientation.data());
   H5Gclose(g);
   if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0) fail("cannot flush " + path_);
   return true;
@@ -130,6 +132,8 @@ ParticleSnapshot read_snapshot(const std::string& path, long step) {
   s.species = read_dataset<std::int8_t>(g, "species", H5T_NATIVE_INT8, 1);
   s.position = read_dataset<double>(g, "position", H5T_NATIVE_DOUBLE, 3);
   s.velocity = read_dataset<double>(g, "velocity", H5T_NATIVE_DOUBLE, 3);
+  if (H5Lexists(g, "orientation", H5P_DEFAULT) > 0)
+    s.orientation = read_dataset<double>(g, "orientation", H5T_NATIVE_DOUBLE, 4);
   H5Gclose(g);
   H5Fclose(f);
   return s;

@@ -4,7 +4,10 @@
 //       id        int64   [N]      LIGGGHTS atom tag
 //       species   int8    [N]      0 = RBC, 1 = platelet
 //       position  double  [N][3]   m, z unwrapped across the periodic ends
-//       velocity  double  [N][3]   m/s
+//       velocity     double  [N][3]   m/s
+//       orientation  double  [N][4]   unit quaternion (w, x, y, z), body -> world; the body z
+//                                     axis is a platelet's symmetry axis; (1, 0, 0, 0) for
+//                                     particles whose orientation is not tracked (RBCs, spheres)
 //
 // The file is flushed after every snapshot so that a crash keeps what was written.
 // SPDX-License-Identifier: GPL-3.0-or-later
@@ -23,6 +26,7 @@ struct ParticleSnapshot {
   std::vector<std::int8_t> species;
   std::vector<double> position;  // 3 per particle
   std::vector<double> velocity;  // 3 per particle
+  std::vector<double> orientation;  // 4 per particle (w, x, y, z)
   std::size_t size() const { return id.size(); }
 };
 

@@ -28,7 +28,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       comm_(comm),
       locator_(mesh),
       fluid_(locator_),
-      deposition_(locator_),
+      deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
       run_dir_(run_dir) {
   MPI_Comm_rank(comm_, &rank_);
   require_same(scene.vessel.diameter, mesh.vessel_diameter_m, "vessel diameter");
@@ -41,11 +41,20 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
   engine_ = std::make_unique<DemEngine>(scene, locator_, run_dir + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   set_interval(scene.time.coupling_interval);
-  spdlog::info("particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um)", placed.size(),
-               rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6);
+  spdlog::info("particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um); solid fraction "
+               "'{}'",
+               placed.size(), rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6,
+               scene.solid_fraction);
+  for (int sp = 0; sp < kSpeciesCount; ++sp) {
+    used_[sp] = (sp == kRbc ? rbc_count(scene) : platelet_count(scene)) > 0;
+    if (used_[sp])
+      spdlog::info("{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
+                   engine_->tracks_orientation(sp) ? ", orientation tracked (" +
+                                                         (sp == kRbc ? scene.rbc : scene.platelet).orientation_integrator + ")"
+                                                   : std::string());
+  }
 
-  deposition_.clear_drag();
-  engine_->finish_deposition(deposition_);
+  engine_->deposit(deposition_);
   if (rank_ == 0) output_ = std::make_unique<H5Output>(run_dir + "/particles.h5");
   write_output(0, 0.0);
 }
@@ -56,9 +65,10 @@ void ParticleNode::set_interval(double interval) {
   timing_interval_ = interval;
   spdlog::info(
       "DEM step {:.4g} s = coupling interval {:.4g} s / {} substeps; shortest Hertz contact {:.4g} s ({}), "
-      "Rayleigh time {:.4g} s, drag relaxation time {:.4g} s (exponential drag: not a limit)",
+      "Rayleigh time {:.4g} s, drag relaxation time {:.4g} s ({}; dt / tau = {:.3g})",
       timing_.dt, interval, timing_.substeps, timing_.contact_time, timing_.limiting, timing_.rayleigh_time,
-      timing_.relaxation_time);
+      timing_.relaxation_time, timing_.relaxation_limited ? "limits the step" : "exponential drag: not a limit",
+      timing_.dt / timing_.relaxation_time);
 }
 
 std::string ParticleNode::check(const fluid_state_t& fluid) const {
@@ -73,10 +83,10 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   step_ = order.envelope.step;
   time_ = order.time_s;
   interval_ = order.dt_s;
-  deposition_.clear_drag();
-  std::string error = engine_->run(step_, timing_.substeps, timing_.dt, fluid_, deposition_);
+  std::string error = engine_->run(step_, timing_.substeps, timing_.dt, fluid_);
   if (!error.empty()) return error;
-  engine_->finish_deposition(deposition_);
+  engine_->deposit(deposition_);
+  warn_reynolds();
   return {};
 }
 
@@ -90,6 +100,20 @@ particle_feedback_t ParticleNode::feedback() const {
 void ParticleNode::write_output(long step, double time_s) {
   ParticleSnapshot snap = engine_->snapshot(step, time_s);  // collective
   if (output_) output_->write(snap);
+}
+
+void ParticleNode::warn_reynolds() {
+  // Once per run and species: the drag law is being used outside its fit.
+  for (int sp = 0; sp < kSpeciesCount; ++sp) {
+    if (!used_[sp] || warned_re_[sp]) continue;
+    const double re = engine_->max_reynolds(sp), limit = engine_->forces(sp).drag().max_reynolds();
+    if (!(re > limit)) continue;
+    warned_re_[sp] = true;
+    if (rank_ == 0)
+      spdlog::warn("{}: particle Reynolds number {:.3g} at coupling step {} exceeds {:.3g}, the range of the '{}' drag "
+                   "law (warned once per run)",
+                   sp == kRbc ? "rbc" : "platelet", re, step_, limit, engine_->forces(sp).drag().name());
+  }
 }
 
 Diagnostics ParticleNode::diagnostics() {
@@ -109,6 +133,10 @@ Diagnostics ParticleNode::diagnostics() {
       {"max_particle_speed_m_s", d.max_speed},
       {"particles_outside_mesh", static_cast<double>(d.outside_mesh)},
       {"particles_in_wall_gap", static_cast<double>(d.in_wall_gap)},
+      {"particles_lost", static_cast<double>(d.lost)},
+      {"max_reynolds_rbc", d.max_reynolds[kRbc]},
+      {"max_reynolds_platelet", d.max_reynolds[kPlatelet]},
+      {"solid_volume_m3", deposition_.total_volume()},
   };
 }
 

@@ -50,6 +50,7 @@ class ParticleNode {
 
  private:
   void set_interval(double interval);
+  void warn_reynolds();
 
   Scene scene_;
   std::string mesh_hash_;
@@ -66,6 +67,8 @@ class ParticleNode {
   long step_ = 0;
   double time_ = 0;
   std::string run_dir_;
+  bool used_[kSpeciesCount] = {false, false};
+  bool warned_re_[kSpeciesCount] = {false, false};
 };
 
 }  // namespace hemo::particles

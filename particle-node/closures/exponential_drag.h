@@ -1,12 +1,14 @@
-// Drag applied over one DEM step with the exponential integrator.
+// Drag applied over one DEM step with the exponential update (stable whatever the step).
 //
-// Under drag alone a particle relaxes as v(t) = u - (u - v0) exp(-t / tau), tau = m / beta.
-// Over a step dt the velocity change is (u - v0)(1 - exp(-dt / tau)); the constant force that
-// gives exactly that change is
-//   F = m (u - v0) (1 - exp(-dt / tau)) / dt
-// which tends to beta (u - v0) for dt << tau and never overshoots u for dt >> tau (platelets:
-// tau ~ 0.3 us, below the contact-limited DEM step). The fluid receives the same F with the
-// opposite sign, so momentum is conserved exactly whatever dt is.
+// Over a step dt a particle of mass m under the linearised drag beta (u - v) and other forces
+// F_o (lift, contacts, gravity), all held fixed during the step, relaxes exactly as
+//   v(dt) = u + F_o/beta - (u + F_o/beta - v0) exp(-dt / tau),   tau = m / beta
+// The constant drag force that, together with F_o, gives exactly that velocity change is
+//   F_d = r beta (u - v0) + (r - 1) F_o,        r = (1 - exp(-x)) / x,  x = dt / tau
+// For dt << tau, r -> 1 and F_d -> beta (u - v0); for dt >> tau, r -> tau/dt and the particle
+// lands on its terminal slip F_o/beta in one step without overshooting. The fluid receives the
+// same F_d with the opposite sign, so momentum is conserved exactly whatever dt is.
+// (Without F_o this is F_d = beta_eff (u - v0), beta_eff = m (1 - exp(-dt beta/m)) / dt.)
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -16,15 +18,27 @@
 
 namespace hemo::particles {
 
-// beta_eff = m (1 - exp(-dt beta / m)) / dt, with F = beta_eff (u - v); beta_eff <= beta.
+// r = (1 - exp(-x)) / x with x = dt beta / m; 1 without drag or step.
+inline double exponential_drag_ratio(double mass, double beta, double dt) {
+  if (!(beta > 0) || !(dt > 0)) return 1.0;
+  const double x = dt * beta / mass;
+  return x < 1e-8 ? 1 - 0.5 * x : -std::expm1(-x) / x;
+}
+
+// beta_eff = r beta = m (1 - exp(-dt beta/m)) / dt <= beta.
 inline double exponential_drag_coefficient(double mass, double beta, double dt) {
   if (!(beta > 0)) return 0.0;
-  if (!(dt > 0)) return beta;
-  return -mass * std::expm1(-dt * beta / mass) / dt;
+  return beta * exponential_drag_ratio(mass, beta, dt);
 }
 
 inline Vec3 exponential_drag_force(double mass, double beta, const Vec3& slip, double dt) {
   return exponential_drag_coefficient(mass, beta, dt) * slip;
+}
+
+// With the other forces F_o of the step (see above).
+inline Vec3 exponential_drag_force(double mass, double beta, const Vec3& slip, const Vec3& other, double dt) {
+  const double r = exponential_drag_ratio(mass, beta, dt);
+  return (r * beta) * slip + (r - 1) * other;
 }
 
 }  // namespace hemo::particles

@@ -7,7 +7,7 @@
 
 namespace hemo::particles {
 
-StokesDrag::StokesDrag(const DragParams& p) : beta_(3.0 * units::pi * p.viscosity * p.diameter) {
+StokesDrag::StokesDrag(const ClosureParams& p) : beta_(3.0 * units::pi * p.viscosity * p.diameter) {
   if (!(p.viscosity > 0) || !(p.diameter > 0))
     throw std::invalid_argument("stokes drag needs a positive viscosity and diameter");
 }

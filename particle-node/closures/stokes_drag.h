@@ -1,16 +1,17 @@
-// Stokes drag on a sphere: F = 3 pi mu d (u - v), beta = 3 pi mu d (slip independent).
+// Stokes drag on a sphere: F = 3 pi mu d u_r, beta = 3 pi mu d (slip independent).
+// Sign: F points along u_r = u - v (the fluid pulls the particle toward its own velocity).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include "drag_closure.h"
+#include "closure.h"
 
 namespace hemo::particles {
 
 class StokesDrag final : public DragClosure {
  public:
-  explicit StokesDrag(const DragParams& p);
+  explicit StokesDrag(const ClosureParams& p);
   std::string name() const override { return "stokes"; }
-  double coefficient(const Vec3&) const override { return beta_; }
+  double coefficient(const ParticleFlow&) const override { return beta_; }
   bool slip_independent() const override { return true; }
 
  private:

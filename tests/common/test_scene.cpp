@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+#include <set>
+
 using namespace hemo;
 
 namespace {
@@ -98,6 +101,67 @@ TEST(Scene, WrongTypeAndSyntaxErrorsAreProblemsNotCrashes) {
   ps = problems_of("[vessel\ndiameter_um = 1\n");
   ASSERT_EQ(ps.size(), 1u);
   EXPECT_GT(ps[0].line, 0);
+}
+
+TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
+  const Scene s = load_scene(test::write_temp(kMinimal));
+  EXPECT_EQ(s.rbc.drag, "rbc_fit");
+  EXPECT_EQ(s.rbc.lift, "rbc_lift");
+  EXPECT_EQ(s.rbc.torque, "none");
+  EXPECT_EQ(s.platelet.drag, "oblate");
+  EXPECT_EQ(s.platelet.lift, "oblate");
+  EXPECT_EQ(s.platelet.torque, "oblate");
+  EXPECT_NEAR(s.platelet.semi_axis_a, 2.06e-6, 1e-18);
+  EXPECT_NEAR(s.platelet.semi_axis_c, 0.52e-6, 1e-18);
+  EXPECT_EQ(s.platelet.orientation_integrator, "splitting");
+  EXPECT_EQ(s.solid_fraction, "sphere_overlap");
+  EXPECT_EQ(s.time.steps_per_contact, 10);
+  EXPECT_EQ(s.time.relaxation_factor, 0);
+  EXPECT_EQ(s.gravity.z, 0);
+
+  const Scene t = load_scene(test::write_temp(std::string(kMinimal) + R"(
+[platelet]
+drag = "schiller_naumann"
+lift = "shear_lift"
+torque = "none"
+semi_axis_a_um = 2
+semi_axis_c_um = 1
+orientation_integrator = "euler"
+[coupling]
+solid_fraction = "centre_cell"
+[gravity]
+z_m_s2 = -9.81
+[time]
+dem_steps_per_contact = 20
+dem_step_max_relaxation_times = 2
+)"));
+  EXPECT_EQ(t.platelet.drag, "schiller_naumann");
+  EXPECT_EQ(t.platelet.lift, "shear_lift");
+  EXPECT_DOUBLE_EQ(t.platelet.semi_axis_c, 1e-6);
+  EXPECT_EQ(t.platelet.orientation_integrator, "euler");
+  EXPECT_EQ(t.solid_fraction, "centre_cell");
+  EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
+  EXPECT_EQ(t.time.steps_per_contact, 20);
+  EXPECT_EQ(t.time.relaxation_factor, 2);
+}
+
+TEST(Scene, UnknownClosureNamesAndImpossibleShapesAreNamed) {
+  auto ps = problems_of(std::string(kMinimal) + R"(
+[rbc]
+hematocrit = 0.1
+lift = "oblate"
+[platelet]
+drag = "saffman"
+semi_axis_c_um = 3
+[coupling]
+solid_fraction = "kernel"
+)");
+  std::map<std::string, std::string> by_key;
+  for (auto& p : ps) by_key[p.key] = p.message;
+  EXPECT_NE(by_key["rbc.lift"].find("platelets"), std::string::npos) << by_key["rbc.lift"];
+  EXPECT_NE(by_key["platelet.drag"].find("known: stokes, rbc_fit"), std::string::npos) << by_key["platelet.drag"];
+  EXPECT_TRUE(by_key.count("platelet.semi_axis_c_um"));
+  EXPECT_TRUE(by_key.count("coupling.solid_fraction"));
 }
 
 TEST(Scene, ShippedScenesAreValid) {

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Cost of the particle node's DEM per particle-step on a synthetic Poiseuille flow, without the
-// bus: bench_engine [diameter_um length_um hematocrit coupling_steps cells_per_side axial_cells]
-// Defaults: the calibration case (100 um x 600 um, Ht 0.15, 8 x 8 x 24 = 1,536 cells).
+// bus: bench_engine [diameter_um length_um hematocrit coupling_steps cells_per_side axial_cells
+//                    closures]
+// Defaults: the calibration case (100 um x 600 um, Ht 0.15, 8 x 8 x 24 = 1,536 cells) with the
+// paper's closures ("paper"; "stokes": Stokes drag only, no lift, torque or orientation).
 #include "box_mesh.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
@@ -12,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 using namespace hemo::particles;
 using namespace hemo::particles::testing;
@@ -24,14 +27,16 @@ int main(int argc, char** argv) {
   const int steps = argc > 4 ? std::atoi(argv[4]) : 20;
   const int nxy = argc > 5 ? std::atoi(argv[5]) : 8;
   const int nz = argc > 6 ? std::atoi(argv[6]) : 24;
+  const std::string closures = argc > 7 ? argv[7] : "paper";
   const double R = d / 2, interval = 1e-5;
   {
-    const auto scene = blood_scene(d, l, ht);
+    auto scene = blood_scene(d, l, ht);
+    if (closures == "paper") use_paper_closures(scene);
     const auto mesh = box_mesh(nxy, nxy, nz, -R, R, -R, R, l, d);
     const CellLocator locator(mesh);
     FluidSampler fluid(locator);
     fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
-    Deposition deposition(locator);
+    Deposition deposition(locator, make_solid_fraction_model(scene.solid_fraction, locator));
     const auto log = (std::filesystem::temp_directory_path() / "hemo_bench_liggghts.log").string();
     DemEngine engine(scene, locator, log, MPI_COMM_WORLD);
     auto t0 = std::chrono::steady_clock::now();
@@ -40,22 +45,21 @@ int main(int argc, char** argv) {
     auto t1 = std::chrono::steady_clock::now();
     const auto timing = derive_dem_timing(scene, interval);
     for (int k = 1; k <= steps; ++k) {
-      deposition.clear_drag();
-      const auto err = engine.run(k, timing.substeps, timing.dt, fluid, deposition);
+      const auto err = engine.run(k, timing.substeps, timing.dt, fluid);
       if (!err.empty()) {
         std::fprintf(stderr, "%s\n", err.c_str());
         return 1;
       }
-      engine.finish_deposition(deposition);
+      engine.deposit(deposition);
     }
     auto t2 = std::chrono::steady_clock::now();
     const auto diag = engine.diagnostics(&fluid);
     auto t3 = std::chrono::steady_clock::now();
     const double run_s = std::chrono::duration<double>(t2 - t1).count();
     const double particle_steps = static_cast<double>(placed.size()) * timing.substeps * steps;
-    std::printf("%zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, run %.2f s, "
+    std::printf("[%s closures] %zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, run %.2f s, "
                 "%.1f ns per particle-step; diagnostics %.3f s; 2 s of physics would take %.0f min\n",
-                placed.size(), steps, timing.substeps, timing.dt, std::chrono::duration<double>(t1 - t0).count(), run_s,
+                closures.c_str(), placed.size(), steps, timing.substeps, timing.dt, std::chrono::duration<double>(t1 - t0).count(), run_s,
                 1e9 * run_s / particle_steps, std::chrono::duration<double>(t3 - t2).count(),
                 run_s / (steps * interval) * 2 / 60);
     std::printf("core particle v_z %.6g m/s, fluid %.6g m/s; max overlap %.3g; outside %ld\n",

@@ -176,6 +176,18 @@ Scene blood_scene(double diameter, double length, double hematocrit, double wall
   return s;
 }
 
+void use_paper_closures(Scene& s) {
+  s.rbc.drag = "rbc_fit";
+  s.rbc.lift = "rbc_lift";
+  s.rbc.torque = "none";
+  s.platelet.drag = "oblate";
+  s.platelet.lift = "oblate";
+  s.platelet.torque = "oblate";
+  s.platelet.semi_axis_a = 2.06e-6;
+  s.platelet.semi_axis_c = 0.52e-6;
+  s.solid_fraction = "sphere_overlap";
+}
+
 FieldAt poiseuille(double radius, double u_max) {
   return [=](const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& g) {
     const double r2 = x[0] * x[0] + x[1] * x[1];

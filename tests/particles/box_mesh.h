@@ -32,6 +32,10 @@ fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time 
 // size, hematocrit and wall shear rate.
 Scene blood_scene(double diameter, double length, double hematocrit = 0.15, double wall_shear_rate = 799);
 
+// The paper's closures on a scene (what a scene file gets by default): RBC rbc_fit + rbc_lift,
+// platelets oblate drag, lift and torque with semi-axes 2.06 and 0.52 um, sphere_overlap.
+void use_paper_closures(Scene& scene);
+
 // Poiseuille flow u_z = u_max (1 - r^2/R^2) (zero outside r > R) and its exact gradient.
 FieldAt poiseuille(double radius, double u_max);
 

@@ -36,13 +36,43 @@ TEST(DemTiming, StepFromTheCalibrationScene) {
   EXPECT_GT(t.contact_time, 0.5e-6);
   EXPECT_LT(t.contact_time, 3e-6);
   EXPECT_EQ(t.limiting, "platelet-wall");
-  EXPECT_LE(t.dt, t.contact_time / kStepsPerContact * (1 + 1e-12));
-  EXPECT_EQ(t.substeps, static_cast<int>(std::ceil(1e-5 / (t.contact_time / kStepsPerContact))));
+  EXPECT_LE(t.dt, t.contact_time / s.time.steps_per_contact * (1 + 1e-12));
+  EXPECT_EQ(t.substeps, static_cast<int>(std::ceil(1e-5 / (t.contact_time / s.time.steps_per_contact))));
   EXPECT_NEAR(t.dt * t.substeps, 1e-5, 1e-18);
   EXPECT_GT(t.dt, t.relaxation_time / 10);  // drag relaxation does not limit the step
+  EXPECT_FALSE(t.relaxation_limited);
   const auto fixed = derive_dem_timing(s, 1e-5, 25);
   EXPECT_EQ(fixed.substeps, 25);
   EXPECT_NEAR(fixed.dt, 4e-7, 1e-20);
+}
+
+TEST(DemTiming, RelaxationTimeOfTheDragClosuresCanBoundTheStep) {
+  hemo::Scene s;
+  s.vessel.diameter = 100e-6;
+  s.vessel.length = 600e-6;
+  s.driving.wall_shear_rate = 799;
+  s.rbc.present = s.platelet.present = true;
+  s.rbc.diameter = 5.56e-6;
+  s.rbc.mass = 9.9e-14;
+  s.rbc.drag = "rbc_fit";
+  s.platelet.diameter = 2.66e-6;
+  s.platelet.mass = 8.79e-15;
+  s.platelet.drag = "oblate";
+  s.platelet.semi_axis_a = 2.06e-6;
+  s.platelet.semi_axis_c = 0.52e-6;
+  const auto free = derive_dem_timing(s, 1e-5);
+  // The platelet broadside-on: tau = m / (3 pi mu d K_0), K_0(0.252) = 1.374.
+  const double tau = 8.79e-15 / (3 * 3.14159265358979 * 1.2e-3 * 2.66e-6 * 1.3745);
+  EXPECT_NEAR(free.relaxation_time, tau, 0.002 * tau);
+  s.time.relaxation_factor = 0.5;
+  const auto bound = derive_dem_timing(s, 1e-5);
+  EXPECT_TRUE(bound.relaxation_limited);
+  EXPECT_LE(bound.dt, 0.5 * tau * 1.002);
+  EXPECT_GT(bound.substeps, free.substeps);
+  s.time.relaxation_factor = 100;  // looser than the contact bound: no effect
+  EXPECT_EQ(derive_dem_timing(s, 1e-5).substeps, free.substeps);
+  s.time.steps_per_contact = 20;
+  EXPECT_GE(derive_dem_timing(s, 1e-5).substeps, 2 * free.substeps - 1);
 }
 
 TEST(DemTiming, WallShearRateFromPressureDrop) {

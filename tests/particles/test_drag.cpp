@@ -1,46 +1,66 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "closures/drag_closure.h"
+// Stokes drag, the closure registry, and the exponential drag update.
+#include "closures/closure.h"
 #include "closures/exponential_drag.h"
 #include "closures/stokes_drag.h"
+#include "flows.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 using namespace hemo::particles;
+using namespace hemo::particles::testing;
 
 namespace {
-DragParams platelet() {
-  DragParams p;
-  p.diameter = 2.66e-6;
-  p.fluid_density = 1025;
-  p.viscosity = 1.2e-3;
-  return p;
+ParticleFlow with_slip(const Vec3& slip) {
+  ParticleFlow f;
+  f.slip = slip;
+  return f;
 }
-constexpr double kPi = 3.14159265358979323846;
 }  // namespace
 
 TEST(StokesDrag, CoefficientAndForce) {
-  const auto drag = make_drag_closure("stokes", platelet());
+  const auto drag = make_drag_closure("stokes", plasma_params(2.66e-6));
   EXPECT_EQ(drag->name(), "stokes");
-  const double beta = drag->coefficient(Vec3(1e-3, 0, 0));
+  const double beta = drag->coefficient(with_slip(Vec3(1e-3, 0, 0)));
   EXPECT_NEAR(beta, 3 * kPi * 1.2e-3 * 2.66e-6, 1e-20);
   const Vec3 slip(1e-4, -2e-4, 3e-4);
-  const Vec3 f = drag->coefficient(slip) * slip;  // F = 3 pi mu d (u - v)
+  const Vec3 f = drag->coefficient(with_slip(slip)) * slip;  // F = 3 pi mu d (u - v)
   EXPECT_NEAR(f.z(), 3 * kPi * 1.2e-3 * 2.66e-6 * 3e-4, 1e-22);
-  EXPECT_TRUE(std::isfinite(drag->coefficient(Vec3::Zero())));
-  EXPECT_EQ((drag->coefficient(Vec3::Zero()) * Vec3::Zero()).norm(), 0.0);  // zero slip, zero force
+  EXPECT_TRUE(std::isfinite(drag->coefficient(with_slip(Vec3::Zero()))));
+  EXPECT_TRUE(drag->slip_independent());
 }
 
-TEST(DragRegistry, SelectsByNameFromTheScene) {
+TEST(ClosureRegistry, SelectsByNameFromTheScene) {
+  hemo::Scene scene;
+  scene.vessel.diameter = 100e-6;
   hemo::Species s{"rbc"};
   s.diameter = 5.56e-6;
-  s.drag = "stokes";
-  hemo::Plasma plasma;
-  EXPECT_EQ(make_drag_closure(s, plasma)->name(), "stokes");
-  s.drag = "no-such-law";
+  for (const auto& name : hemo::known_drag_closures()) {
+    s.drag = name;
+    auto p = closure_params(s, scene);
+    if (name == "oblate") p.aspect_ratio = 0.25;
+    EXPECT_EQ(make_drag_closure(name, p)->name(), name);
+  }
+  for (const auto& name : hemo::known_lift_closures()) {
+    auto p = closure_params(s, scene);
+    if (name == "oblate") p.aspect_ratio = 0.25;
+    auto lift = make_lift_closure(name, p);
+    EXPECT_EQ(lift == nullptr, name == "none") << name;
+    if (lift) EXPECT_EQ(lift->name(), name);
+  }
+  for (const auto& name : hemo::known_torque_closures()) {
+    auto p = closure_params(s, scene);
+    p.aspect_ratio = 0.25;
+    EXPECT_EQ(make_torque_closure(name, p) == nullptr, name == "none") << name;
+  }
+  // The scene's lists and the registry agree.
+  EXPECT_EQ(drag_closure_names().size(), hemo::known_drag_closures().size());
+  EXPECT_EQ(lift_closure_names().size(), hemo::known_lift_closures().size());
+  EXPECT_EQ(torque_closure_names().size(), hemo::known_torque_closures().size());
   try {
-    make_drag_closure(s, plasma);
+    make_drag_closure("no-such-law", closure_params(s, scene));
     FAIL() << "expected an error";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("no-such-law"), std::string::npos);
@@ -53,6 +73,8 @@ TEST(ExponentialDrag, TendsToExplicitForSmallSteps) {
   EXPECT_NEAR(exponential_drag_coefficient(m, beta, dt) / beta, 1.0, 1e-5);
   EXPECT_EQ(exponential_drag_coefficient(m, 0.0, dt), 0.0);
   EXPECT_EQ(exponential_drag_force(m, beta, Vec3::Zero(), dt).norm(), 0.0);
+  // With other forces and no drag, nothing is added.
+  EXPECT_EQ(exponential_drag_force(m, 0.0, Vec3(1, 2, 3), Vec3(4, 5, 6), dt).norm(), 0.0);
 }
 
 TEST(ExponentialDrag, NeverOvershootsForLargeSteps) {
@@ -75,5 +97,22 @@ TEST(ExponentialDrag, NeverOvershootsForLargeSteps) {
     // The discrete decay is the exact exponential: gap_n = gap_0 exp(-n dt / tau).
     const double expected = Vec3(0.001, -0.002, -0.02).norm() * std::exp(-50 * ratio);
     EXPECT_NEAR(prev_gap, expected, 1e-12 + 1e-9 * expected);
+  }
+}
+
+TEST(ExponentialDrag, WithOtherForcesReachesTheExactTerminalSlipAtAnyStep) {
+  // Constant external force F_o and linear drag: the terminal slip is -F_o / beta, reached
+  // after a few steps, whatever dt / tau; and each step's velocity change is the exact one.
+  const double m = 9.9e-14, beta = 1.9e-7, tau = m / beta;
+  const Vec3 u(0, 0, 0.01), other(1e-12, 0, -3e-12);
+  for (double ratio : {0.01, 1.0, 10.0, 1000.0}) {
+    const double dt = ratio * tau;
+    Vec3 v = Vec3::Zero();
+    for (int n = 0; n < 10000 && n * ratio < 60; ++n) {
+      const Vec3 v_exact = u + other / beta - (u + other / beta - v) * std::exp(-dt / tau);
+      v += (exponential_drag_force(m, beta, u - v, other, dt) + other) / m * dt;
+      EXPECT_LT((v - v_exact).norm(), 1e-12 * (u.norm() + v.norm())) << "dt/tau " << ratio;
+    }
+    EXPECT_LT((v - (u + other / beta)).norm(), 1e-9 * u.norm()) << "dt/tau " << ratio;
   }
 }

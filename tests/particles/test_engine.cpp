@@ -70,10 +70,9 @@ TEST(DemEngine, FollowsPoiseuilleAndConservesMomentum) {
   double worst = 0;
   EXPECT_EQ(p_before.norm(), 0.0);
   for (int step = 1; step <= 20; ++step) {
-    fx.deposition.clear_drag();
-    const std::string error = fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid, fx.deposition);
+    const std::string error = fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid);
     ASSERT_EQ(error, "");
-    fx.engine.finish_deposition(fx.deposition);
+    fx.engine.deposit(fx.deposition);
     const Vec3 p_after = fx.momentum();
     const Vec3 impulse = fx.deposition.total_force(fx.interval) * fx.interval;
     worst = std::max(worst, (p_after - p_before - impulse).norm() / p_after.norm());
@@ -112,10 +111,7 @@ TEST(DemEngine, UnwrapsZAcrossThePeriodicEnds) {
   fx.engine.create_particles(placed);
   const auto start = fx.engine.snapshot(0, 0);
   const int steps = 40;  // 0.4 ms: 2 periods
-  for (int step = 1; step <= steps; ++step) {
-    fx.deposition.clear_drag();
-    ASSERT_EQ(fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid, fx.deposition), "");
-  }
+  for (int step = 1; step <= steps; ++step) ASSERT_EQ(fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
   const auto end = fx.engine.snapshot(steps, steps * fx.interval);
   const double travel = u * steps * fx.interval;  // 200 um
   for (std::size_t i = 0; i < end.size(); ++i) {
@@ -135,10 +131,9 @@ TEST(DemEngine, ParticleOutsideTheMeshStopsTheRunNamingIt) {
   const CellLocator locator(mesh);
   FluidSampler fluid(locator);
   fluid.set_state(fluid_state(mesh, poiseuille(R, 0.01)));
-  Deposition deposition(locator);
   DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
   engine.create_particles(place_particles(R, L, 0, placement_requests(scene), 4));
-  const std::string error = engine.run(7, 10, 1e-7, fluid, deposition);
+  const std::string error = engine.run(7, 10, 1e-7, fluid);
   EXPECT_NE(error.find("particle 1 is outside the fluid mesh at coupling step 7"), std::string::npos) << error;
   EXPECT_GT(engine.diagnostics(&fluid).outside_mesh, 0);
 }

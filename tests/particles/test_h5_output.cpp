@@ -19,6 +19,7 @@ TEST(H5Output, WritesAndReadsBackSnapshots) {
   s.species = {0, 1, 0};
   s.position = {1e-6, 2e-6, 3e-6, 4e-6, 5e-6, -6e-6, 7e-6, 8e-6, 1.2e-3};
   s.velocity = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9};
+  s.orientation = {1, 0, 0, 0, 0.5, 0.5, 0.5, 0.5, 1, 0, 0, 0};
   {
     H5Output out(path);
     ParticleSnapshot first = s;
@@ -37,6 +38,7 @@ TEST(H5Output, WritesAndReadsBackSnapshots) {
   EXPECT_EQ(r.species, s.species);
   EXPECT_EQ(r.position, s.position);
   EXPECT_EQ(r.velocity, s.velocity);
+  EXPECT_EQ(r.orientation, s.orientation);
   EXPECT_THROW(read_snapshot(path, 7), std::runtime_error);
   std::filesystem::remove_all(dir);
 }

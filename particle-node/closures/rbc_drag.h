@@ -1,0 +1,36 @@
+// Red-cell drag of the paper's fit (MODEL.md §2), on the volume-equivalent sphere of diameter d:
+//
+//   F    = 0.125 C_d rho pi d^2 |u_r| u_r,   Re = d |u_r| / nu
+//   C_d  = 73.146 / ( Re (1 + 29.86 Re^27.079) )
+//
+// Linearised as F = beta u_r with the 1/Re cancelled analytically:
+//
+//   beta = 0.125 * 73.146 pi mu d / (1 + 29.86 Re^27.079)
+//
+// finite at Re = 0 (3.048 x the Stokes drag 3 pi mu d there), and never a division by zero.
+// The fit holds for Re <~ 0.5 (max_reynolds: the engine warns once per run above it); above
+// Re ~ 0.9 the correction term explodes and the drag collapses, as printed.
+// Sign: F along u_r = u - v.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "closure.h"
+
+namespace hemo::particles {
+
+class RbcFitDrag final : public DragClosure {
+ public:
+  explicit RbcFitDrag(const ClosureParams& p);
+  std::string name() const override { return "rbc_fit"; }
+  double coefficient(const ParticleFlow& flow) const override { return coefficient(params_.reynolds(flow.slip)); }
+  double coefficient(double reynolds) const;
+  double max_reynolds() const override { return 0.5; }
+  // C_d at Re > 0 as printed (for tests).
+  static double drag_coefficient(double reynolds);
+
+ private:
+  ClosureParams params_;
+  double beta0_;  // N s/m, at Re = 0
+};
+
+}  // namespace hemo::particles
