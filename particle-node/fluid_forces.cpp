@@ -30,18 +30,28 @@ FluidForce SpeciesForces::evaluate(const ParticleFlow& flow, const Vec3& other, 
   FluidForce f;
   f.beta = beta_fixed_ >= 0 ? beta_fixed_ : drag_->coefficient(flow);
   f.reynolds = params_.reynolds(flow.slip);
-  if (lift_) f.lift = lift_->force(flow);
-  if (torque_) f.torque = torque_->torque(flow);
-  // The exponential ratio of the usual beta is computed once per step size (the same bits).
+  // The exponential ratio of the usual beta is computed once per step size.
+  double r;
   if (f.beta == beta_rest_) {
     if (dt != ratio_dt_) {
       ratio_rest_ = exponential_drag_ratio(mass_, beta_rest_, dt);
       ratio_dt_ = dt;
     }
-    f.drag = (ratio_rest_ * f.beta) * flow.slip + (ratio_rest_ - 1) * (other + f.lift);
+    r = ratio_rest_;
   } else {
-    f.drag = exponential_drag_force(mass_, f.beta, flow.slip, other + f.lift, dt);
+    r = exponential_drag_ratio(mass_, f.beta, dt);
   }
+  // Lift and torque see the slip averaged over the step as the exponential update relaxes it,
+  // u_r,mean = r u_r + (r - 1) F_o / beta (the same mean the drag impulse beta u_r,mean dt
+  // implies), not the slip at its start: at dt >~ tau the start-up transient of a particle
+  // would otherwise be taken as lasting the whole step. For dt << tau, r -> 1: the slip itself.
+  if (lift_ || torque_) {
+    ParticleFlow mean = flow;
+    if (r < 1 && f.beta > 0) mean.slip = r * flow.slip + ((r - 1) / f.beta) * other;
+    if (lift_) f.lift = lift_->force(mean);
+    if (torque_) f.torque = torque_->torque(mean);
+  }
+  f.drag = (r * f.beta) * flow.slip + (r - 1) * (other + f.lift);
   return f;
 }
 
