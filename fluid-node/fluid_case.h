@@ -46,4 +46,9 @@ enum class InitialFlow { rest, poiseuille };
 void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel,
                 const PolyMesh& mesh, const MeshGeometry& geometry, InitialFlow initial);
 
+// Writes system/decomposeParDict: `ranks` subdomains of whole cross-sections, split along the
+// vessel axis (method simple, n = (1 1 ranks)). Throws std::invalid_argument when the mesh has
+// fewer axial cells than ranks.
+void write_decomposition(const std::string& case_dir, int ranks, const MeshSpec& mesh);
+
 }  // namespace hemo

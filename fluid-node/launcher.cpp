@@ -1,10 +1,25 @@
-// hemocosim-fluid: sets up the environment Debian's OpenFOAM needs and becomes the solver.
+// hemocosim-fluid: sets up the environment Debian's OpenFOAM needs and becomes the solver,
+// serial or decomposed.
 //
 // OpenFOAM reads etc/controlDict while its libraries load, before main() runs, and finds it
 // only through WM_PROJECT_DIR. So the solver (hemocosim-fluid-solver, next to this program)
 // cannot set that itself: this launcher sets it (keeping a value the user set) and exec()s the
 // solver in the same process, so the pid the coordinator supervises stays the same.
+//
+// With --ranks N > 1 it first writes the case RUN_DIR/fluid (as the serial solver would) and
+// its decomposition into N subdomains along the vessel axis (decomposePar, log in
+// RUN_DIR/fluid/log.decomposePar), then exec()s
+//   mpirun -np N -x WM_PROJECT_DIR -x FOAM_ETC hemocosim-fluid-solver ARGS --parallel
+// with Open MPI's root, oversubscription and yield settings in the environment
+// (HEMOCOSIM_MPIRUN overrides the mpirun program; HEMOCOSIM_MPIRUN_ARGS adds options).
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "fluid_case.h"
+#include "vessel_mesh.h"
+
+#include <scene.h>
+
+#include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -12,12 +27,68 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #ifndef HEMOCOSIM_OPENFOAM_PROJECT_DIR
 #define HEMOCOSIM_OPENFOAM_PROJECT_DIR "/usr/share/openfoam"
 #endif
+
+namespace {
+
+// The value of `--name VALUE` or `--name=VALUE` (the last one given), or empty.
+std::string option(int argc, char* argv[], const std::string& name) {
+  std::string value;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == name && i + 1 < argc) value = argv[i + 1];
+    if (a.rfind(name + "=", 0) == 0) value = a.substr(name.size() + 1);
+  }
+  return value;
+}
+
+[[noreturn]] void exec(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  ::execvp(argv[0], argv.data());
+  std::cerr << "hemocosim-fluid: error: cannot start " << args[0] << ": " << std::strerror(errno) << std::endl;
+  std::exit(127);
+}
+
+// Runs a program to completion with its output in `log`; throws with a one-line reason on failure.
+void run_logged(const std::vector<std::string>& args, const std::string& log) {
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("cannot fork for " + args[0]);
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+      ::close(fd);
+    }
+    exec(args);
+  }
+  int status = 0;
+  if (::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error(args[0] + " failed (see " + log + ")");
+}
+
+// Writes and decomposes the case of an N-rank run.
+void prepare_decomposed_case(const std::string& scene_file, const std::string& run_dir, int ranks) {
+  const hemo::Scene scene = hemo::load_scene(scene_file);
+  const hemo::FluidSettings fluid = hemo::fluid_settings(scene);
+  const hemo::PolyMesh mesh = hemo::make_vessel_mesh(scene.vessel, scene.mesh);
+  const std::string case_dir = (std::filesystem::path(run_dir) / "fluid").string();
+  hemo::write_case(case_dir, fluid, scene.vessel, mesh, hemo::compute_geometry(mesh), hemo::InitialFlow::poiseuille);
+  hemo::write_decomposition(case_dir, ranks, scene.mesh);
+  run_logged({"decomposePar", "-case", case_dir, "-force"}, case_dir + "/log.decomposePar");
+  std::cout << "hemocosim-fluid: case " << case_dir << " decomposed into " << ranks << " subdomains along the axis"
+            << std::endl;
+}
+
+}  // namespace
 
 int main(int argc, char* argv[]) {
   ::setenv("WM_PROJECT_DIR", HEMOCOSIM_OPENFOAM_PROJECT_DIR, 0);
@@ -28,9 +99,43 @@ int main(int argc, char* argv[]) {
   const std::filesystem::path dir = ec ? std::filesystem::path(argv[0]).parent_path() : self.parent_path();
   const std::string solver = (dir / "hemocosim-fluid-solver").string();
 
-  std::vector<char*> args(argv, argv + argc);
-  args.push_back(nullptr);
-  ::execv(solver.c_str(), args.data());
-  std::cerr << "hemocosim-fluid: error: cannot start " << solver << ": " << std::strerror(errno) << std::endl;
-  return 127;
+  std::vector<std::string> solver_args{solver};
+  for (int i = 1; i < argc; ++i) solver_args.emplace_back(argv[i]);
+
+  int ranks = 1;
+  const std::string ranks_text = option(argc, argv, "--ranks");
+  if (!ranks_text.empty()) ranks = std::atoi(ranks_text.c_str());
+  if (ranks <= 1) exec(solver_args);
+
+  try {
+    const std::string scene = option(argc, argv, "--scene"), run_dir = option(argc, argv, "--run-dir");
+    if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
+    prepare_decomposed_case(scene, std::filesystem::absolute(run_dir).lexically_normal().string(), ranks);
+  } catch (const std::exception& e) {
+    std::cerr << "hemocosim-fluid: error: cannot decompose the fluid case: " << e.what() << std::endl;
+    return 1;
+  }
+
+  // Open MPI's settings as environment variables (other MPIs ignore them; a user's value wins):
+  // run as root if we are root (Open MPI refuses otherwise), allow more ranks than cores, and
+  // let waiting ranks yield the core (the nodes and the coordinator share the machine).
+  if (::geteuid() == 0) {
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 0);
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 0);
+  }
+  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 0);
+  ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
+  const char* mpirun = std::getenv("HEMOCOSIM_MPIRUN");
+  std::vector<std::string> args{mpirun && *mpirun ? mpirun : "mpirun", "-np", std::to_string(ranks)};
+  for (const char* var : {"WM_PROJECT_DIR", "FOAM_ETC"}) {
+    args.emplace_back("-x");
+    args.emplace_back(var);
+  }
+  if (const char* extra = std::getenv("HEMOCOSIM_MPIRUN_ARGS")) {
+    std::istringstream in(extra);
+    for (std::string w; in >> w;) args.push_back(w);
+  }
+  args.insert(args.end(), solver_args.begin(), solver_args.end());
+  args.emplace_back("--parallel");
+  exec(args);
 }

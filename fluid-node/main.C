@@ -14,8 +14,12 @@ Description
     alpha = 1 - phi_solid, K the implicit drag coefficient and S the explicit
     momentum source from the particles, G = dP/(rho l) e_z the driving force.
 
+    Decomposed (--parallel, under mpirun): one subdomain per rank; the master
+    alone talks to the bus, hands orders and feedback to every rank and
+    gathers the whole-mesh fields it publishes (fluidLink.H, publishState.H).
+
 Usage
-    hemocosim-fluid --scene FILE --run-dir DIR [bus options]
+    hemocosim-fluid --scene FILE --run-dir DIR [bus options] [--ranks N]
 \*---------------------------------------------------------------------------*/
 
 // hemocosim's own headers first: they must not see OpenFOAM's macros.
@@ -23,10 +27,12 @@ Usage
 
 #include "fvCFD.H"
 #include "pisoControl.H"
+#include "fluidLink.H"
 
 int main(int argc, char* argv[])
 {
     #include "parseOptions.H"
+    #include "startParallel.H"
     #include "createPort.H"
 
     try
@@ -71,14 +77,14 @@ int main(int argc, char* argv[])
     }
     catch (const Foam::error& err)
     {
-        return hemo::fluid_failed(port, err.message());
+        return finish(hemo::fluid_failed(port, err.message(), masterRank));
     }
     catch (const std::exception& err)
     {
-        return hemo::fluid_failed(port, err.what());
+        return finish(hemo::fluid_failed(port, err.what(), masterRank));
     }
 
-    return 0;
+    return finish(0);
 }
 
 // ************************************************************************* //
