@@ -193,6 +193,8 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
 }
 
+long DemEngine::local_particle_count() const { return lmp_->atom->nlocal; }
+
 long DemEngine::dem_timestep() const { return static_cast<long>(lmp_->update->ntimestep); }
 
 double DemEngine::unwrap_z(int tag, double z) {

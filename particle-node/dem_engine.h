@@ -82,6 +82,7 @@ class DemEngine {
   // Creates the particles (the same list on every rank); tags are 1..N in list order.
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return n_particles_; }
+  long local_particle_count() const;  // on this rank
 
   // Runs `substeps` DEM steps of `dt` in `fluid`, each particle accumulating the impulse the
   // fluid gave it. `coupling_step` only labels errors. Returns an empty string, or a one-line

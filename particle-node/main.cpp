@@ -2,8 +2,14 @@
 // platelets, coupled in lockstep to the fluid node over the run's message bus).
 //
 //   hemocosim-particles --scene FILE --run-dir DIR --run-id ID --lcm-url URL --secret-file FILE
+//                       [--ranks N]
+//
+// With --ranks N > 1 the node re-executes itself under mpirun; rank 0 talks to the bus and
+// broadcasts what it receives (ranked_port.h), every rank runs its share of the DEM.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "mpi_launch.h"
 #include "particle_node.h"
+#include "ranked_port.h"
 
 #include <CLI/CLI.hpp>
 #include <mpi.h>
@@ -11,6 +17,7 @@
 #include <scene.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -27,6 +34,11 @@ struct MpiSession {
     MPI_Comm_size(MPI_COMM_WORLD, &n);
     return n;
   }
+  int rank() const {
+    int r = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &r);
+    return r;
+  }
 };
 
 std::string one_line(std::string text) {
@@ -35,17 +47,29 @@ std::string one_line(std::string text) {
   return text;
 }
 
-// Tells the coordinator why this node stops, and says it on stderr; the exit code is 1.
-int failed(hemo::ParticlePort& port, const std::string& why) {
+// Tells the coordinator why this node stops (rank 0), and says it on stderr; the exit code is 1.
+int failed(hemo::particles::RankedPort& port, const std::string& why) {
   const std::string line = one_line(why);
-  spdlog::error("step {}: {}", port.step(), line);
-  port.fail(line);
+  if (port.rank() == 0) {
+    spdlog::error("step {}: {}", port.step(), line);
+    port.fail(line);
+  }
   return 1;
+}
+
+// A problem only some ranks see (an exception in the middle of a collective step) cannot be
+// agreed on: say it and take the whole job down.
+[[noreturn]] void abort_job(hemo::particles::RankedPort* port, const std::string& why) {
+  if (port) failed(*port, why);
+  std::cerr << "hemocosim-particles: error: " << one_line(why) << std::endl;
+  MPI_Abort(MPI_COMM_WORLD, 1);
+  std::exit(1);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (const int code = hemo::particles::relaunch_under_mpirun(argc, argv)) return code;
   MpiSession mpi(&argc, &argv);
   CLI::App app{"hemocosim particle node: LIGGGHTS DEM of red cells and platelets, coupled to the fluid node"};
   std::string scene_path, run_dir;
@@ -54,19 +78,23 @@ int main(int argc, char** argv) {
   app.add_option("--run-dir", run_dir, "Run directory (particles.h5, liggghts.log)")->required();
   ctx.add_options(app);
   CLI11_PARSE(app, argc, argv);
-  if (mpi.size() > 1) {
-    std::cerr << "hemocosim-particles: error: runs on one MPI rank for now (got " << mpi.size() << ")\n";
+  if (ctx.ranks > 1 && mpi.size() != ctx.ranks) {
+    if (mpi.rank() == 0)
+      std::cerr << "hemocosim-particles: error: asked for " << ctx.ranks << " MPI ranks, running on " << mpi.size()
+                << "\n";
     return 2;
   }
+  if (mpi.rank() != 0) spdlog::set_level(spdlog::level::warn);  // rank 0 speaks for the node
 
   hemo::Scene scene;
-  std::unique_ptr<hemo::ParticlePort> port;
+  std::unique_ptr<hemo::particles::RankedPort> port;
   try {
     scene = hemo::load_scene(scene_path);
     ctx.load_secret();
-    port = std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram);
+    port = std::make_unique<hemo::particles::RankedPort>(
+        MPI_COMM_WORLD, [&] { return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size()); });
   } catch (const std::exception& e) {
-    std::cerr << "hemocosim-particles: error: " << one_line(e.what()) << "\n";
+    if (mpi.rank() == 0) std::cerr << "hemocosim-particles: error: " << one_line(e.what()) << "\n";
     return 1;
   }
 
@@ -87,6 +115,7 @@ int main(int argc, char** argv) {
     node.write_output(node.step(), node.time());  // the final state (kept once if already written)
     port->finalize();
   } catch (const std::exception& e) {
+    if (mpi.size() > 1) abort_job(port.get(), e.what());
     return failed(*port, e.what());
   }
   return 0;

@@ -1,0 +1,104 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "ranked_port.h"
+
+#include <stdexcept>
+#include <vector>
+
+namespace hemo::particles {
+
+namespace {
+
+// An LCM message from rank 0 to every rank (encoded on rank 0, decoded elsewhere).
+template <class Msg>
+void broadcast(Msg& msg, MPI_Comm comm, int rank) {
+  long long size = rank == 0 ? msg.getEncodedSize() : 0;
+  MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, comm);
+  std::vector<char> buf(static_cast<std::size_t>(size));
+  if (rank == 0 && msg.encode(buf.data(), 0, static_cast<int>(size)) < 0)
+    throw std::runtime_error("cannot encode a message for the other ranks");
+  MPI_Bcast(buf.data(), static_cast<int>(size), MPI_CHAR, 0, comm);
+  if (rank != 0 && msg.decode(buf.data(), 0, static_cast<int>(size)) < 0)
+    throw std::runtime_error("cannot decode a message from rank 0");
+}
+
+}  // namespace
+
+RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<ParticlePort>()>& make_port) : comm_(comm) {
+  MPI_Comm_rank(comm_, &rank_);
+  // Rank 0 may fail to join the bus: the others must hear of it rather than wait forever.
+  int control = kContinue;
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      port_ = make_port();
+    } catch (const std::exception& e) {
+      control = kError;
+      error = e.what();
+    }
+  }
+  broadcast_control(control, error);
+  if (control == kError) {
+    if (rank_ == 0) throw std::runtime_error(error);
+    throw std::runtime_error("rank 0 could not join the bus: " + error);
+  }
+}
+
+void RankedPort::broadcast_control(int& control, std::string& error) {
+  MPI_Bcast(&control, 1, MPI_INT, 0, comm_);
+  if (control != kError) return;
+  int len = static_cast<int>(error.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, comm_);
+  error.resize(static_cast<std::size_t>(len));
+  MPI_Bcast(error.data(), len, MPI_CHAR, 0, comm_);
+}
+
+mesh_t RankedPort::initialize() {
+  mesh_t mesh;
+  int control = kContinue;
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      mesh = port_->initialize();
+    } catch (const std::exception& e) {
+      control = kError;
+      error = e.what();
+    }
+  }
+  broadcast_control(control, error);
+  if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
+  broadcast(mesh, comm_, rank_);
+  return mesh;
+}
+
+std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
+  std::optional<ParticleStep> step;
+  int control = kContinue;
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      step = port_->advance(feedback, diag);
+      control = step ? kContinue : kStop;
+    } catch (const std::exception& e) {
+      control = kError;
+      error = e.what();
+    }
+  }
+  broadcast_control(control, error);
+  if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
+  if (control == kStop) return std::nullopt;
+  if (rank_ != 0) step.emplace();
+  broadcast(step->order, comm_, rank_);
+  broadcast(step->fluid, comm_, rank_);
+  step_ = step->order.envelope.step;
+  return step;
+}
+
+void RankedPort::finalize() {
+  if (port_) port_->finalize();
+}
+
+void RankedPort::fail(const std::string& error) {
+  if (port_) port_->fail(error);
+}
+
+}  // namespace hemo::particles

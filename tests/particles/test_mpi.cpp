@@ -1,0 +1,112 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The particle engine on 1 or 2 MPI ranks (ctest runs this under mpirun -np 1 and -np 2): a few
+// hundred cells with the paper's closures and contacts in Poiseuille flow. Every rank deposits
+// its own atoms and the per-cell arrays are summed over ranks; the sum of the fluid forces on
+// the particles must equal minus the sum of the sources the fluid gets, to round-off, the
+// deposited solid volume the particles' volume, and the particles' momentum must change by
+// exactly the fluid's impulse (nothing touches the wall in this short run).
+#include "box_mesh.h"
+#include "dem_engine.h"
+#include "dem_timing.h"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+using namespace hemo::particles;
+using namespace hemo::particles::testing;
+
+TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserved) {
+  int size = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const double R = 25e-6, L = 100e-6, interval = 1e-5;
+  auto scene = blood_scene(2 * R, L, 0.08);
+  use_paper_closures(scene);
+  const auto mesh = wedge_mesh(16, 10, R, L, "mpi-wedge");
+  const CellLocator locator(mesh);
+  FluidSampler fluid(locator);
+  fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
+  Deposition deposition(locator, make_solid_fraction_model("sphere_overlap", locator));
+  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+  // Within 0.7 R (local Ht 16 %): no wall contact in 0.2 ms; cell-cell contacts do happen.
+  const auto placed = place_particles(0.7 * R, L, 0, placement_requests(scene), 5);
+  engine.create_particles(placed);
+  ASSERT_GT(placed.size(), 200u);
+  double expected_volume = 0;
+  for (const auto& p : placed) expected_volume += p.species == kRbc ? scene.rbc.volume : scene.platelet.volume;
+  const auto timing = derive_dem_timing(scene, interval);
+
+  auto momentum = [&] {
+    const auto s = engine.snapshot(0, 0);
+    Vec3 p = Vec3::Zero();
+    for (std::size_t i = 0; i < s.size(); ++i)
+      p += (s.species[i] == kRbc ? scene.rbc.mass : scene.platelet.mass) *
+           Vec3(s.velocity[3 * i], s.velocity[3 * i + 1], s.velocity[3 * i + 2]);
+    return p;
+  };
+  Vec3 p_before = momentum();
+  double worst_balance = 0, worst_momentum = 0;
+  Vec3 last_force = Vec3::Zero();
+  for (int step = 1; step <= 20; ++step) {
+    ASSERT_EQ(engine.run(step, timing.substeps, timing.dt, fluid), "");
+    engine.deposit(deposition);
+    hemo::particle_feedback_t fb;
+    deposition.finish(interval, &fluid, fb);
+    const Vec3 force(fb.total_particle_force[0], fb.total_particle_force[1], fb.total_particle_force[2]);
+    Vec3 back = Vec3::Zero();
+    // scale: the size of the terms the fluid subtracts, S V and K u V (per cell S - K u is a
+    // small difference of large terms: particles move nearly with the plasma)
+    double solid = 0, scale = 0;
+    for (int c = 0; c < fb.n_cells; ++c) {
+      const Vec3 s(fb.source_explicit[c][0], fb.source_explicit[c][1], fb.source_explicit[c][2]);
+      const Vec3 cell_back = (s - fb.drag_coefficient[c] * fluid.cell_velocity(c)) * locator.volume(c);
+      back += cell_back;
+      scale += (s.norm() + fb.drag_coefficient[c] * fluid.cell_velocity(c).norm()) * locator.volume(c);
+      solid += fb.solid_fraction[c] * locator.volume(c);
+    }
+    worst_balance = std::max(worst_balance, (force + back).norm() / scale);
+    EXPECT_NEAR(solid, expected_volume, 1e-12 * expected_volume) << "step " << step;
+    const Vec3 p_after = momentum();
+    worst_momentum = std::max(worst_momentum, (p_after - p_before - force * interval).norm() / p_after.norm());
+    p_before = p_after;
+    last_force = force;
+  }
+  if (rank == 0)
+    std::printf("[ info ] %d rank(s), %zu particles, %d substeps: |sum F + sum (S - K u) V| / sum (|S| + K |u|) V <= %.2e, "
+                "|dp - impulse| / |p| <= %.2e, total force z %.10e N\n",
+                size, placed.size(), timing.substeps, worst_balance, worst_momentum, last_force.z());
+  EXPECT_LT(worst_balance, 1e-12);
+  EXPECT_LT(worst_momentum, 1e-11);
+  // Each rank holds some of the particles (LIGGGHTS splits the vessel along z).
+  EXPECT_GT(engine.local_particle_count(), 0) << "rank " << rank;
+  EXPECT_LT(engine.local_particle_count(), static_cast<long>(placed.size()) + (size == 1 ? 1 : 0)) << "rank " << rank;
+  const auto d = engine.diagnostics(&fluid);
+  EXPECT_EQ(d.particles, static_cast<long>(placed.size()));
+  EXPECT_EQ(d.lost, 0);
+  EXPECT_EQ(d.outside_mesh, 0);
+  // Every rank sees the same, complete snapshot (ids 1..N, unit quaternions).
+  const auto snap = engine.snapshot(20, 20 * interval);
+  ASSERT_EQ(snap.orientation.size(), 4 * snap.size());
+  for (std::size_t i = 0; i < snap.size(); ++i) {
+    const Eigen::Map<const Eigen::Vector4d> q(&snap.orientation[4 * i]);
+    EXPECT_NEAR(q.norm(), 1.0, 1e-12) << "particle " << snap.id[i];
+  }
+}
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank != 0) {  // one rank reports
+    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
+    delete listeners.Release(listeners.default_result_printer());
+  }
+  const int result = RUN_ALL_TESTS();
+  MPI_Finalize();
+  return result;
+}
