@@ -181,6 +181,11 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
     auto it = node.totals.find("compute_s");
     if (it != node.totals.end()) computing += it->second;
   }
+  for (const auto& [name, node] : nodes_) {
+    const double mib = node.process->peak_memory_mib();
+    csv += fmt::format("{},peak_memory_MiB,{:.1f},\n", name, mib);
+    text += fmt::format("  {:<10} {:<28} {:10.1f} MiB\n", name, "peak memory", mib);
+  }
   // In the serial scheme the nodes compute one after the other; what the step took beyond
   // both computations is the coupling: messages, waking up, the coordinator's bookkeeping.
   const double overhead = stepping_wall_s_ - computing;

@@ -10,6 +10,7 @@
 #include <fcntl.h>
 #include <fstream>
 #include <stdexcept>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -55,8 +56,10 @@ void NodeProcess::reap(int status) {
 bool NodeProcess::running() {
   if (!ended_.empty()) return false;
   int status = 0;
-  const pid_t r = ::waitpid(pid_, &status, WNOHANG);
+  struct rusage usage {};
+  const pid_t r = ::wait4(pid_, &status, WNOHANG, &usage);
   if (r == pid_) {
+    peak_rss_kib_ = usage.ru_maxrss;  // the largest of the process and its waited-for children
     reap(status);
     return false;
   }
@@ -76,7 +79,11 @@ void NodeProcess::terminate(double grace_s) {
   if (wait_exit(grace_s) || !running()) return;
   ::kill(-pid_, SIGKILL);
   int status = 0;
-  if (::waitpid(pid_, &status, 0) == pid_) reap(status);
+  struct rusage usage {};
+  if (::wait4(pid_, &status, 0, &usage) == pid_) {
+    peak_rss_kib_ = usage.ru_maxrss;
+    reap(status);
+  }
 }
 
 std::string NodeProcess::last_log_line() const {

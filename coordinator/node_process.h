@@ -25,6 +25,8 @@ class NodeProcess {
   void terminate(double grace_s = 3.0);
   // Waits up to `timeout_s` for a clean exit; true if it exited with status 0.
   bool wait_exit(double timeout_s);
+  // Peak resident memory of the node process and its children (MPI ranks), once it ended; MiB.
+  double peak_memory_mib() const { return peak_rss_kib_ / 1024.0; }
   // The last non-empty line of the node's log, for error messages.
   std::string last_log_line() const;
 
@@ -33,6 +35,7 @@ class NodeProcess {
   std::string name_, log_path_, ended_;
   pid_t pid_ = -1;
   int status_ = -1;
+  long peak_rss_kib_ = 0;
 };
 
 }  // namespace hemo
