@@ -37,6 +37,7 @@ class Reader {
   template <class T>
   bool read(const std::string& key, T& out, double scale = 1.0) {
     known_.insert(key);
+    catalogue_.push_back({key, default_text(out, scale)});
     auto node = root_.at_path(key);
     if (!node) return false;
     const int line = static_cast<int>(node.node()->source().begin.line);
@@ -73,6 +74,7 @@ class Reader {
   }
 
   void report_unknown() { walk(root_, ""); }
+  std::vector<SceneKey>& catalogue() { return catalogue_; }
   std::vector<SceneProblem>& problems() { return problems_; }
 
  private:
@@ -89,7 +91,17 @@ class Reader {
     }
   }
 
+  // The value a key has before the file is read, in the file's units.
+  template <class T>
+  static std::string default_text(const T& v, double scale) {
+    if constexpr (std::is_same_v<T, std::string>) return "\"" + v + "\"";
+    else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+    else if constexpr (std::is_integral_v<T>) return std::to_string(v);
+    else return fmt::format("{:g}", v / scale);
+  }
+
   const toml::table& root_;
+  std::vector<SceneKey> catalogue_;
   std::set<std::string> known_;
   std::vector<SceneProblem> problems_;
 };
@@ -155,17 +167,40 @@ void read_species(Reader& r, Species& s, bool rbc) {
 
 }  // namespace
 
-Scene load_scene(const std::string& path) {
-  toml::table root;
+static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue);
+
+static toml::table parse_scene_file(const std::string& path) {
   try {
-    root = toml::parse_file(path);
+    return toml::parse_file(path);
   } catch (const toml::parse_error& e) {
     const int line = static_cast<int>(e.source().begin.line);
     if (e.source().path == nullptr && line == 0)
       throw SceneError(path, {{"(file)", 0, std::string(e.description())}});
     throw SceneError(path, {{"(syntax)", line, std::string(e.description())}});
   }
+}
 
+Scene load_scene(const std::string& path) {
+  std::vector<SceneKey> unused;
+  return read_scene(parse_scene_file(path), path, unused);
+}
+
+std::vector<SceneKey> scene_keys() {
+  std::vector<SceneKey> keys;
+  toml::table empty;
+  try {
+    read_scene(empty, "(defaults)", keys);
+  } catch (const SceneError& e) {
+    // An empty scene lacks exactly the keys without a default: say so in the listing.
+    for (const auto& p : e.problems())
+      for (auto& k : keys)
+        if (k.key == p.key || k.key.rfind(p.key + ".", 0) == 0)
+          k.default_value = p.key == k.key ? "required" : "required: " + p.message;
+  }
+  return keys;
+}
+
+static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue) {
   Scene s;
   s.source_path = path;
   Reader r(root);
@@ -258,6 +293,7 @@ Scene load_scene(const std::string& path) {
   read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
 
   r.report_unknown();
+  catalogue = std::move(r.catalogue());
   if (!r.problems().empty()) throw SceneError(path, r.problems());
   return s;
 }

@@ -161,4 +161,12 @@ class SceneError : public std::runtime_error {
 // Reads and validates a scene file; throws SceneError listing every problem found.
 Scene load_scene(const std::string& path);
 
+// Every key a scene may hold, with its default in the file's units, in reading order
+// (`hemocosim check --keys`; docs/scenes.md is made from it).
+struct SceneKey {
+  std::string key;
+  std::string default_value;
+};
+std::vector<SceneKey> scene_keys();
+
 }  // namespace hemo

@@ -10,7 +10,14 @@
 
 namespace hemo {
 
+int list_keys_command() {
+  fmt::print("| key | default |\n|---|---|\n");
+  for (const auto& k : scene_keys()) fmt::print("| `{}` | {} |\n", k.key, k.default_value.empty() ? "—" : k.default_value);
+  return 0;
+}
+
 int check_command(const std::string& scene_path) {
+  if (scene_path.empty()) throw std::runtime_error("check needs a scene file (or --keys)");
   const Scene s = load_scene(scene_path);  // throws SceneError listing every problem
   const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
   const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;

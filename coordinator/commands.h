@@ -15,6 +15,7 @@ struct RunOptions {
 int run_command(const RunOptions& opt);
 
 int check_command(const std::string& scene_path);
+int list_keys_command();  // every scene key with its default, as a Markdown table
 
 struct MonitorOptions {
   std::string run_dir;

@@ -1,6 +1,7 @@
 // hemocosim: the coordinator of the blood co-simulation.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
+#include "bench.h"
 #include "commands.h"
 #include "plot.h"
 #include "scene.h"
@@ -25,7 +26,9 @@ int main(int argc, char** argv) {
 
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
-  check_cmd->add_option("scene", check_scene, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
+  bool list_keys = false;
+  check_cmd->add_option("scene", check_scene, "Scene file (TOML)")->check(CLI::ExistingFile);
+  check_cmd->add_flag("--keys", list_keys, "List every scene key with its default instead");
 
   hemo::MonitorOptions mon;
   auto* mon_cmd = app.add_subcommand("monitor", "Live view of a run's coupling traffic");
@@ -60,14 +63,22 @@ int main(int argc, char** argv) {
   study_cmd->add_flag("--no-plot", study.no_plot, "Write the report without figures");
   study_cmd->add_flag("--check", study.check_only, "Only expand and validate the study's scenes and print the plan");
 
+  hemo::BenchOptions bench;
+  auto* bench_cmd = app.add_subcommand("bench", "Run time against error: run bench suites (scenes/bench), errors against each suite's reference, bench.md with figures");
+  bench_cmd->add_option("suites", bench.suites, "Suite names (scenes/bench/<name>.toml, or a group such as 'stress') or files (default: every suite but the stress tests)");
+  bench_cmd->add_option("--out", bench.out, "Bench directory")->capture_default_str();
+  bench_cmd->add_option("--hemocosim", bench.hemocosim, "hemocosim executable for the runs (its nodes are used; default: this one)");
+  bench_cmd->add_flag("--no-plot", bench.no_plot, "Write bench.md without figures");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return hemo::run_command(run);
-    if (*check_cmd) return hemo::check_command(check_scene);
+    if (*check_cmd) return list_keys ? hemo::list_keys_command() : hemo::check_command(check_scene);
     if (*mon_cmd) return hemo::monitor_command(mon);
     if (*ana_cmd) return hemo::analyze_command(ana);
     if (*plot_cmd) return hemo::plot_command(plot);
     if (*study_cmd) return hemo::study_command(study);
+    if (*bench_cmd) return hemo::bench_command(bench);
   } catch (const hemo::SceneError& e) {
     for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
     return 2;

@@ -169,3 +169,17 @@ TEST(Scene, ShippedScenesAreValid) {
     EXPECT_NO_THROW(load_scene(std::string(HEMO_SCENES_DIR) + "/" + name)) << name;
   }
 }
+
+// docs/scenes.md lists every key the code reads, with the default the code uses.
+TEST(Scene, DocumentationListsEveryKeyWithItsDefault) {
+  std::ifstream in(std::string(HEMO_SCENES_DIR) + "/../docs/scenes.md");
+  ASSERT_TRUE(in);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string doc = ss.str();
+  const auto keys = scene_keys();
+  ASSERT_GT(keys.size(), 40u);
+  for (const auto& k : keys)
+    EXPECT_NE(doc.find("| `" + k.key + "` | " + k.default_value + " |"), std::string::npos)
+        << k.key << " = " << k.default_value << " is not in docs/scenes.md: regenerate with hemocosim check --keys";
+}
