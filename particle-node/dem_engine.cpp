@@ -266,6 +266,10 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     if (rotation) {
       q = Quat(rot[i][0], rot[i][1], rot[i][2], rot[i][3]);
       l = Vec3(rot[i][4], rot[i][5], rot[i][6]);
+      if (!pending_orientation_.empty()) {
+        const auto it = pending_orientation_.find(t);
+        if (it != pending_orientation_.end()) q = it->second;
+      }
       if (drift) rotation->drift(q, l, rotation_dt_);
       flow.axis = symmetry_axis(q);
     }
@@ -311,6 +315,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     last_rotation_step_ = ntimestep;
     rotation_dt_ = dt_;
   }
+  pending_orientation_.clear();
 }
 
 int DemEngine::cell_of(int tag, const Vec3& x, bool* in_wall_gap) {
@@ -543,16 +548,10 @@ ParticleSnapshot DemEngine::snapshot(long step, double time_s) {
 }
 
 void DemEngine::set_orientation(long id, const Quat& q) {
-  double** rot = per_atom(rotation_fix_);
-  if (rot == nullptr) throw std::logic_error("no particle of this scene tracks an orientation");
-  const Quat u = q.normalized();
-  for (int i = 0; i < lmp_->atom->nlocal; ++i)
-    if (lmp_->atom->tag[i] == id) {
-      rot[i][0] = u.w();
-      rot[i][1] = u.x();
-      rot[i][2] = u.y();
-      rot[i][3] = u.z();
-    }
+  if (rotation_fix_ == nullptr) throw std::logic_error("no particle of this scene tracks an orientation");
+  // Taken at the next force evaluation: LIGGGHTS re-initialises property/atom values of
+  // existing atoms when it sets up a run, so a value written between runs may not survive.
+  pending_orientation_[static_cast<int>(id)] = q.normalized();
 }
 
 }  // namespace hemo::particles

@@ -44,6 +44,7 @@
 #include <scene.h>
 
 #include <array>
+#include <map>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -104,12 +105,15 @@ class DemEngine {
   // Every particle, sorted by id, z unwrapped (collective; complete on every rank).
   ParticleSnapshot snapshot(long step, double time_s);
 
-  // Sets a particle's orientation (tests); its angular momentum is kept.
+  // Sets a particle's orientation from the next DEM step on (tests); its angular momentum is kept.
   void set_orientation(long id, const Quat& q);
   bool tracks_orientation(int species) const { return rotation_[species] != nullptr; }
   const SpeciesForces& forces(int species) const { return *forces_[species]; }
 
   long dem_timestep() const;
+
+  // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.
+  void liggghts(const std::string& line) { command(line); }
 
  private:
   static void force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
@@ -170,6 +174,7 @@ class DemEngine {
   int first_problem_tag_ = 0;
   bool first_run_ = true;
   long lost_ = 0;
+  std::map<int, Quat> pending_orientation_;  // set_orientation, applied at the next callback
 };
 
 }  // namespace hemo::particles

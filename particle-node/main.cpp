@@ -7,6 +7,7 @@
 // With --ranks N > 1 the node re-executes itself under mpirun; rank 0 talks to the bus and
 // broadcasts what it receives (ranked_port.h), every rank runs its share of the DEM.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "liggghts_errors.h"
 #include "mpi_launch.h"
 #include "particle_node.h"
 #include "ranked_port.h"
@@ -57,6 +58,12 @@ int failed(hemo::particles::RankedPort& port, const std::string& why) {
   return 1;
 }
 
+// A failure every rank agrees on: the node stops (its last snapshot stays in particles.h5).
+int stop(hemo::particles::RankedPort& port, const std::string& why) {
+  hemo::particles::disarm_liggghts_exit();
+  return failed(port, why);
+}
+
 // A problem only some ranks see (an exception in the middle of a collective step) cannot be
 // agreed on: say it and take the whole job down.
 [[noreturn]] void abort_job(hemo::particles::RankedPort* port, const std::string& why) {
@@ -98,6 +105,9 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  // LIGGGHTS ends the process itself on a fatal error: still tell the coordinator why.
+  hemo::particles::report_liggghts_exit({run_dir + "/liggghts.log.steps", run_dir + "/liggghts.log"},
+                                        [&](const std::string& why) { failed(*port, why); });
   try {
     const hemo::mesh_t mesh = port->initialize();
     hemo::particles::ParticleNode node(scene, mesh, run_dir, MPI_COMM_WORLD);
@@ -105,16 +115,18 @@ int main(int argc, char** argv) {
     hemo::Diagnostics diagnostics = node.diagnostics();
 
     while (auto step = port->advance(feedback, diagnostics)) {
-      if (auto why = node.check(step->fluid); !why.empty()) return failed(*port, why);
-      if (auto why = node.advance(step->order, step->fluid); !why.empty()) return failed(*port, why);
+      if (auto why = node.check(step->fluid); !why.empty()) return stop(*port, why);
+      if (auto why = node.advance(step->order, step->fluid); !why.empty()) return stop(*port, why);
       feedback = node.feedback();
       if (step->order.write_output) node.write_output(node.step(), node.time());
       diagnostics = node.diagnostics();
     }
 
     node.write_output(node.step(), node.time());  // the final state (kept once if already written)
+    hemo::particles::disarm_liggghts_exit();
     port->finalize();
   } catch (const std::exception& e) {
+    hemo::particles::disarm_liggghts_exit();
     if (mpi.size() > 1) abort_job(port.get(), e.what());
     return failed(*port, e.what());
   }

@@ -3,6 +3,9 @@
 #include "box_mesh.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
+#include "flows.h"
+#include "liggghts_errors.h"
+#include "single_particle.h"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -12,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 
 using namespace hemo::particles;
 using namespace hemo::particles::testing;
@@ -28,14 +32,19 @@ struct Fixture {
   DemEngine engine;
   DemTiming timing;
 
-  explicit Fixture(double hematocrit = 0.15)
-      : scene(blood_scene(50e-6, 100e-6, hematocrit)),
+  explicit Fixture(double hematocrit = 0.15, bool paper = true)
+      : scene(paper_scene(blood_scene(50e-6, 100e-6, hematocrit), paper)),
         mesh(box_mesh(6, 6, 8, -25e-6, 25e-6, -25e-6, 25e-6, 100e-6, 50e-6)),
         locator(mesh),
         fluid(locator),
         deposition(locator),
         engine(scene, locator, log_path(), MPI_COMM_WORLD),
         timing(derive_dem_timing(scene, interval)) {}
+
+  static hemo::Scene paper_scene(hemo::Scene s, bool paper) {
+    if (paper) use_paper_closures(s);
+    return s;
+  }
 
   static std::string log_path() {
     return (std::filesystem::temp_directory_path() / ("hemo_engine_" + std::to_string(::getpid()) + ".log")).string();
@@ -136,6 +145,138 @@ TEST(DemEngine, ParticleOutsideTheMeshStopsTheRunNamingIt) {
   const std::string error = engine.run(7, 10, 1e-7, fluid);
   EXPECT_NE(error.find("particle 1 is outside the fluid mesh at coupling step 7"), std::string::npos) << error;
   EXPECT_GT(engine.diagnostics(&fluid).outside_mesh, 0);
+}
+
+TEST(DemEngine, RedCellMigratesTowardTheAxisAsTheSingleParticleHarnessSays) {
+  // One RBC with the paper's closures in Poiseuille flow on the polygonal vessel mesh, 2 ms of
+  // LIGGGHTS against the same closures stepped in the exact analytic flow.
+  const double R = 25e-6, L = 100e-6, u_max = 799 * R / 2;
+  auto scene = blood_scene(2 * R, L, 0.05);
+  use_paper_closures(scene);
+  const auto mesh = wedge_mesh(32, 8, R, L);
+  const CellLocator locator(mesh);
+  FluidSampler fluid(locator);
+  fluid.set_state(fluid_state(mesh, poiseuille(R, u_max)));
+  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+  const Vec3 x0(0.75 * R, 0.0, 10e-6);
+  engine.create_particles({{kRbc, scene.rbc.diameter, x0}});
+  const auto timing = derive_dem_timing(scene, 1e-5);
+  for (int k = 1; k <= 200; ++k) ASSERT_EQ(engine.run(k, timing.substeps, timing.dt, fluid), "");
+  const auto s = engine.snapshot(200, 2e-3);
+  const double r = std::hypot(s.position[0], s.position[1]);
+
+  // The harness, in the flow as the engine samples it (cell velocity + gradient, the cell's
+  // gradient for the lift) and in the exact flow.
+  auto harness = [&](const FlowAt& flow) {
+    SingleParticle p;
+    p.x = x0;
+    const SingleParticleStepper stepper(engine.forces(kRbc), nullptr, flow);
+    for (int n = 0; n < 200 * timing.substeps; ++n) stepper.step(p, timing.dt);
+    return std::hypot(p.x.x(), p.x.y());
+  };
+  const double r_sampled = harness([&](const Vec3& x, const Vec3& v) {
+    const int c = locator.locate(x);
+    ParticleFlow f;
+    f.velocity = fluid.velocity(c, locator.wrap(x));
+    f.slip = f.velocity - v;
+    f.gradient = fluid.gradient(c);
+    f.shear_rate = fluid.shear_rate(c);
+    f.centreline_speed = fluid.max_cell_speed();
+    return f;
+  });
+  const double r_exact = harness([&](const Vec3& x, const Vec3& v) { return poiseuille_flow(x, R, u_max, v); });
+  std::printf("[ info ] RBC from 0.75 R, 2 ms: LIGGGHTS %.5f um inward; harness in the sampled flow %.5f um, in the "
+              "exact flow %.5f um (the mesh's cell gradient is taken at the prism's centroid, r = 0.66 R)\n",
+              (x0.x() - r) * 1e6, (x0.x() - r_sampled) * 1e6, (x0.x() - r_exact) * 1e6);
+  EXPECT_GT(x0.x() - r, 0.02e-6);
+  EXPECT_NEAR(r, r_sampled, 1e-4 * (x0.x() - r_sampled));
+}
+
+TEST(DemEngine, PlateletOrientationTurnsBroadsideAndIsWritten) {
+  // A tilted oblate platelet released at rest: the start-up slip (along the flow) turns it
+  // toward broadside-on (n along the slip); RBCs keep the identity quaternion.
+  Fixture fx(0.02);
+  const double R = 25e-6, L = 100e-6;
+  fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(R, 799 * R / 2)));
+  fx.engine.create_particles({{kPlatelet, fx.scene.platelet.diameter, Vec3(5e-6, 0, 20e-6)},
+                              {kRbc, fx.scene.rbc.diameter, Vec3(-10e-6, 0, 60e-6)}});
+  ASSERT_TRUE(fx.engine.tracks_orientation(kPlatelet));
+  ASSERT_FALSE(fx.engine.tracks_orientation(kRbc));
+  const Quat tilt(Eigen::AngleAxisd(1.0, Vec3::UnitY()));  // n 57 deg from the flow
+  fx.engine.set_orientation(1, tilt);
+
+  // Runs after the first one (`pre no`) must keep the orientation the callback wrote.
+  double previous = std::abs(symmetry_axis(tilt).z());
+  for (int k = 1; k <= 5; ++k) {
+    ASSERT_EQ(fx.engine.run(k, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
+    const auto s = fx.engine.snapshot(k, 0);
+    const int i = s.species[0] == kPlatelet ? 0 : 1;
+    const double nz = std::abs(symmetry_axis(Quat(s.orientation[4 * i], s.orientation[4 * i + 1],
+                                                  s.orientation[4 * i + 2], s.orientation[4 * i + 3]))
+                                   .z());
+    EXPECT_GE(nz, previous - 1e-12) << "coupling step " << k;
+    EXPECT_LT(nz, 0.9) << "coupling step " << k;  // turning slowly (the start-up slip is brief)
+    previous = nz;
+  }
+  // A new step size makes the next run set up again (`pre yes`): the orientation survives.
+  ASSERT_EQ(fx.engine.run(6, fx.timing.substeps + 1, 1e-5 / (fx.timing.substeps + 1), fx.fluid), "");
+  {
+    const auto s = fx.engine.snapshot(6, 0);
+    const int i = s.species[0] == kPlatelet ? 0 : 1;
+    EXPECT_NE(s.orientation[4 * i], 1.0);
+    EXPECT_GE(std::abs(symmetry_axis(Quat(s.orientation[4 * i], s.orientation[4 * i + 1], s.orientation[4 * i + 2],
+                                          s.orientation[4 * i + 3]))
+                           .z()),
+              previous - 1e-12);
+  }
+  const auto after = fx.engine.snapshot(5, 5e-5);
+  const int plt = after.species[0] == kPlatelet ? 0 : 1;
+  const Quat q(after.orientation[4 * plt], after.orientation[4 * plt + 1], after.orientation[4 * plt + 2],
+               after.orientation[4 * plt + 3]);
+  EXPECT_NEAR(q.norm(), 1.0, 1e-14);
+  const double nz_before = std::abs(symmetry_axis(tilt).z()), nz_after = std::abs(symmetry_axis(q).z());
+  std::printf("[ info ] platelet axis: |n.e_z| %.6f -> %.6f in 50 us\n", nz_before, nz_after);
+  EXPECT_GT(nz_after, nz_before);
+  const int rbc = 1 - plt;
+  EXPECT_EQ(after.orientation[4 * rbc], 1.0);
+  EXPECT_EQ(after.orientation[4 * rbc + 1], 0.0);
+}
+
+TEST(DemEngine, NonFiniteFluidForceStopsTheRunNamingParticleAndStep) {
+  Fixture fx(0.02);
+  fx.scene.gravity.z = std::numeric_limits<double>::infinity();  // inf - inf in the drag update
+  DemEngine engine(fx.scene, fx.locator, "none", MPI_COMM_WORLD);
+  fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(25e-6, 0.01)));
+  engine.create_particles({{kRbc, fx.scene.rbc.diameter, Vec3(0, 0, 20e-6)}});
+  const std::string error = engine.run(3, 10, 1e-7, fx.fluid);
+  EXPECT_NE(error.find("the fluid force on particle 1 is not finite at coupling step 3"), std::string::npos) << error;
+}
+
+TEST(DemEngine, ParticleLostByLiggghtsIsNamed) {
+  Fixture fx(0.02);
+  fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(25e-6, 0.01)));
+  fx.engine.create_particles(
+      {{kRbc, fx.scene.rbc.diameter, Vec3(0, 0, 20e-6)}, {kRbc, fx.scene.rbc.diameter, Vec3(0, 0, 60e-6)}});
+  ASSERT_EQ(fx.engine.run(1, 10, 1e-7, fx.fluid), "");
+  fx.engine.liggghts("group hemo_gone id 2");
+  fx.engine.liggghts("delete_atoms group hemo_gone");
+  const std::string error = fx.engine.run(2, 10, 1e-7, fx.fluid);
+  EXPECT_EQ(error, "particle 2 was lost by LIGGGHTS (it left the DEM box) during coupling step 2; 1 particle lost in all");
+  EXPECT_EQ(fx.engine.diagnostics(&fx.fluid).lost, 1);
+}
+
+TEST(DemEngineDeathTest, FatalLiggghtsErrorBecomesOneLine) {
+  ::testing::FLAGS_gtest_death_test_style = "threadsafe";
+  const auto log = Fixture::log_path() + ".fatal";
+  EXPECT_EXIT(
+      {
+        Fixture fx(0.02);
+        DemEngine engine(fx.scene, fx.locator, log, MPI_COMM_WORLD);
+        report_liggghts_exit({log}, [](const std::string& why) { std::fprintf(stderr, "FAILED: %s\n", why.c_str()); });
+        engine.liggghts("fix hemo_bad all no_such_fix_style");
+      },
+      ::testing::ExitedWithCode(1), "FAILED: LIGGGHTS: ERROR: Fix command before simulation box is defined");
+  std::remove(log.c_str());
 }
 
 TEST(DemEngine, RefusesClosuresItDoesNotHave) {
