@@ -17,6 +17,8 @@ namespace {
 
 double vessel_volume(const Scene& s) { return units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length; }
 
+const char* species_name(int species) { return species == kRbc ? "RBC" : "platelet"; }
+
 // Uniform in [0, 1) from 53 random bits.
 double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
@@ -71,7 +73,7 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
     const double r_max = radius - r_p - opt.gap_fraction * req.diameter;
     if (!(r_max > 0)) {
       std::ostringstream msg;
-      msg << "cannot place species " << req.species << ": diameter " << req.diameter
+      msg << "cannot place any " << species_name(req.species) << ": diameter " << req.diameter
           << " m does not fit in a vessel of radius " << radius << " m";
       throw PlacementError(msg.str());
     }
@@ -97,9 +99,10 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
       }
       if (!ok) {
         std::ostringstream msg;
-        msg << "cannot place particle " << n + 1 << " of " << req.count << " of species " << req.species
-            << " after " << opt.max_attempts << " attempts: the vessel is too full (sphere volume fraction "
-            << solid / vessel << " so far)";
+        msg << "cannot place " << species_name(req.species) << " " << n + 1 << " of " << req.count << " (particle "
+            << placed.size() + 1 << " placed in all) after " << opt.max_attempts
+            << " random attempts: the vessel is too full (sphere volume fraction " << solid / vessel
+            << " so far); lower the hematocrit or the platelet density, or use a longer vessel";
         throw PlacementError(msg.str());
       }
     }

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 
 using namespace hemo::particles;
 
@@ -70,8 +72,37 @@ TEST(Placement, ClearErrorWhenTooFull) {
     FAIL() << "expected PlacementError";
   } catch (const PlacementError& e) {
     EXPECT_NE(std::string(e.what()).find("too full"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("cannot place RBC"), std::string::npos) << e.what();
   }
   EXPECT_THROW(place_particles(2e-6, 20e-6, 0, req, 1), PlacementError);  // does not fit at all
+}
+
+TEST(Placement, CalibrationVesselAtTwentyPercentHematocritQuickly) {
+  // d = 100 um, l = 600 um, Ht 20 % (10,472 RBCs) and 1,414 platelets: placed, non-overlapping,
+  // reproducibly, in well under a second.
+  auto s = calibration_scene();
+  s.rbc.hematocrit = 0.20;
+  const auto req = placement_requests(s);
+  ASSERT_EQ(req[0].count, 10472);
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto a = place_particles(50e-6, 600e-6, 0, req, 2024);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_EQ(a.size(), 10472u + 1414u);
+  std::vector<Vec3> x;
+  std::vector<double> d;
+  double rbc_volume = 0;
+  for (const auto& p : a) {
+    x.push_back(p.position);
+    d.push_back(p.diameter);
+    if (p.species == kRbc) rbc_volume += 90e-18;
+  }
+  const double vessel = 3.14159265358979 * 50e-6 * 50e-6 * 600e-6;
+  std::printf("[ info ] Ht %.4f: %zu particles placed in %.2f s\n", rbc_volume / vessel, a.size(), seconds);
+  EXPECT_NEAR(rbc_volume / vessel, 0.20, 1e-4);
+  EXPECT_EQ(measure_overlaps(x, d, 50e-6, 600e-6, 0).contacts, 0);
+  EXPECT_LT(seconds, 5.0);
+  const auto b = place_particles(50e-6, 600e-6, 0, req, 2024);
+  EXPECT_EQ(a.back().position, b.back().position);
 }
 
 TEST(Overlap, MeasuresPairsAcrossThePeriodAndTheWall) {
