@@ -46,6 +46,8 @@ class ParticleNode {
   Diagnostics diagnostics();
 
   long step() const { return step_; }
+  // How many "outside the drag law's range" warnings were given (at most one per species).
+  int reynolds_warnings() const { return warned_re_[0] + warned_re_[1]; }
   double time() const { return time_; }
 
  private:

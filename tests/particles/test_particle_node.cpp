@@ -75,6 +75,42 @@ TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(ParticleNode, WarnsOnceWhenRedCellsLeaveTheDragFitsRange) {
+  // Plasma at 0.3 m/s along z past cells at rest: RBC Re = 1.4 at the first steps, above the
+  // rbc_fit law's 0.5; warned once however many steps follow. Orientation and the
+  // sphere_overlap deposition are on (the paper's closures).
+  const double R = 25e-6, L = 100e-6;
+  auto scene = blood_scene(2 * R, L, 0.05);
+  use_paper_closures(scene);
+  const auto mesh = wedge_mesh(16, 8, R, L, "wedge16");
+  const auto dir = std::filesystem::temp_directory_path() / ("hemo_node_re_" + std::to_string(::getpid()));
+  ParticleNode node(scene, mesh, dir.string(), MPI_COMM_WORLD);
+  const auto fluid = fluid_state(mesh, [](const auto&, auto& u, auto& g) {
+    u = {0, 0, 0.3};
+    g = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  });
+  for (int k = 1; k <= 3; ++k) {
+    hemo::step_order_t order;
+    order.envelope.step = k;
+    order.dt_s = 1e-5;
+    order.time_s = k * 1e-5;
+    ASSERT_EQ(node.advance(order, fluid), "");
+    if (k == 1) {
+      std::map<std::string, double> diag;
+      for (const auto& [name, value] : node.diagnostics()) diag[name] = value;
+      EXPECT_GT(diag["max_reynolds_rbc"], 0.5);
+      EXPECT_NEAR(diag["solid_volume_m3"],
+                  rbc_count(scene) * scene.rbc.volume + platelet_count(scene) * scene.platelet.volume,
+                  1e-9 * diag["solid_volume_m3"]);
+    }
+  }
+  EXPECT_EQ(node.reynolds_warnings(), 1);
+  node.write_output(node.step(), node.time());
+  const auto snap = read_snapshot((dir / "particles.h5").string(), 3);
+  EXPECT_EQ(snap.orientation.size(), 4 * snap.size());
+  std::filesystem::remove_all(dir);
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
