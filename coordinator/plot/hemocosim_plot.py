@@ -74,6 +74,9 @@ class Run:
         for row in rows:
             key = (float(row["t_start_s"]), float(row["t_end_s"]))
             blocks.setdefault(key, []).append(row)
+        first = next(iter(blocks.values()))
+        self.r_in = np.array([float(r["r_inner_m"]) for r in first])
+        self.r_out = np.array([float(r["r_outer_m"]) for r in first])
         for (t0, t1), block in blocks.items():
             x = np.array([float(r["r_mid_over_R"]) for r in block])
             rbc = np.array([float(r["rbc_per_m3"]) for r in block])
@@ -133,17 +136,50 @@ def cfl_edge_over_R(run):
     return 1 - delta / radius
 
 
+# Few cells in many bins make a profile of noise: the figure merges neighbouring bins (number
+# densities weighted by annulus volume, so the merged profile is exact) until a bin holds about
+# this many cells of a snapshot on average. A calibration-size run keeps analyze's bins.
+# At least MIN_BINS bins are kept, however few the cells.
+CELLS_PER_BIN = 15
+MIN_BINS = 10
+
+
+def merge_factor(count, bins):
+    if not count or count <= 0:
+        return 1
+    k = int(math.ceil(bins / max(count / CELLS_PER_BIN, 1)))
+    return max(1, min(k, bins // MIN_BINS))
+
+
+def rebin(run, density, k):
+    """(r/R at the merged bins' middles, merged densities) for groups of k bins."""
+    if k <= 1:
+        return (run.r_in + run.r_out) / 2 / run.r_out[-1], density
+    vol = run.r_out**2 - run.r_in**2  # proportional to the annulus volume
+    xs, ns = [], []
+    for s in range(0, len(density), k):
+        e = min(s + k, len(density))
+        xs.append((run.r_in[s] + run.r_out[e - 1]) / 2 / run.r_out[-1])
+        ns.append(np.sum(density[s:e] * vol[s:e]) / np.sum(vol[s:e]))
+    return np.array(xs), np.array(ns)
+
+
 def plot_profiles(run, out):
     chosen = pick_frames(run.frames)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
     colours = plt.cm.viridis(np.linspace(0, 0.9, max(len(chosen), 1)))
-    for ax, idx, title in ((axes[0], 1, "RBC"), (axes[1], 2, "platelets")):
+    counts = (run.get("window", "mean_rbc_count"), run.get("window", "mean_platelet_count"))
+    for ax, idx, title, count in ((axes[0], 1, "RBC", counts[0]), (axes[1], 2, "platelets", counts[1])):
+        k = merge_factor(count, len(run.r_in))
         for colour, (t, data) in zip(colours, chosen):
-            ax.plot(data[0], data[idx] * PER_UL, "-o", ms=2.5, lw=1.2, color=colour, label=time_label(t))
+            x, n = rebin(run, data[idx], k)
+            ax.plot(x, n * PER_UL, "-o", ms=2.5, lw=1.2, color=colour, label=time_label(t))
         if run.mean is not None:
             t0, t1 = run.mean[0], run.mean[1]
-            ax.plot(run.mean[2], run.mean[idx + 2] * PER_UL, "k--", lw=1.2,
-                    label=f"mean over {t0:.3g}..{t1:.3g} s")
+            x, n = rebin(run, run.mean[idx + 2], k)
+            ax.plot(x, n * PER_UL, "k--", lw=1.2, label=f"mean over {t0:.3g}..{t1:.3g} s")
+        nb = len(range(0, len(run.r_in), k))
+        title += f" ({nb} bins" + (f", {k} of analyze's merged" if k > 1 else "") + ")"
         edge = cfl_edge_over_R(run)
         if edge is not None:
             ax.axvline(edge, color="tab:red", ls=":", lw=1, label="RBC core edge (edge method)")
@@ -278,10 +314,12 @@ def plot_compare_profiles(runs, names, out):
         else:
             continue
         # Normalised by the species' mean density so that runs of other sizes compare.
-        for ax, n in ((axes[0], rbc), (axes[1], plt_)):
-            w = x  # annulus weights are proportional to r
-            mean = np.sum(n * w) / np.sum(w) if np.sum(w) > 0 else 0
-            ax.plot(x, n / mean if mean > 0 else n * 0, "-", lw=1.3, label=name + suffix)
+        counts = (run.get("window", "mean_rbc_count"), run.get("window", "mean_platelet_count"))
+        for ax, n, count in ((axes[0], rbc, counts[0]), (axes[1], plt_, counts[1])):
+            vol = run.r_out**2 - run.r_in**2
+            mean = np.sum(n * vol) / np.sum(vol) if np.sum(vol) > 0 else 0
+            xm, nm = rebin(run, n, merge_factor(count, len(run.r_in)))
+            ax.plot(xm, nm / mean if mean > 0 else nm * 0, "-", lw=1.3, label=name + suffix)
     for ax, title in zip(axes, ("RBC", "platelets")):
         ax.set_xlabel("r / R")
         ax.set_ylabel("n / n̄ (window mean)")
