@@ -301,7 +301,9 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
                    "D noise ≈ √(2/N_PLT). Wall: the whole `hemocosim run`; compute: the nodes' own (profile.csv).\n",
                    utc_now(), args, opt.out);
   for (const auto& s : suites) {
-    m += fmt::format("\n## {} — `{}`\n\n", s.name, s.study.keys.front());
+    std::string keys;
+    for (const auto& k : s.study.keys) keys += (keys.empty() ? "`" : ", `") + k + "`";
+    m += fmt::format("\n## {} — {}\n\n", s.name, keys);
     if (!s.study.title.empty()) m += s.study.title + "\n\n";
     if (s.stress) {
       m += "| value | status | wall (s) | particles compute (s) | message |\n|---|---|---|---|---|\n";
