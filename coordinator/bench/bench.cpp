@@ -387,7 +387,13 @@ BenchResult run_bench(const BenchOptions& opt) {
         }
         msg = "coordinator: " + coordinator_line;
         for (const char* node : {"particles.log", "fluid.log"}) {
-          const std::string line = error_line(fs::path(st.run_dir) / node);
+          std::string line = error_line(fs::path(st.run_dir) / node);
+          // Without the logger's "[time] [level] " prefix, to see whether the coordinator said it already.
+          for (int i = 0; i < 2 && !line.empty() && line.front() == '['; ++i) {
+            const auto close = line.find("] ");
+            if (close == std::string::npos) break;
+            line = line.substr(close + 2);
+          }
           if (!line.empty() && coordinator_line.find(line) == std::string::npos)
             msg += fmt::format("; {}: {}", node, line);
         }
