@@ -12,28 +12,6 @@
 
 namespace hemo::fluidtest {
 
-CommandResult run(const std::string& command) {
-  CommandResult r;
-  const auto start = std::chrono::steady_clock::now();
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) throw std::runtime_error("cannot run " + command);
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, pipe)) r.output += buf;
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return r;
-}
-
-std::string bin(const std::string& program) { return std::string(HEMO_BIN_DIR) + "/" + program; }
-
-std::string fresh_run_dir(const std::string& name) {
-  std::random_device rd;
-  auto dir = std::filesystem::temp_directory_path() / ("hemocosim-fluid-" + std::to_string(rd())) / name;
-  std::filesystem::create_directories(dir.parent_path());
-  return dir.string();
-}
-
 std::string SceneSpec::text() const {
   std::ostringstream s;
   s.precision(17);
@@ -56,31 +34,6 @@ RunResult run_scene(const SceneSpec& spec, const std::string& extra_cli) {
   std::ofstream(scene) << spec.text();
   r.command = run(bin("hemocosim") + " run " + scene + " --out " + r.dir + " " + extra_cli);
   return r;
-}
-
-Metrics read_metrics(const std::string& run_dir) {
-  std::ifstream in(run_dir + "/metrics.csv");
-  if (!in) throw std::runtime_error("no metrics.csv in " + run_dir);
-  Metrics m;
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string step, time, node, name, value;
-    std::getline(ss, step, ',');
-    std::getline(ss, time, ',');
-    std::getline(ss, node, ',');
-    std::getline(ss, name, ',');
-    std::getline(ss, value, ',');
-    m[{node, name}][std::stol(step)] = std::stod(value);
-  }
-  return m;
-}
-
-double last(const Metrics& m, const std::string& node, const std::string& name) {
-  auto it = m.find({node, name});
-  if (it == m.end() || it->second.empty()) throw std::runtime_error("no metric " + node + "/" + name);
-  return it->second.rbegin()->second;
 }
 
 std::vector<CellState> read_state(const std::string& csv_path) {
@@ -106,13 +59,6 @@ std::vector<CellState> read_state(const std::string& csv_path) {
     cells.push_back(c);
   }
   return cells;
-}
-
-std::string error_line(const std::string& output) {
-  std::istringstream in(output);
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("hemocosim: error:", 0) == 0) return line;
-  return {};
 }
 
 }  // namespace hemo::fluidtest

@@ -3,21 +3,22 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "run_command.h"
+
 #include <map>
 #include <string>
 #include <vector>
 
 namespace hemo::fluidtest {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-  double seconds = 0;
-};
-
-CommandResult run(const std::string& command);
-std::string bin(const std::string& program);  // a built program
-std::string fresh_run_dir(const std::string& name);
+using hemo::test::bin;
+using hemo::test::CommandResult;
+using hemo::test::error_line;
+using hemo::test::fresh_run_dir;
+using hemo::test::last;
+using hemo::test::Metrics;
+using hemo::test::read_metrics;
+using hemo::test::run;
 
 // A scene for a fluid verification run. Text, so tests can vary anything.
 struct SceneSpec {
@@ -42,12 +43,6 @@ struct RunResult {
 // Writes the scene next to the run directory and runs `hemocosim run` on it.
 RunResult run_scene(const SceneSpec& spec, const std::string& extra_cli = "");
 
-// metrics.csv: (node, name) -> step -> value
-using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;
-Metrics read_metrics(const std::string& run_dir);
-// The last value of one series (throws when absent).
-double last(const Metrics& m, const std::string& node, const std::string& name);
-
 // A fluid state recorded by hemocosim-prescribed-particles --record.
 struct CellState {
   double x, y, z, volume, phi;
@@ -55,8 +50,5 @@ struct CellState {
   double grad[9];
 };
 std::vector<CellState> read_state(const std::string& csv_path);
-
-// The line of the coordinator's output that starts with "hemocosim: error:" (empty if none).
-std::string error_line(const std::string& output);
 
 }  // namespace hemo::fluidtest

@@ -14,47 +14,7 @@
 
 namespace hemo::test {
 
-CommandResult run(const std::string& command) {
-  CommandResult r;
-  const auto start = std::chrono::steady_clock::now();
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) throw std::runtime_error("cannot run " + command);
-  char buf[4096];
-  while (std::fgets(buf, sizeof buf, pipe)) r.output += buf;
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return r;
-}
-
-std::string bin(const std::string& program) { return std::string(HEMO_BIN_DIR) + "/" + program; }
 std::string scene(const std::string& name) { return std::string(HEMO_TEST_SCENES) + "/" + name; }
-
-std::string fresh_run_dir(const std::string& name) {
-  std::random_device rd;
-  auto dir = std::filesystem::temp_directory_path() / ("hemocosim-it-" + std::to_string(rd())) / name;
-  std::filesystem::create_directories(dir.parent_path());
-  return dir.string();
-}
-
-Metrics read_metrics(const std::string& run_dir) {
-  std::ifstream in(run_dir + "/metrics.csv");
-  if (!in) throw std::runtime_error("no metrics.csv in " + run_dir);
-  Metrics m;
-  std::string line;
-  std::getline(in, line);  // header
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string step, time, node, name, value;
-    std::getline(ss, step, ',');
-    std::getline(ss, time, ',');
-    std::getline(ss, node, ',');
-    std::getline(ss, name, ',');
-    std::getline(ss, value, ',');
-    m[{node, name}][std::stol(step)] = std::stod(value);
-  }
-  return m;
-}
 
 std::vector<std::string> snapshot_names(const std::string& h5_path) {
   std::vector<std::string> names;
