@@ -5,7 +5,7 @@
 # `hemocosim plot` runs this script after making sure every run directory holds the files of
 # `hemocosim analyze` (analysis.json, profiles.csv); it can also be run by hand:
 #
-#   python3 hemocosim_plot.py --out DIR [--key scene.key] [--labels a,b,...] RUN_DIR [RUN_DIR ...]
+#   python3 hemocosim_plot.py --out DIR [--key scene.key] [--labels a,b,...] [--xlabel TEXT] RUN_DIR [RUN_DIR ...]
 #
 # Per run:    <run>_profiles.png  radial number density of RBCs and platelets at t = 0, 0.5, 1, 2 s
 #                                 (or at 0, 1/4, 1/2, 1 of a shorter run: the snapshots nearest)
@@ -264,8 +264,9 @@ def sweep_axis(runs, key, labels):
     return list(range(len(runs))), ticks, key or "run"
 
 
-def plot_sweep(runs, key, labels, out):
+def plot_sweep(runs, key, labels, out, xlabel=None):
     x, ticks, title = sweep_axis(runs, key, labels)
+    title = xlabel or title
     order = sorted(range(len(runs)), key=lambda i: x[i])
     xs = [x[i] for i in order]
     series = [
@@ -288,6 +289,8 @@ def plot_sweep(runs, key, labels, out):
             ax.set_xticklabels([ticks[i] for i in order], rotation=20)
         if len(lines) > 1:
             ax.legend(fontsize=8)
+    axes[0].ticklabel_format(axis="y", useOffset=False)
+    axes[2].ticklabel_format(axis="y", useOffset=False)
     axes[1].ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
     fig.suptitle(f"observables against {title} ({len(runs)} runs)")
     fig.savefig(out, dpi=120)
@@ -357,6 +360,7 @@ def main():
     p.add_argument("--out", required=True, help="directory for the PNG files")
     p.add_argument("--key", help="the swept scene key, dotted (default: the one key that differs)")
     p.add_argument("--labels", help="comma-separated names of the runs, in order")
+    p.add_argument("--xlabel", help="title of the swept axis (default: the key)")
     args = p.parse_args()
 
     for d in args.runs:
@@ -380,7 +384,7 @@ def main():
     if len(runs) > 1:
         key = args.key or guess_key(runs)
         names = run_labels(runs, key, labels)
-        for fname, draw in (("sweep.png", lambda o: plot_sweep(runs, key, labels, o)),
+        for fname, draw in (("sweep.png", lambda o: plot_sweep(runs, key, labels, o, args.xlabel)),
                             ("compare_profiles.png", lambda o: plot_compare_profiles(runs, names, o)),
                             ("compare_msd.png", lambda o: plot_compare_msd(runs, names, o))):
             path = os.path.join(args.out, fname)

@@ -118,6 +118,7 @@ std::vector<std::string> plot_runs(const PlotOptions& opt) {
   std::vector<std::string> argv = {find_python(), find_plot_script(), "--out", out};
   if (!opt.key.empty()) argv.insert(argv.end(), {"--key", opt.key});
   if (!opt.labels.empty()) argv.insert(argv.end(), {"--labels", join(opt.labels, ",")});
+  if (!opt.xlabel.empty()) argv.insert(argv.end(), {"--xlabel", opt.xlabel});
   argv.insert(argv.end(), opt.run_dirs.begin(), opt.run_dirs.end());
 
   std::vector<std::string> written;

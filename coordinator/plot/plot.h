@@ -17,6 +17,7 @@ struct PlotOptions {
   std::string out;                  // default: RUN_DIR/figures for one run, ./figures for several
   std::string key;                  // swept scene key (dotted); empty: the script finds the one that differs
   std::vector<std::string> labels;  // names of the runs in the figures, one per run (optional)
+  std::string xlabel;               // title of the swept axis; empty: the key
   bool reanalyze = false;           // analyse even when analysis.json is up to date
   bool quiet = false;               // do not print the list of files
 };

@@ -354,6 +354,7 @@ StudyResult run_study(const StudyOptions& opt) {
       p.run_dirs = plotted;
       p.out = (out / "figures").string();
       if (study.keys.size() == 1) p.key = study.keys.front();
+      p.xlabel = swept_header(study);
       p.labels = labels;
       figures = plot_runs(p);
       // The comparisons first, then run by run.
