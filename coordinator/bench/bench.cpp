@@ -373,18 +373,20 @@ BenchResult run_bench(const BenchOptions& opt) {
         // What the run and each node said last about the failure.
         std::string msg;
         const fs::path log = fs::path(so.out) / "logs" / (st.study_case.dir_name + ".log");
-        const std::string coordinator_line = error_line(log);
-        if (coordinator_line.find("not run:") != std::string::npos || coordinator_line.empty()) {
+        // The log collects every attempt: only its last line says whether this one was skipped.
+        std::string last;
+        {
           std::ifstream in(log);
-          std::string first;
-          std::getline(in, first);
-          if (first.rfind("not run:", 0) == 0) {
-            r.status = "not run";
-            r.message = first.substr(9);
-            rows.push_back(r);
-            continue;
-          }
+          for (std::string l; std::getline(in, l);)
+            if (!l.empty()) last = l;
         }
+        if (last.rfind("not run:", 0) == 0) {
+          r.status = "not run";
+          r.message = last.substr(9);
+          rows.push_back(r);
+          continue;
+        }
+        const std::string coordinator_line = error_line(log);
         msg = "coordinator: " + coordinator_line;
         for (const char* node : {"particles.log", "fluid.log"}) {
           std::string line = error_line(fs::path(st.run_dir) / node);

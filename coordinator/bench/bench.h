@@ -21,6 +21,7 @@
 #include "bench_metrics.h"
 #include "study.h"
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -59,7 +60,7 @@ struct BenchRow {
   bench::RunMeasures measures;
   bool has_errors = false;
   bench::BenchErrors errors;
-  double speedup = 0;  // reference wall / this wall
+  double speedup = std::numeric_limits<double>::quiet_NaN();  // reference wall / this wall; NaN without errors
 };
 
 struct BenchResult {
