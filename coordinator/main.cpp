@@ -2,7 +2,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
 #include "bench.h"
-#include "bench.h"
 #include "commands.h"
 #include "plot.h"
 #include "scene.h"
@@ -71,13 +70,6 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--hemocosim", bench.hemocosim, "hemocosim executable for the runs (its nodes are used; default: this one)");
   bench_cmd->add_flag("--no-plot", bench.no_plot, "Write bench.md without figures");
 
-  hemo::BenchOptions bench;
-  auto* bench_cmd = app.add_subcommand("bench", "Run time against error: run bench suites (scenes/bench), errors against each suite's reference, bench.md with figures");
-  bench_cmd->add_option("suites", bench.suites, "Suite names (scenes/bench/<name>.toml, or a group such as 'stress') or files (default: every suite but the stress tests)");
-  bench_cmd->add_option("--out", bench.out, "Bench directory")->capture_default_str();
-  bench_cmd->add_option("--hemocosim", bench.hemocosim, "hemocosim executable for the runs (its nodes are used; default: this one)");
-  bench_cmd->add_flag("--no-plot", bench.no_plot, "Write bench.md without figures");
-
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return hemo::run_command(run);
@@ -86,7 +78,6 @@ int main(int argc, char** argv) {
     if (*ana_cmd) return hemo::analyze_command(ana);
     if (*plot_cmd) return hemo::plot_command(plot);
     if (*study_cmd) return hemo::study_command(study);
-    if (*bench_cmd) return hemo::bench_command(bench);
     if (*bench_cmd) return hemo::bench_command(bench);
   } catch (const hemo::SceneError& e) {
     for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
