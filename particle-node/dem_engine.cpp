@@ -247,9 +247,12 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     const int cell = cell_of(t, xi);
     if (cell < 0) {
       ++outside_;
+      // Mostly a cell pushed through the wall by a contact the DEM step cannot resolve: say so.
       note_problem(t, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
-                                  "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m",
-                                  t, coupling_step_, ntimestep, xi.x(), xi.y(), xi.z(), std::hypot(xi.x(), xi.y())));
+                                  "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m; with a DEM step of {:.3g} s "
+                                  "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
+                                  t, coupling_step_, ntimestep, xi.x(), xi.y(), xi.z(), std::hypot(xi.x(), xi.y()),
+                                  dt_));
       continue;
     }
     ParticleFlow flow;
