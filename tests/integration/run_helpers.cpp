@@ -16,6 +16,19 @@ namespace hemo::test {
 
 std::string scene(const std::string& name) { return std::string(HEMO_TEST_SCENES) + "/" + name; }
 
+std::string small_scene_text(long coupling_steps, const std::string& run_keys, const std::string& more) {
+  std::ifstream in(scene("coupled_small.toml"));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string s = ss.str();
+  const std::string steps = "coupling_steps = 40";
+  if (s.find(steps) == std::string::npos || s.find("[run]") == std::string::npos)
+    throw std::runtime_error("coupled_small.toml lost its [run] table or its 40 coupling steps");
+  s.replace(s.find(steps), steps.size(), "coupling_steps = " + std::to_string(coupling_steps));
+  s.replace(s.find("[run]"), 5, "[run]\n" + run_keys);
+  return s + "\n" + more;
+}
+
 std::vector<std::string> snapshot_names(const std::string& h5_path) {
   std::vector<std::string> names;
   const hid_t f = H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);

@@ -12,6 +12,10 @@ namespace hemo::test {
 
 std::string scene(const std::string& name);  // path of a test scene
 
+// The small coupled test scene with another number of coupling steps, `run_keys` added to its
+// [run] table and `more` (whole tables) appended.
+std::string small_scene_text(long coupling_steps, const std::string& run_keys = "", const std::string& more = "");
+
 // One particle snapshot of particles.h5.
 struct Snapshot {
   double time_s = 0;

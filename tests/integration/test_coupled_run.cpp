@@ -116,15 +116,7 @@ TEST(CoupledRun, ForceOnParticlesEqualsMinusSourceReceivedByFluid) {
 }
 
 TEST(CoupledRun, LostDatagramsLeaveTheResultUnchanged) {
-  const std::string scene_text = [] {
-    std::ifstream in(scene("coupled_small.toml"));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    std::string s = ss.str();
-    s.replace(s.find("[run]"), 5, "[run]\ndrop_every = 7");
-    s.replace(s.find("coupling_steps = 40"), 19, "coupling_steps = 10");
-    return s;
-  }();
+  const std::string scene_text = small_scene_text(10, "drop_every = 7\n");
   const std::string lossy_scene = fresh_run_dir("lossy") + ".toml";
   std::ofstream(lossy_scene) << scene_text;
   const std::string lossy = fresh_run_dir("lossy");
@@ -140,14 +132,8 @@ TEST(CoupledRun, LostDatagramsLeaveTheResultUnchanged) {
 // One-way coupling (coupling.two_way = false) skips the particles' feedback: the plasma then
 // evolves exactly as with no particles at all (the stand-in node publishing zero feedback).
 TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
-  auto scene_with = [](const std::string& extra_run, const std::string& extra) {
-    std::ifstream in(scene("coupled_small.toml"));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    std::string s = ss.str();
-    s.replace(s.find("[run]"), 5, "[run]\n" + extra_run);
-    s.replace(s.find("coupling_steps = 40"), 19, "coupling_steps = 15");
-    return s + extra;
+  auto scene_with = [](const std::string& run_keys, const std::string& more) {
+    return small_scene_text(15, run_keys, more);
   };
   auto run_text = [](const std::string& name, const std::string& text) {
     const std::string dir = fresh_run_dir(name);
@@ -156,10 +142,10 @@ TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     return read_metrics(dir);
   };
-  const auto one_way = run_text("one-way", scene_with("", "\n[coupling]\ntwo_way = false\n"));
+  const auto one_way = run_text("one-way", scene_with("", "[coupling]\ntwo_way = false\n"));
   const auto no_particles = run_text(
       "no-particles",
-      scene_with("particle_command = \"" + bin("hemocosim-prescribed-particles") + " --mode none\"", ""));
+      scene_with("particle_command = \"" + bin("hemocosim-prescribed-particles") + " --mode none\"\n", ""));
   const auto two_way = run_text("two-way", scene_with("", ""));
 
   const auto& u1 = one_way.at({"fluid", "mean_velocity_m_s"});

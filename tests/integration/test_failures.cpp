@@ -17,14 +17,7 @@ namespace {
 // Starts a long run in the background, waits until it is stepping, signals one node.
 CommandResult run_and_signal(const std::string& node, int signal, const std::string& name) {
   const std::string dir = fresh_run_dir(name);
-  std::string text;
-  {
-    std::ifstream in(scene("coupled_small.toml"));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
-    text.replace(text.find("coupling_steps = 40"), 19, "coupling_steps = 100000");
-  }
+  const std::string text = small_scene_text(100000);
   const std::string long_scene = dir + ".toml";
   std::ofstream(long_scene) << text;
   auto result = std::async(std::launch::async, [&] {
@@ -91,14 +84,7 @@ TEST(Failures, HelpWorksForEveryCommand) {
 // stops the run and its nodes, keeping what was written.
 TEST(Monitor, ShowsTheTrafficOfARunningRun) {
   const std::string dir = fresh_run_dir("monitored");
-  std::string text;
-  {
-    std::ifstream in(scene("coupled_small.toml"));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
-    text.replace(text.find("coupling_steps = 40"), 19, "coupling_steps = 100000");
-  }
+  const std::string text = small_scene_text(100000);
   std::ofstream(dir + ".toml") << text;
   auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
