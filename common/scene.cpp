@@ -222,10 +222,13 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.run.startup_timeout > 0, "run.startup_timeout_s", "must be positive");
   r.check(s.run.step_timeout > 0, "run.step_timeout_s", "must be positive");
 
-  if (!r.read("vessel.diameter_um", s.vessel.diameter, units::um)) r.problem("vessel.diameter_um", 0, "missing");
-  if (!r.read("vessel.length_um", s.vessel.length, units::um)) r.problem("vessel.length_um", 0, "missing");
-  r.check(s.vessel.diameter > 0, "vessel.diameter_um", "must be positive");
-  r.check(s.vessel.length > 0, "vessel.length_um", "must be positive");
+  // Required, without a default: missing is one problem, not also "must be positive".
+  for (auto [key, value] : {std::pair{"vessel.diameter_um", &s.vessel.diameter}, {"vessel.length_um", &s.vessel.length}}) {
+    if (!r.read(key, *value, units::um))
+      r.problem(key, 0, "missing");
+    else
+      r.check(*value > 0, key, "must be positive");
+  }
 
   r.read("mesh.core_cells", s.mesh.core_cells);
   r.read("mesh.ring_cells", s.mesh.ring_cells);

@@ -183,3 +183,10 @@ TEST(Scene, DocumentationListsEveryKeyWithItsDefault) {
     EXPECT_NE(doc.find("| `" + k.key + "` | " + k.default_value + " |"), std::string::npos)
         << k.key << " = " << k.default_value << " is not in docs/scenes.md: regenerate with hemocosim check --keys";
 }
+
+TEST(Scene, MissingRequiredKeyIsOneProblem) {
+  auto ps = problems_of("[driving]\nwall_shear_rate_per_s = 799\n[vessel]\nlength_um = 60\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "vessel.diameter_um");
+  EXPECT_EQ(ps[0].message, "missing");
+}

@@ -8,6 +8,22 @@
 
 using namespace hemo::particles;
 
+namespace {
+// The calibration vessel with both species at MODEL.md's sizes and masses.
+hemo::Scene calibration_scene() {
+  hemo::Scene s;
+  s.vessel.diameter = 100e-6;
+  s.vessel.length = 600e-6;
+  s.driving.wall_shear_rate = 799;
+  s.rbc.present = s.platelet.present = true;
+  s.rbc.diameter = 5.56e-6;
+  s.rbc.mass = 9.9e-14;
+  s.platelet.diameter = 2.66e-6;
+  s.platelet.mass = 8.79e-15;
+  return s;
+}
+}  // namespace
+
 TEST(DemTiming, HertzContactTimeFormula) {
   // Two equal spheres: m* = m/2, R* = r/2, E* = E / (2 (1 - nu^2)).
   const double m = 1e-13, r = 3e-6, e = 7.5e5, nu = 0.45, v = 4e-3;
@@ -22,15 +38,7 @@ TEST(DemTiming, HertzContactTimeFormula) {
 }
 
 TEST(DemTiming, StepFromTheCalibrationScene) {
-  hemo::Scene s;
-  s.vessel.diameter = 100e-6;
-  s.vessel.length = 600e-6;
-  s.driving.wall_shear_rate = 799;
-  s.rbc.present = s.platelet.present = true;
-  s.rbc.diameter = 5.56e-6;
-  s.rbc.mass = 9.9e-14;
-  s.platelet.diameter = 2.66e-6;
-  s.platelet.mass = 8.79e-15;
+  hemo::Scene s = calibration_scene();
   const auto t = derive_dem_timing(s, 1e-5);
   // Contacts last about a microsecond; the platelet-wall one is the shortest.
   EXPECT_GT(t.contact_time, 0.5e-6);
@@ -47,16 +55,8 @@ TEST(DemTiming, StepFromTheCalibrationScene) {
 }
 
 TEST(DemTiming, RelaxationTimeOfTheDragClosuresCanBoundTheStep) {
-  hemo::Scene s;
-  s.vessel.diameter = 100e-6;
-  s.vessel.length = 600e-6;
-  s.driving.wall_shear_rate = 799;
-  s.rbc.present = s.platelet.present = true;
-  s.rbc.diameter = 5.56e-6;
-  s.rbc.mass = 9.9e-14;
+  hemo::Scene s = calibration_scene();
   s.rbc.drag = "rbc_fit";
-  s.platelet.diameter = 2.66e-6;
-  s.platelet.mass = 8.79e-15;
   s.platelet.drag = "oblate";
   s.platelet.semi_axis_a = 2.06e-6;
   s.platelet.semi_axis_c = 0.52e-6;

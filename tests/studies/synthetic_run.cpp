@@ -125,4 +125,27 @@ void write_text(const std::string& path, const std::string& text) {
   out << text;
 }
 
+const char* const kSmallBaseScene = R"(# a small base scene
+[run]
+name = "base"
+seed = 3
+
+[vessel]
+diameter_um = 40
+length_um = 60
+
+[driving]
+wall_shear_rate_per_s = 800
+
+[rbc]
+hematocrit = 0.1
+
+[platelet]
+number_density_per_ul = 300000
+
+[time]
+coupling_interval_s = 1e-5
+coupling_steps = 100
+)";
+
 }  // namespace hemo::studytest

@@ -34,6 +34,9 @@ class ScratchDir {
   std::string path_;
 };
 
+// A small, valid base scene for study tests (seed 3: every run of a study keeps it).
+extern const char* const kSmallBaseScene;
+
 std::string read_text(const std::string& path);
 void write_text(const std::string& path, const std::string& text);
 

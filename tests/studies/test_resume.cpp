@@ -16,21 +16,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* kBase = R"([run]
-name = "base"
-[vessel]
-diameter_um = 40
-length_um = 60
-[driving]
-wall_shear_rate_per_s = 800
-[rbc]
-hematocrit = 0.1
-[platelet]
-number_density_per_ul = 300000
-[time]
-coupling_interval_s = 1e-5
-coupling_steps = 100
-)";
 
 // Counts calls per run label and writes a synthetic run, or fails for the labels in `fail`.
 struct FakeRunner {
@@ -68,7 +53,7 @@ struct StudyFixture {
   StudyOptions opt;
   FakeRunner fake;
   explicit StudyFixture(const std::string& name, bool plot = false) : dir(name) {
-    write_text(dir.str() + "/base.toml", kBase);
+    write_text(dir.str() + "/base.toml", kSmallBaseScene);
     write_text(dir.str() + "/ht.toml",
                "title = \"test\"\nexpectation = \"nothing in particular\"\nbase = \"base.toml\"\n"
                "[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.15, 0.2]\nlabels = [\"a\", \"b\", \"c\"]\n");

@@ -16,35 +16,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* kBase = R"(# a small base scene
-[run]
-name = "base"
-seed = 3
-
-[vessel]
-diameter_um = 40
-length_um = 60
-
-[driving]
-wall_shear_rate_per_s = 800
-
-[rbc]
-hematocrit = 0.1
-
-[platelet]
-number_density_per_ul = 300000
-
-[time]
-coupling_interval_s = 1e-5
-coupling_steps = 100
-)";
 
 // A scratch folder with base.toml and a study file of the given text.
 struct Fixture {
   ScratchDir dir;
   std::string study;
   explicit Fixture(const std::string& name, const std::string& study_text) : dir(name) {
-    write_text(dir.str() + "/base.toml", kBase);
+    write_text(dir.str() + "/base.toml", kSmallBaseScene);
     study = dir.str() + "/" + name + ".toml";
     write_text(study, study_text);
   }
