@@ -256,6 +256,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
       continue;
     }
     ParticleFlow flow;
+    flow.cell = cell;
     flow.velocity = fluid_->velocity(cell, locator_->wrap(xi));
     flow.slip = flow.velocity - vi;
     if (forces.needs_gradient()) {
@@ -286,7 +287,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
                                   ff.lift.y(), ff.lift.z(), flow.slip.norm()));
       continue;
     }
-    max_re_[sp] = std::max(max_re_[sp], ff.reynolds);
+    max_slip_squared_[sp] = std::max(max_slip_squared_[sp], flow.slip.squaredNorm());
     const Vec3 fluid_force = ff.total();
     const Vec3 applied = fluid_force + weight;
     f[i][0] = applied.x();
@@ -372,7 +373,7 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   run_steps_ = substeps;
   callbacks_ = 0;
   outside_ = 0;
-  max_re_.fill(0.0);
+  max_slip_squared_.fill(0.0);
   first_problem_.clear();
   const bool new_dt = dt != dt_;
   dt_ = dt;
@@ -394,7 +395,9 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
                                          callbacks_, substeps, expected));
   sync_tracking();
   outside_total_ = static_cast<long>(sum_all(static_cast<double>(outside_), comm_));
-  for (double& re : max_re_) re = max_all(re, comm_);
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    max_re_[sp] = forces_[sp] ? forces_[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
+                              : 0.0;
   std::string problem = agree_on_problem();
   if (problem.empty()) problem = check_lost(coupling_step);
   return problem;

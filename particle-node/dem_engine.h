@@ -141,6 +141,7 @@ class DemEngine {
   std::array<double, kSpeciesCount> diameter_{};  // m
   std::array<double, kSpeciesCount> mass_{};      // kg
   std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
+  std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, during the run (Re after it)
   Vec3 gravity_ = Vec3::Zero();
   bool any_orientation_ = false;
   LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta

@@ -29,7 +29,6 @@ SpeciesForces::SpeciesForces(const Species& s, const Scene& scene)
 FluidForce SpeciesForces::evaluate(const ParticleFlow& flow, const Vec3& other, double dt) const {
   FluidForce f;
   f.beta = beta_fixed_ >= 0 ? beta_fixed_ : drag_->coefficient(flow);
-  f.reynolds = params_.reynolds(flow.slip);
   // The exponential ratio of the usual beta is computed once per step size.
   double r;
   if (f.beta == beta_rest_) {

@@ -20,7 +20,6 @@ struct FluidForce {
   Vec3 lift = Vec3::Zero();    // N
   Vec3 torque = Vec3::Zero();  // N m, world frame
   double beta = 0;             // N s/m, the linearised drag coefficient at this slip
-  double reynolds = 0;         // particle Reynolds number d |u_r| / nu
   Vec3 total() const { return drag + lift; }
   bool finite() const { return drag.allFinite() && lift.allFinite() && torque.allFinite() && std::isfinite(beta); }
 };

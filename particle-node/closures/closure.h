@@ -34,6 +34,8 @@ struct ParticleFlow {
   double shear_rate = 0;         // sqrt(2 S:S), 1/s
   Vec3 axis = Vec3::UnitZ();     // symmetry axis n of an oblate platelet (unit, world frame)
   double centreline_speed = 0;   // |u_max| of the vessel flow, m/s
+  int cell = -1;                 // fluid cell holding the particle (-1: not known): a closure may
+                                 // keep what depends only on the cell's values, per cell
 };
 
 // Constants of a closure: the particle, the plasma, the vessel.

@@ -22,7 +22,11 @@ class RbcFitDrag final : public DragClosure {
  public:
   explicit RbcFitDrag(const ClosureParams& p);
   std::string name() const override { return "rbc_fit"; }
-  double coefficient(const ParticleFlow& flow) const override { return coefficient(params_.reynolds(flow.slip)); }
+  double coefficient(const ParticleFlow& flow) const override {
+    // Most cells are far inside the Stokes range: no square root for them.
+    if (flow.slip.squaredNorm() < stokes_slip_squared_) return beta0_;
+    return coefficient(params_.reynolds(flow.slip));
+  }
   double coefficient(double reynolds) const;
   double max_reynolds() const override { return 0.5; }
   // C_d at Re > 0 as printed (for tests).
@@ -31,6 +35,7 @@ class RbcFitDrag final : public DragClosure {
  private:
   ClosureParams params_;
   double beta0_;  // N s/m, at Re = 0
+  double stokes_slip_squared_;  // (m/s)^2: |u_r|^2 below it is Re < kStokesBelow, beta = beta0
 };
 
 }  // namespace hemo::particles

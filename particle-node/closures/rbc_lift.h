@@ -23,6 +23,12 @@ class RbcLift final : public LiftClosure {
   Vec3 force(const ParticleFlow& flow) const override;
 
  private:
+  double shear_factor(const ParticleFlow& flow) const;  // gamma^-0.63, once per cell and shear rate
+  struct Memo {
+    double shear_rate = -1;
+    double factor = 0;
+  };
+  mutable std::vector<Memo> memo_;  // per cell
   double scale_;  // 100.271 rho d^6 / nu / (d^2 / nu)^0.63, so that F = scale gamma^-0.63 |Ga|^2 Ga
 };
 
