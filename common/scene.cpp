@@ -292,6 +292,24 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("gravity.y_m_s2", s.gravity.y);
   r.read("gravity.z_m_s2", s.gravity.z);
 
+  auto& f = s.fluid;
+  r.read("fluid.pressure_tolerance", f.pressure_tolerance);
+  r.read("fluid.pressure_relative_tolerance", f.pressure_relative_tolerance);
+  r.read("fluid.velocity_tolerance", f.velocity_tolerance);
+  r.read("fluid.min_correctors", f.min_correctors);
+  r.read("fluid.max_correctors", f.max_correctors);
+  r.read("fluid.corrector_tolerance", f.corrector_tolerance);
+  r.read("fluid.skip_when_steady", f.skip_when_steady);
+  r.read("fluid.steady_tolerance", f.steady_tolerance);
+  r.check(f.pressure_tolerance > 0, "fluid.pressure_tolerance", "must be positive");
+  r.check(f.pressure_relative_tolerance >= 0 && f.pressure_relative_tolerance < 1, "fluid.pressure_relative_tolerance",
+          "must be in [0, 1)");
+  r.check(f.velocity_tolerance > 0, "fluid.velocity_tolerance", "must be positive");
+  r.check(f.min_correctors >= 1, "fluid.min_correctors", "must be at least 1");
+  r.check(f.max_correctors >= f.min_correctors, "fluid.max_correctors", "must be at least fluid.min_correctors");
+  r.check(f.corrector_tolerance > 0, "fluid.corrector_tolerance", "must be positive");
+  r.check(f.steady_tolerance > 0, "fluid.steady_tolerance", "must be positive");
+
   r.read("coupling.two_way", s.two_way);
   read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
 

@@ -104,6 +104,21 @@ struct Gravity {
   double x = 0, y = 0, z = 0;       // m/s^2
 };
 
+// The fluid node's linear solvers, PISO loop and steady-state skip (fluid-node/README.md;
+// docs/fluid-verification.md measures the cost and the error of each setting).
+struct FluidSolver {
+  double pressure_tolerance = 1e-10;          // p: OpenFOAM's normalised residual, final corrector
+  double pressure_relative_tolerance = 0.01;  // p: non-final correctors, fraction of the initial residual
+  double velocity_tolerance = 1e-12;          // U predictor: normalised residual
+  int min_correctors = 2;                     // PISO pressure correctors at least ...
+  int max_correctors = 20;                    // ... and at most,
+  double corrector_tolerance = 1e-3;          // more while a corrector's initial p residual is above
+  // One-way scenes (coupling.two_way = false): stop solving once max|U - U_old| / max|U| over a
+  // step is below steady_tolerance, and publish the same state every later step.
+  bool skip_when_steady = true;
+  double steady_tolerance = 1e-8;
+};
+
 struct Output {
   long every_steps = 10;            // particle snapshot every this many coupling steps (and last)
 };
@@ -134,6 +149,7 @@ struct Scene {
   Gravity gravity;
   Timing time;
   Output output;
+  FluidSolver fluid;
   bool two_way = true;              // particles push back on the fluid
   // How a particle's volume, drag and coefficient are shared among fluid cells:
   // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
