@@ -72,18 +72,21 @@ std::string fv_schemes() {
   return s;
 }
 
-std::string fv_solution() {
+std::string fv_solution(const FluidSolver& solver) {
   std::string s = header("dictionary", "system", "fvSolution");
   s += "solvers\n{\n"
        "    p\n    {\n        solver          GAMG;\n        smoother        GaussSeidel;\n"
-       "        tolerance       1e-10;\n        relTol          0.01;\n    }\n"
+       "        tolerance       " + num(solver.pressure_tolerance) + ";\n"
+       "        relTol          " + num(solver.pressure_relative_tolerance) + ";\n    }\n"
        "    pFinal\n    {\n        $p;\n        relTol          0;\n    }\n"
        "    U\n    {\n        solver          GAMG;\n        smoother        symGaussSeidel;\n"
-       "        tolerance       1e-12;\n        relTol          0;\n        maxIter         100;\n    }\n"
+       "        tolerance       " + num(solver.velocity_tolerance) + ";\n"
+       "        relTol          0;\n        maxIter         100;\n    }\n"
        "}\n\n"
-       "PISO\n{\n    momentumPredictor yes;\n    nCorrectors     2;\n"
-       "    maxCorrectors   20;      // more correctors while the p residual is above:\n"
-       "    correctorTolerance 1e-3;\n"
+       "PISO\n{\n    momentumPredictor yes;\n"
+       "    nCorrectors     " + std::to_string(solver.min_correctors) + ";\n"
+       "    maxCorrectors   " + std::to_string(solver.max_correctors) + ";  // more correctors while the p residual is above:\n"
+       "    correctorTolerance " + num(solver.corrector_tolerance) + ";\n"
        "    nNonOrthogonalCorrectors 1;\n    pRefCell        0;\n    pRefValue       0;\n}\n";
   return s;
 }
@@ -114,6 +117,8 @@ FluidSettings fluid_settings(const Scene& scene) {
   f.body_force = f.pressure_drop / (f.density * scene.vessel.length);
   f.dt = scene.time.coupling_interval;
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");
+  f.solver = scene.fluid;
+  f.skip_when_steady = scene.fluid.skip_when_steady && !scene.two_way;
   for (const Species* s : {&scene.rbc, &scene.platelet})
     if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
   return f;
@@ -145,7 +150,7 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
   const fs::path dir(case_dir);
   write_text(dir / "system" / "controlDict", control_dict(fluid));
   write_text(dir / "system" / "fvSchemes", fv_schemes());
-  write_text(dir / "system" / "fvSolution", fv_solution());
+  write_text(dir / "system" / "fvSolution", fv_solution(fluid.solver));
   write_polymesh(mesh, case_dir);
 
   std::string cyclic_entries;

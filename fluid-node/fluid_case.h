@@ -21,6 +21,8 @@ struct FluidSettings {
   double body_force = 0;           // m/s^2 along +z: G = dP / (rho l)
   double dt = 0;                   // s, coupling interval = one fluid time step
   double largest_particle_diameter = 0;  // m, over the species present (0: none)
+  FluidSolver solver;              // scene keys fluid.*: tolerances, PISO correctors, steady skip
+  bool skip_when_steady = false;   // fluid.skip_when_steady and a one-way scene
 };
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from

@@ -51,18 +51,44 @@ int main(int argc, char* argv[])
             #include "advanceTime.H"
             #include "applyFeedback.H"
 
-            // PISO: momentum predictor, then pressure correctors (nCorrectors, and more
-            // while the pressure equation is still inconsistent: see createFields.H)
-            #include "UEqn.H"
-            for (pisoCorr = 1; ; ++pisoCorr)
+            if (fluidSteady)
             {
-                #include "pEqn.H"
-                if (pisoDone(pisoCorr, pCorrResidual)) break;
+                // One-way scene, steady flow: nothing can change it; publish it again.
+                #include "republishSteady.H"
             }
+            else
+            {
+                auto phaseStart = std::chrono::steady_clock::now();
 
-            #include "momentumBudget.H"
-            #include "diagnostics.H"
-            #include "publishState.H"
+                // PISO: momentum predictor, then pressure correctors (nCorrectors, and more
+                // while the pressure equation is still inconsistent: see createFields.H)
+                #include "UEqn.H"
+                const double momentumSeconds = hemo::seconds_since(phaseStart);
+                phaseStart = std::chrono::steady_clock::now();
+                for (pisoCorr = 1; ; ++pisoCorr)
+                {
+                    #include "pEqn.H"
+                    if (finalCorrector) break;
+                }
+                const double pressureSeconds = hemo::seconds_since(phaseStart);
+                ++fluidSolves;
+
+                phaseStart = std::chrono::steady_clock::now();
+                #include "momentumBudget.H"
+                #include "diagnostics.H"
+                #include "steadyCheck.H"
+                const double diagnosticsSeconds = hemo::seconds_since(phaseStart);
+                phaseStart = std::chrono::steady_clock::now();
+                #include "publishState.H"
+                const double publishSeconds = hemo::seconds_since(phaseStart);
+
+                hemo::set_diagnostic(diagnostics, "fluid_solved", 1);
+                hemo::set_diagnostic(diagnostics, "fluid_solves", scalar(fluidSolves));
+                hemo::set_diagnostic(diagnostics, "phase_fluid_momentum_s", momentumSeconds);
+                hemo::set_diagnostic(diagnostics, "phase_fluid_pressure_s", pressureSeconds);
+                hemo::set_diagnostic(diagnostics, "phase_fluid_diagnostics_s", diagnosticsSeconds);
+                hemo::set_diagnostic(diagnostics, "phase_fluid_publish_s", publishSeconds);
+            }
 
             if (step->order.write_output)
             {
