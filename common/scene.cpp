@@ -216,6 +216,10 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.run.fluid_ranks >= 1, "run.fluid_ranks", "must be at least 1");
   r.check(s.run.particle_ranks >= 1, "run.particle_ranks", "must be at least 1");
   r.check(s.run.drop_every >= 0, "run.drop_every", "must not be negative (0: no fault injection)");
+  r.read("run.max_courant", s.run.max_courant);
+  r.read("run.max_overlap", s.run.max_overlap);
+  r.check(s.run.max_courant > 0, "run.max_courant", "must be positive");
+  r.check(s.run.max_overlap > 0 && s.run.max_overlap <= 1, "run.max_overlap", "must be in (0, 1]");
   r.read("run.fluid_command", s.run.fluid_command);
   r.read("run.particle_command", s.run.particle_command);
   r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");

@@ -132,6 +132,9 @@ struct RunSettings {
   int fluid_ranks = 1;              // MPI ranks of the fluid node
   int particle_ranks = 1;           // MPI ranks of the particle node
   int drop_every = 0;               // fault injection: every process drops every n-th message it receives
+  // Stability guards: the coordinator stops a run whose step exceeds them, naming the cause.
+  double max_courant = 1.0;         // fluid Courant number
+  double max_overlap = 0.25;        // deepest contact overlap / the smaller diameter (wall: the cell's)
   std::string fluid_command;        // empty: the built-in fluid node
   std::string particle_command;     // empty: the built-in particle node
 };

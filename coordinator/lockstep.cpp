@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "lockstep.h"
 
+#include "stability_guard.h"
+
 #include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
@@ -96,6 +98,8 @@ void Lockstep::record(const Received& msg) {
   for (std::size_t i = 0; i < done.names.size(); ++i)
     metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", k, step_time_s_, done.node, done.names[i], done.values[i]);
   metrics_.flush();
+  // Raised by await() once the bus has returned: never thrown through the bus's handlers.
+  if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
 }
 
 void Lockstep::check_health(long step) {
@@ -125,6 +129,7 @@ void Lockstep::await(long step, double timeout_s) {
       if (it != nodes_.end()) it->second.last_heard = now();
       if (msg.kind == channel::step_done) record(msg);
     });
+    if (!unstable_.empty()) throw UnstableRun(unstable_);
     check_health(step);
     if (now() - last_asked > ctx_.retry_s) {
       bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again

@@ -11,9 +11,16 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 namespace hemo {
+
+// A step whose reports break a stability guard (stability_guard.h): the nodes are healthy and
+// can still be stopped in order, writing their final state.
+struct UnstableRun : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 class Lockstep {
  public:
@@ -59,6 +66,7 @@ class Lockstep {
   double step_time_s_ = 0;
   double ordered_at_ = 0;       // wall clock when the current step was ordered
   double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time
+  std::string unstable_;        // the first broken stability guard, if any
 };
 
 }  // namespace hemo

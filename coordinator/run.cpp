@@ -36,7 +36,13 @@ void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
     if (interrupted) throw std::runtime_error(fmt::format("interrupted at step {}; output so far is in {}", k, dir.path));
     const bool output = k % scene.output.every_steps == 0 || k == steps;
     lockstep.order(k, k * scene.time.coupling_interval, output);
-    lockstep.await(k, scene.run.step_timeout);
+    try {
+      lockstep.await(k, scene.run.step_timeout);
+    } catch (const UnstableRun&) {
+      // Keep the state the run went unstable in: the nodes write it as they finish.
+      try { lockstep.stop(k + 1); } catch (const std::exception&) {}
+      throw;
+    }
     progress.update(k, fmt::format("fluid {:.2f} s, particles {:.2f} s", lockstep.compute_s("fluid"),
                                    lockstep.compute_s("particles")));
   }

@@ -158,7 +158,10 @@ hemo::Diagnostics diagnostics(const hemo::mesh_t& mesh, const hemo::particle_fee
   const bool sized = sent.n_cells == mesh.n_cells;
   if (sized) {
     for (int c = 0; c < mesh.n_cells; ++c) {
-      solid += sent.solid_fraction[c] * mesh.cell_volumes[c];
+      // Finite cells only: in --mode nan this node plays a corrupt sender whose report looks
+      // clean (the coordinator's guards would otherwise stop the run on the report first), so
+      // that the fluid node itself must refuse the NaN it receives.
+      if (std::isfinite(sent.solid_fraction[c])) solid += sent.solid_fraction[c] * mesh.cell_volumes[c];
       for (int k = 0; k < 3; ++k) source[k] += sent.source_explicit[c][k] * mesh.cell_volumes[c];
     }
   }

@@ -61,6 +61,39 @@ TEST(Failures, FrozenNodeTimesOutNamingIt) {
   EXPECT_NE(r.output.find("fluid node stopped answering"), std::string::npos) << r.output;
 }
 
+// The stability guards stop a run whose reports break them, in one line naming the cause, and
+// keep the state the run went unstable in: the nodes are stopped in order and write it.
+namespace {
+void expect_guard_stops_run(const std::string& name, const std::string& run_keys, const std::string& cause) {
+  const std::string dir = fresh_run_dir(name);
+  const std::string path = dir + ".toml";
+  std::ofstream(path) << small_scene_text(40, run_keys);
+  const auto r = run(bin("hemocosim") + " run " + path + " --out " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find(cause), std::string::npos) << r.output;
+  const auto at = r.output.find(" at step ");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const long step = std::stol(r.output.substr(at + 9));
+  EXPECT_GE(step, 1);
+  EXPECT_LE(step, 40);
+  // The state at the failing step: the particles' last snapshot is that step's.
+  const auto names = snapshot_names(dir + "/particles.h5");
+  ASSERT_FALSE(names.empty());
+  EXPECT_EQ(std::stol(names.back()), step) << "the particles did not keep the state of the unstable step";
+  EXPECT_TRUE(std::filesystem::exists(dir + "/particles.xmf"));
+}
+}  // namespace
+
+TEST(Failures, CourantNumberAboveTheGuardStopsTheRunNamingIt) {
+  // Any moving flow breaks a limit of 1e-9.
+  expect_guard_stops_run("guard-courant", "max_courant = 1e-9\n", "fluid Courant number");
+}
+
+TEST(Failures, OverlapAboveTheGuardStopsTheRunNamingIt) {
+  // The placement leaves touching cells; any contact breaks a limit of 1e-12 of a diameter.
+  expect_guard_stops_run("guard-overlap", "max_overlap = 1e-12\n", "cells overlap by");
+}
+
 TEST(Failures, UnknownSceneKeyIsRefusedInOneLineNamingIt) {
   const std::string dir = fresh_run_dir("unknown-key");
   const auto r = run(bin("hemocosim") + " run " + scene("unknown_key.toml") + " --out " + dir);
