@@ -282,6 +282,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("time.dem_substeps", s.time.dem_substeps);
   r.read("time.dem_steps_per_contact", s.time.steps_per_contact);
   r.read("time.dem_step_max_relaxation_times", s.time.relaxation_factor);
+  r.read("time.closure_every_dem_steps", s.time.closure_every_dem_steps);
+  r.check(s.time.closure_every_dem_steps >= 1, "time.closure_every_dem_steps", "must be at least 1 (1: every DEM step)");
   r.check(s.time.steps_per_contact >= 1, "time.dem_steps_per_contact", "must be at least 1");
   r.check(s.time.relaxation_factor >= 0, "time.dem_step_max_relaxation_times",
           "must not be negative (0: the drag relaxation time does not limit the DEM step)");

@@ -97,6 +97,10 @@ struct Timing {
   // what a step above the relaxation time costs).
   double steps_per_contact = 10;
   double relaxation_factor = 0;
+  // The plasma velocity at each particle and its closures (drag coefficient, lift, torque) are
+  // evaluated every this many DEM steps; in between the drag acts with them on the particle's
+  // current velocity (exponential update) every step. 1: every step.
+  int closure_every_dem_steps = 1;
 };
 
 // Body force on the particles (m g); MODEL.md §1: off by default.

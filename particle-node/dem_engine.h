@@ -29,6 +29,14 @@
 // next interval's first half kick) lives in a `fix property/atom` too; after a run every rank
 // deposits its own atoms (deposit()) and the per-cell arrays are summed over ranks. The locate
 // cache and z-unwrapping data are arrays indexed by the atom tag, synchronised after each run.
+//
+// time.closure_every_dem_steps = m > 1: the particle's cell, the plasma velocity there and the
+// closures (beta, lift, torque) are evaluated at the first step of every run and every m steps
+// after; they are kept per atom (another `fix property/atom`, which moves with its atom between
+// ranks and through LIGGGHTS's spatial sorting), and the steps in between apply the drag with
+// them to the particle's current velocity and the step's contacts (the exponential update). They
+// vary with the flow the particle sees, on the scale of the coupling interval; the contacts vary
+// on the DEM step's scale. The bench suite `closure-interval` measures what m costs in accuracy.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -146,6 +154,8 @@ class DemEngine {
   bool any_orientation_ = false;
   LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
   LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)
+  LAMMPS_NS::Fix* closure_fix_ = nullptr;  // per atom: beta, r, u (3), lift (3), torque (3)
+  const int closure_every_ = scene_.time.closure_every_dem_steps;
   std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
   double rotation_dt_ = 0;                 // the step length of that kick
   long n_particles_ = 0;

@@ -50,7 +50,8 @@ FluidForce SpeciesForces::evaluate(const ParticleFlow& flow, const Vec3& other, 
     if (lift_) f.lift = lift_->force(mean);
     if (torque_) f.torque = torque_->torque(mean);
   }
-  f.drag = (r * f.beta) * flow.slip + (r - 1) * (other + f.lift);
+  f.ratio = r;
+  f.drag = exponential_drag_force(r, f.beta, flow.slip, other + f.lift);
   return f;
 }
 

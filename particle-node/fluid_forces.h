@@ -20,6 +20,7 @@ struct FluidForce {
   Vec3 lift = Vec3::Zero();    // N
   Vec3 torque = Vec3::Zero();  // N m, world frame
   double beta = 0;             // N s/m, the linearised drag coefficient at this slip
+  double ratio = 1;            // r of the exponential update at this beta and step (exponential_drag.h)
   Vec3 total() const { return drag + lift; }
   bool finite() const { return drag.allFinite() && lift.allFinite() && torque.allFinite() && std::isfinite(beta); }
 };

@@ -35,10 +35,13 @@ inline Vec3 exponential_drag_force(double mass, double beta, const Vec3& slip, d
   return exponential_drag_coefficient(mass, beta, dt) * slip;
 }
 
-// With the other forces F_o of the step (see above).
+// With the other forces F_o of the step (see above), the ratio r already known.
+inline Vec3 exponential_drag_force(double ratio, double beta, const Vec3& slip, const Vec3& other) {
+  return (ratio * beta) * slip + (ratio - 1) * other;
+}
+
 inline Vec3 exponential_drag_force(double mass, double beta, const Vec3& slip, const Vec3& other, double dt) {
-  const double r = exponential_drag_ratio(mass, beta, dt);
-  return (r * beta) * slip + (r - 1) * other;
+  return exponential_drag_force(exponential_drag_ratio(mass, beta, dt), beta, slip, other);
 }
 
 }  // namespace hemo::particles

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Cost of the particle node's DEM per particle-step on a synthetic Poiseuille flow, without the
 // bus: bench_engine [diameter_um length_um hematocrit coupling_steps cells_per_side axial_cells
-//                    closures]
+//                    closures closure_every_dem_steps]
 // Defaults: the calibration case (100 um x 600 um, Ht 0.15, 8 x 8 x 24 = 1,536 cells) with the
 // paper's closures ("paper"; "stokes": Stokes drag only, no lift, torque or orientation).
 #include "box_mesh.h"
@@ -28,10 +28,12 @@ int main(int argc, char** argv) {
   const int nxy = argc > 5 ? std::atoi(argv[5]) : 8;
   const int nz = argc > 6 ? std::atoi(argv[6]) : 24;
   const std::string closures = argc > 7 ? argv[7] : "paper";
+  const int closure_every = argc > 8 ? std::atoi(argv[8]) : 1;
   const double R = d / 2, interval = 1e-5;
   {
     auto scene = blood_scene(d, l, ht);
     if (closures == "paper") use_paper_closures(scene);
+    scene.time.closure_every_dem_steps = closure_every;
     const auto mesh = box_mesh(nxy, nxy, nz, -R, R, -R, R, l, d);
     const CellLocator locator(mesh);
     FluidSampler fluid(locator);
@@ -57,9 +59,9 @@ int main(int argc, char** argv) {
     auto t3 = std::chrono::steady_clock::now();
     const double run_s = std::chrono::duration<double>(t2 - t1).count();
     const double particle_steps = static_cast<double>(placed.size()) * timing.substeps * steps;
-    std::printf("[%s closures] %zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, run %.2f s, "
+    std::printf("[%s closures every %d DEM steps] %zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, run %.2f s, "
                 "%.1f ns per particle-step; diagnostics %.3f s; 2 s of physics would take %.0f min\n",
-                closures.c_str(), placed.size(), steps, timing.substeps, timing.dt, std::chrono::duration<double>(t1 - t0).count(), run_s,
+                closures.c_str(), closure_every, placed.size(), steps, timing.substeps, timing.dt, std::chrono::duration<double>(t1 - t0).count(), run_s,
                 1e9 * run_s / particle_steps, std::chrono::duration<double>(t3 - t2).count(),
                 run_s / (steps * interval) * 2 / 60);
     std::printf("core particle v_z %.6g m/s, fluid %.6g m/s; max overlap %.3g; outside %ld\n",
