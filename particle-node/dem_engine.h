@@ -33,7 +33,7 @@
 // time.closure_every_dem_steps = m > 1: the particle's cell, the plasma velocity there and the
 // closures (beta, lift, torque) are evaluated at the first step of every run and every m steps
 // after; they are kept per atom (another `fix property/atom`, which moves with its atom between
-// ranks and through LIGGGHTS's spatial sorting), and the steps in between apply the drag with
+// ranks), and the steps in between apply the drag with
 // them to the particle's current velocity and the step's contacts (the exponential update). They
 // vary with the flow the particle sees, on the scale of the coupling interval; the contacts vary
 // on the DEM step's scale. The bench suite `closure-interval` measures what m costs in accuracy.
