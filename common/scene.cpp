@@ -284,6 +284,9 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("time.dem_step_max_relaxation_times", s.time.relaxation_factor);
   r.read("time.closure_every_dem_steps", s.time.closure_every_dem_steps);
   r.check(s.time.closure_every_dem_steps >= 1, "time.closure_every_dem_steps", "must be at least 1 (1: every DEM step)");
+  r.read("time.mass_scaling", s.time.mass_scaling);
+  r.check(s.time.mass_scaling >= 1 && std::isfinite(s.time.mass_scaling), "time.mass_scaling",
+          "must be at least 1 (1: the physical masses)");
   r.check(s.time.steps_per_contact >= 1, "time.dem_steps_per_contact", "must be at least 1");
   r.check(s.time.relaxation_factor >= 0, "time.dem_step_max_relaxation_times",
           "must not be negative (0: the drag relaxation time does not limit the DEM step)");

@@ -101,6 +101,12 @@ struct Timing {
   // evaluated every this many DEM steps; in between the drag acts with them on the particle's
   // current velocity (exponential update) every step. 1: every step.
   int closure_every_dem_steps = 1;
+  // Mass scaling: the DEM integrates every particle with this many times its mass (the forces
+  // stay the physical ones; the weight too). The Hertz contact time grows like s^(2/5), so the
+  // DEM step does; what it costs is the particles' inertia: their drag relaxation time grows
+  // like s and must stay far below the flow's time scale 1 / shear rate (docs/performance.md,
+  // bench mass-scaling). 1: the physical masses.
+  double mass_scaling = 1;
 };
 
 // Body force on the particles (m g); MODEL.md §1: off by default.

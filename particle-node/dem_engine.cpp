@@ -51,14 +51,15 @@ double max_all(double v, MPI_Comm comm) {
 }  // namespace
 
 DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm)
-    : scene_(scene), locator_(&locator), comm_(comm), log_path_(log_path) {
+    : scene_(dem_scene(scene)), locator_(&locator), comm_(comm), log_path_(log_path) {
   double d_max = 0;
+  const Vec3 gravity(scene.gravity.x, scene.gravity.y, scene.gravity.z);
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
-    const Species& s = species_of(scene, sp);
+    const Species& s = species_of(scene_, sp);  // masses x time.mass_scaling
     if (!s.present) continue;
     if (!(s.diameter > 0) || !(s.mass > 0) || !(s.volume > 0))
       throw std::invalid_argument(s.name + ": diameter, mass and volume must be positive");
-    forces_[sp] = std::make_unique<SpeciesForces>(s, scene);
+    forces_[sp] = std::make_unique<SpeciesForces>(s, scene_);
     if (forces_[sp]->needs_orientation()) {
       if (!(s.semi_axis_a > 0) || !(s.semi_axis_c > 0))
         throw std::invalid_argument(s.name + ": an oblate closure needs the semi-axes a and c");
@@ -69,10 +70,10 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
     volume_[sp] = s.volume;
     diameter_[sp] = s.diameter;
     mass_[sp] = s.mass;
+    weight_[sp] = species_of(scene, sp).mass * gravity;  // the physical weight, whatever the DEM mass
     d_max = std::max(d_max, s.diameter);
   }
   if (d_max == 0) throw std::invalid_argument("the scene has no particle species");
-  gravity_ = Vec3(scene.gravity.x, scene.gravity.y, scene.gravity.z);
 
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log", log_path};
   std::vector<char*> argv;
@@ -271,7 +272,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
       }
       if (drift) rotation->drift(q, l, rotation_dt_);
     }
-    const Vec3 weight = mass_[sp] * gravity_;
+    const Vec3& weight = weight_[sp];
     const Vec3 other = Vec3(contact[i][0], contact[i][1], contact[i][2]) + weight;
     FluidForce ff;
     if (evaluate) {

@@ -41,6 +41,7 @@
 #pragma once
 
 #include "cell_locator.h"
+#include "dem_timing.h"
 #include "deposition.h"
 #include "fluid_forces.h"
 #include "fluid_sampler.h"
@@ -147,10 +148,10 @@ class DemEngine {
   std::array<std::unique_ptr<OrientationIntegrator>, kSpeciesCount> rotation_;  // null: a sphere
   std::array<double, kSpeciesCount> volume_{};    // m^3, deposited as solid
   std::array<double, kSpeciesCount> diameter_{};  // m
-  std::array<double, kSpeciesCount> mass_{};      // kg
+  std::array<double, kSpeciesCount> mass_{};      // kg, the DEM's (time.mass_scaling x physical)
+  std::array<Vec3, kSpeciesCount> weight_{Vec3::Zero(), Vec3::Zero()};  // N, physical mass x gravity
   std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
   std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, during the run (Re after it)
-  Vec3 gravity_ = Vec3::Zero();
   bool any_orientation_ = false;
   LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
   LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)

@@ -36,7 +36,14 @@ double wall_shear_rate(const Scene& s) {
   return 0;
 }
 
-DemTiming derive_dem_timing(const Scene& s, double coupling_interval, int substeps_override) {
+Scene dem_scene(const Scene& scene) {
+  Scene s = scene;
+  for (Species* sp : {&s.rbc, &s.platelet}) sp->mass *= s.time.mass_scaling;
+  return s;
+}
+
+DemTiming derive_dem_timing(const Scene& physical, double coupling_interval, int substeps_override) {
+  const Scene s = dem_scene(physical);
   if (!(coupling_interval > 0)) throw std::invalid_argument("the coupling interval must be positive");
   struct Body {
     const Species* sp;

@@ -29,6 +29,10 @@ double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2
 // Rayleigh time pi r sqrt(rho / G) / (0.1631 nu + 0.8766), G = E / (2 (1 + nu)).
 double rayleigh_time(double radius, double density, double youngs, double poisson);
 
+// The scene as the DEM integrates it: every species' mass times time.mass_scaling (the rest is
+// the scene's). derive_dem_timing and DemEngine take the physical scene and apply it themselves.
+Scene dem_scene(const Scene& scene);
+
 // The wall shear rate of a scene: given, or from the pressure drop d dP / (4 mu l).
 double wall_shear_rate(const Scene& scene);
 
@@ -42,7 +46,7 @@ struct DemTiming {
   bool relaxation_limited = false;  // the relaxation-time bound was the tighter one
 };
 
-// The DEM timing for a coupling interval; `substeps_override` > 0 fixes the substep count
+// The DEM timing for a coupling interval, of the DEM's masses (dem_scene); `substeps_override` > 0 fixes the substep count
 // (scene time.dem_substeps). Throws std::invalid_argument when the scene has no particle.
 DemTiming derive_dem_timing(const Scene& scene, double coupling_interval, int substeps_override = 0);
 

@@ -85,9 +85,11 @@ pressure_drop_Pa = 3
 hematocrit = 0.9
 [time]
 coupling_steps = 0
+mass_scaling = 0.5
 )");
   std::set<std::string> keys;
   for (auto& p : ps) keys.insert(p.key);
+  EXPECT_TRUE(keys.count("time.mass_scaling"));
   EXPECT_TRUE(keys.count("vessel.diameter_um"));
   EXPECT_TRUE(keys.count("driving"));
   EXPECT_TRUE(keys.count("rbc.hematocrit"));

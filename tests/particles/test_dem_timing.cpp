@@ -75,6 +75,24 @@ TEST(DemTiming, RelaxationTimeOfTheDragClosuresCanBoundTheStep) {
   EXPECT_GE(derive_dem_timing(s, 1e-5).substeps, 2 * free.substeps - 1);
 }
 
+// time.mass_scaling = s: Hertz's t_c ~ m*^(2/5), so every contact time grows by s^(2/5) and the DEM
+// step with it; the drag relaxation time m / beta grows by s. Nothing else changes.
+TEST(DemTiming, MassScalingStretchesContactTimeByItsTwoFifthPower) {
+  hemo::Scene s = calibration_scene();
+  const auto physical = derive_dem_timing(s, 1e-4);
+  for (double scaling : {10.0, 100.0, 1000.0}) {
+    s.time.mass_scaling = scaling;
+    const auto scaled = derive_dem_timing(s, 1e-4);
+    EXPECT_NEAR(scaled.contact_time, physical.contact_time * std::pow(scaling, 0.4), 1e-12 * scaled.contact_time);
+    EXPECT_NEAR(scaled.relaxation_time, physical.relaxation_time * scaling, 1e-12 * scaled.relaxation_time);
+    EXPECT_EQ(scaled.limiting, physical.limiting);
+    EXPECT_EQ(scaled.substeps, static_cast<int>(std::ceil(1e-4 / (scaled.contact_time / s.time.steps_per_contact))));
+    EXPECT_EQ(dem_scene(s).platelet.mass, scaling * s.platelet.mass);
+    EXPECT_EQ(dem_scene(s).rbc.mass, scaling * s.rbc.mass);
+    EXPECT_EQ(dem_scene(s).rbc.diameter, s.rbc.diameter);
+  }
+}
+
 TEST(DemTiming, WallShearRateFromPressureDrop) {
   hemo::Scene s;
   s.vessel.diameter = 100e-6;
