@@ -41,73 +41,164 @@ std::vector<PlacementRequest> placement_requests(const Scene& s) {
   return r;
 }
 
+namespace {
+
+// The particles placed so far, with a spatial hash to test a new one against them.
+class Packing {
+ public:
+  Packing(double radius, double length, double z0, double reach, double gap_fraction)
+      : radius_(radius), length_(length), z0_(z0), reach_(reach), gap_fraction_(gap_fraction),
+        grid_(radius, length, z0, reach) {}
+
+  // Whether a sphere of diameter d at x keeps r_i + r_j + gap from every placed one (across the
+  // periodic ends too).
+  bool fits(const Vec3& x, double d) const {
+    return !grid_.any_near(x, [&](int id) {
+      const auto& q = placed_[static_cast<std::size_t>(id)];
+      Vec3 dx = q.position - x;
+      dx.z() -= length_ * std::round(dx.z() / length_);
+      const double reach = (d + q.diameter) / 2 + gap_fraction_ * std::min(d, q.diameter);
+      return dx.squaredNorm() < reach * reach;
+    });
+  }
+  void add(int species, double d, const Vec3& x) {
+    grid_.insert(x, static_cast<int>(placed_.size()));
+    placed_.push_back({species, d, x});
+    solid_ += units::pi / 6 * d * d * d;
+  }
+  // Forgets the particles from index `first` on (a species to be placed again another way).
+  void truncate(std::size_t first) {
+    std::vector<PlacedParticle> kept(placed_.begin(), placed_.begin() + static_cast<std::ptrdiff_t>(first));
+    placed_.clear();
+    solid_ = 0;
+    grid_ = SpatialHash(radius_, length_, z0_, reach_);
+    for (const auto& p : kept) add(p.species, p.diameter, p.position);
+  }
+  double volume_fraction() const { return solid_ / (units::pi * radius_ * radius_ * length_); }
+  std::vector<PlacedParticle>& placed() { return placed_; }
+
+ private:
+  double radius_, length_, z0_, reach_, gap_fraction_;
+  SpatialHash grid_;
+  std::vector<PlacedParticle> placed_;
+  double solid_ = 0;
+};
+
+// Random sequential addition: each particle at uniformly random spots until one is free.
+// Returns how many of the request it placed (all, unless it jammed).
+long place_randomly(Packing& packing, const PlacementRequest& req, double r_max, double length, double z0,
+                    long max_attempts, std::mt19937_64& rng) {
+  for (long n = 0; n < req.count; ++n) {
+    bool ok = false;
+    for (long attempt = 0; attempt < max_attempts && !ok; ++attempt) {
+      const double rr = r_max * std::sqrt(uniform01(rng));
+      const double th = 2 * units::pi * uniform01(rng);
+      const Vec3 x(rr * std::cos(th), rr * std::sin(th), z0 + length * uniform01(rng));
+      if ((ok = packing.fits(x, req.diameter))) packing.add(req.species, req.diameter, x);
+    }
+    if (!ok) return n;
+  }
+  return req.count;
+}
+
+// The sites of a close-packed (fcc, ABC-stacked hexagonal layers) lattice of spacing a inside
+// r <= r_max, z in [z0, z0 + length), periodic along z: the number of layers is a multiple of
+// three, stretched to fill the length exactly, so the layers across the periodic end stack
+// like the others. The layers are turned and shifted at random (seeded).
+std::vector<Vec3> lattice_sites(double a, double r_max, double length, double z0, std::mt19937_64& rng) {
+  const double h = a * std::sqrt(2.0 / 3.0);
+  int layers = 3 * static_cast<int>(std::floor(length / (3 * h)));
+  int stacking = 3;
+  if (layers == 0) {  // shorter than three layers: identical layers, a apart
+    layers = static_cast<int>(std::floor(length / a));
+    stacking = 1;
+  }
+  std::vector<Vec3> sites;
+  if (layers == 0) return sites;
+  const double dz = length / layers, turn = 2 * units::pi * uniform01(rng);
+  const Vec3 shift(a * uniform01(rng), a * uniform01(rng), dz * uniform01(rng));
+  const double c = std::cos(turn), s = std::sin(turn);
+  const int n = static_cast<int>(std::ceil(2 * r_max / a)) + 3;
+  for (int k = 0; k < layers; ++k) {
+    const int abc = k % stacking;  // offsets of the A, B, C layers
+    const double ox = shift.x() + abc * a / 2, oy = shift.y() + abc * a / (2 * std::sqrt(3.0));
+    for (int j = -n; j <= n; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const double lx = ox + (i + 0.5 * j) * a, ly = oy + j * a * std::sqrt(3.0) / 2;
+        const double x = c * lx - s * ly, y = s * lx + c * ly;
+        if (x * x + y * y <= r_max * r_max) sites.emplace_back(x, y, z0 + std::fmod(shift.z() + k * dz, length));
+      }
+  }
+  return sites;
+}
+
+// A species too dense for random addition: a random subset of the lattice's sites (in random
+// order, each taken if it keeps clear of the particles already there).
+long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_max, double length, double z0,
+                      double gap_fraction, std::mt19937_64& rng) {
+  auto sites = lattice_sites(req.diameter * (1 + gap_fraction) * (1 + 1e-9), r_max, length, z0, rng);
+  for (std::size_t i = sites.size(); i > 1; --i)  // Fisher-Yates with our own uniform mapping
+    std::swap(sites[i - 1], sites[static_cast<std::size_t>(uniform01(rng) * static_cast<double>(i))]);
+  long n = 0;
+  for (const Vec3& x : sites) {
+    if (n == req.count) break;
+    if (packing.fits(x, req.diameter)) {
+      packing.add(req.species, req.diameter, x);
+      ++n;
+    }
+  }
+  return n;
+}
+
+}  // namespace
+
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
                                             const std::vector<PlacementRequest>& requests,
                                             unsigned long long seed, const PlacementOptions& opt) {
-  std::vector<PlacedParticle> placed;
-  if (requests.empty()) return placed;
+  if (requests.empty()) return {};
   if (!(radius > 0) || !(length > 0)) throw PlacementError("placement needs a vessel with positive radius and length");
 
   double d_max = 0;
-  long total = 0;
   for (const auto& r : requests) {
     if (!(r.diameter > 0) || r.count < 0) throw PlacementError("placement: a species has no positive diameter");
     d_max = std::max(d_max, r.diameter);
-    total += r.count;
   }
-  placed.reserve(static_cast<std::size_t>(total));
   // Largest first: they are the hardest to fit.
   std::vector<std::size_t> order(requests.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return requests[a].diameter > requests[b].diameter; });
 
-  SpatialHash grid(radius, length, z0, d_max * (1 + opt.gap_fraction));
+  Packing packing(radius, length, z0, d_max * (1 + opt.gap_fraction), opt.gap_fraction);
   std::mt19937_64 rng(seed);
-  double solid = 0;
-  const double vessel = units::pi * radius * radius * length;
-
   for (std::size_t o : order) {
     const auto& req = requests[o];
-    const double r_p = req.diameter / 2;
-    const double r_max = radius - r_p - opt.gap_fraction * req.diameter;
+    const double r_max = radius - req.diameter / 2 - opt.gap_fraction * req.diameter;
     if (!(r_max > 0)) {
       std::ostringstream msg;
       msg << "cannot place any " << species_name(req.species) << ": diameter " << req.diameter
           << " m does not fit in a vessel of radius " << radius << " m";
       throw PlacementError(msg.str());
     }
-    for (long n = 0; n < req.count; ++n) {
-      bool ok = false;
-      for (long attempt = 0; attempt < opt.max_attempts && !ok; ++attempt) {
-        const double rr = r_max * std::sqrt(uniform01(rng));
-        const double th = 2 * units::pi * uniform01(rng);
-        const Vec3 x(rr * std::cos(th), rr * std::sin(th), z0 + length * uniform01(rng));
-        const bool clash = grid.any_near(x, [&](int id) {
-          const auto& q = placed[static_cast<std::size_t>(id)];
-          Vec3 d = q.position - x;
-          d.z() -= length * std::round(d.z() / length);
-          const double reach = r_p + q.diameter / 2 + opt.gap_fraction * std::min(req.diameter, q.diameter);
-          return d.squaredNorm() < reach * reach;
-        });
-        if (!clash) {
-          grid.insert(x, static_cast<int>(placed.size()));
-          placed.push_back({req.species, req.diameter, x});
-          solid += units::pi / 6 * req.diameter * req.diameter * req.diameter;
-          ok = true;
-        }
-      }
-      if (!ok) {
-        std::ostringstream msg;
-        msg << "cannot place " << species_name(req.species) << " " << n + 1 << " of " << req.count << " (particle "
-            << placed.size() + 1 << " placed in all) after " << opt.max_attempts
-            << " random attempts: the vessel is too full (sphere volume fraction " << solid / vessel
-            << " so far); lower the hematocrit or the platelet density, or use a longer vessel";
-        throw PlacementError(msg.str());
-      }
+    // Random sequential addition jams near a sphere volume fraction of 0.3 in a vessel; a
+    // species it cannot place is placed again on lattice sites, which pack up to ~0.7.
+    const std::size_t first = packing.placed().size();
+    long n = place_randomly(packing, req, r_max, length, z0, opt.max_attempts, rng);
+    if (n < req.count) {
+      packing.truncate(first);
+      n = place_on_lattice(packing, req, r_max, length, z0, opt.gap_fraction, rng);
+    }
+    if (n < req.count) {
+      std::ostringstream msg;
+      msg << "cannot place " << species_name(req.species) << " " << n + 1 << " of " << req.count << " (particle "
+          << packing.placed().size() + 1 << " placed in all) by random addition (" << opt.max_attempts
+          << " attempts each) nor on a close-packed lattice: the vessel is too full (sphere volume fraction "
+          << packing.volume_fraction() << " so far); lower the hematocrit or the platelet density, or use a longer "
+          << "vessel";
+      throw PlacementError(msg.str());
     }
   }
-  return placed;
+  return std::move(packing.placed());
 }
 
 }  // namespace hemo::particles

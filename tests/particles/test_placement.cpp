@@ -105,6 +105,40 @@ TEST(Placement, CalibrationVesselAtTwentyPercentHematocritQuickly) {
   EXPECT_EQ(a.back().position, b.back().position);
 }
 
+// Above what random sequential addition reaches (it jams near 0.31 in the bench vessel), the RBCs
+// go on lattice sites: physiological hematocrits and beyond, still inside, apart, reproducible,
+// with the platelets added at random in the gaps.
+TEST(Placement, DenseHematocritsGoOnALattice) {
+  auto s = calibration_scene();
+  s.vessel.diameter = 50e-6;
+  s.vessel.length = 60e-6;
+  const double R = 25e-6, L = 60e-6, vessel = 3.14159265358979 * R * R * L;
+  for (double ht : {0.35, 0.45, 0.5}) {
+    s.rbc.hematocrit = ht;
+    const auto req = placement_requests(s);
+    const auto a = place_particles(R, L, 0, req, 7);
+    ASSERT_EQ(static_cast<long>(a.size()), req[0].count + req[1].count) << "Ht " << ht;
+    std::vector<Vec3> x;
+    std::vector<double> d;
+    double rbc_volume = 0;
+    for (const auto& p : a) {
+      EXPECT_LE(std::hypot(p.position.x(), p.position.y()), R - p.diameter / 2 - 0.02 * p.diameter + 1e-15);
+      EXPECT_GE(p.position.z(), 0);
+      EXPECT_LT(p.position.z(), L);
+      x.push_back(p.position);
+      d.push_back(p.diameter);
+      if (p.species == kRbc) rbc_volume += 90e-18;
+    }
+    EXPECT_NEAR(rbc_volume / vessel, ht, 0.002);
+    EXPECT_EQ(measure_overlaps(x, d, R, L, 0).contacts, 0) << "Ht " << ht;
+    const auto b = place_particles(R, L, 0, req, 7);
+    EXPECT_EQ(a.back().position, b.back().position);
+  }
+  // Beyond the lattice's capacity: the same clear error.
+  s.rbc.hematocrit = 0.65;
+  EXPECT_THROW(place_particles(R, L, 0, placement_requests(s), 7), PlacementError);
+}
+
 TEST(Overlap, MeasuresPairsAcrossThePeriodAndTheWall) {
   const double R = 10e-6, L = 20e-6;
   // Two spheres of d = 2 um across the periodic end, 1.8 um apart: overlap 0.2 um = 0.1 d.
