@@ -310,6 +310,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("fluid.corrector_tolerance", f.corrector_tolerance);
   r.read("fluid.skip_when_steady", f.skip_when_steady);
   r.read("fluid.steady_tolerance", f.steady_tolerance);
+  read_name(r, "fluid.pressure_solver", f.pressure_solver, {"GAMG", "PCG"});
   r.check(f.pressure_tolerance > 0, "fluid.pressure_tolerance", "must be positive");
   r.check(f.pressure_relative_tolerance >= 0 && f.pressure_relative_tolerance < 1, "fluid.pressure_relative_tolerance",
           "must be in [0, 1)");

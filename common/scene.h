@@ -123,6 +123,9 @@ struct FluidSolver {
   int min_correctors = 2;                     // PISO pressure correctors at least ...
   int max_correctors = 20;                    // ... and at most,
   double corrector_tolerance = 1e-3;          // more while a corrector's initial p residual is above
+  // p's linear solver: "GAMG" (algebraic multigrid, Gauss-Seidel smoother) or "PCG" (conjugate
+  // gradients with DIC: more iterations, each far cheaper on small meshes).
+  std::string pressure_solver = "GAMG";
   // One-way scenes (coupling.two_way = false): stop solving once max|U - U_old| / max|U| over a
   // step is below steady_tolerance, and publish the same state every later step.
   bool skip_when_steady = true;

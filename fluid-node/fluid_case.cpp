@@ -72,10 +72,16 @@ std::string fv_schemes() {
   return s;
 }
 
+std::string pressure_solver(const std::string& name) {
+  if (name == "PCG") return "        solver          PCG;\n        preconditioner  DIC;\n";
+  if (name == "GAMG") return "        solver          GAMG;\n        smoother        GaussSeidel;\n";
+  throw std::invalid_argument("unknown pressure solver '" + name + "' (GAMG or PCG)");
+}
+
 std::string fv_solution(const FluidSolver& solver) {
   std::string s = header("dictionary", "system", "fvSolution");
   s += "solvers\n{\n"
-       "    p\n    {\n        solver          GAMG;\n        smoother        GaussSeidel;\n"
+       "    p\n    {\n" + pressure_solver(solver.pressure_solver) +
        "        tolerance       " + num(solver.pressure_tolerance) + ";\n"
        "        relTol          " + num(solver.pressure_relative_tolerance) + ";\n    }\n"
        "    pFinal\n    {\n        $p;\n        relTol          0;\n    }\n"

@@ -53,7 +53,7 @@ mkdir -p "$out"
 # core ring axial: 64, 132, 256, 576, 1024 cells per section; cells ~ 10^3, 3.2e3, 1.0e4, 3.0e4, 9.8e4
 meshes=("4 3 16" "6 4 24" "8 6 40" "12 9 52" "16 12 96")
 
-printf "%-8s %-10s %9s %9s %9s %8s %7s %7s %9s\n" cells core/ring/ax "ms/step" "ms mean" "ns/cell" corr p_it U_it "peak MiB"
+printf "%-8s %-10s %9s %9s %9s %9s %9s %8s %7s %7s %9s\n" cells core/ring/ax "ms/step" "ms mean" "U ms" "p ms" "ns/cell" corr p_it U_it "peak MiB"
 for m in "${meshes[@]}"; do
   read -r core ring axial <<<"$m"
   name="cells-$core-$ring-$axial"
@@ -100,12 +100,14 @@ SCENE
       if ($4=="piso_correctors") corr+=$5
       if ($4=="p_iterations") pit+=$5
       if ($4=="U_iterations") uit+=$5
+      if ($4=="phase_fluid_momentum_s") mom+=$5
+      if ($4=="phase_fluid_pressure_s") pre+=$5
     }
     END {
       # median by insertion sort (a few dozen values)
       for (i=1;i<n;i++){v=t[i];j=i-1;while(j>=0&&t[j]>v){t[j+1]=t[j];j--}t[j+1]=v}
       med = n%2 ? t[(n-1)/2] : (t[n/2-1]+t[n/2])/2
-      printf "%-8d %-10s %9.2f %9.2f %9.0f %8.1f %7.1f %7.1f %9.1f\n", cells, core "/" ring "/" axial,
-             1e3*med, 1e3*sum/n, 1e9*med/cells, corr/n, pit/n, uit/n, peak
+      printf "%-8d %-10s %9.2f %9.2f %9.2f %9.2f %9.0f %8.1f %7.1f %7.1f %9.1f\n", cells, core "/" ring "/" axial,
+             1e3*med, 1e3*sum/n, 1e3*mom/n, 1e3*pre/n, 1e9*med/cells, corr/n, pit/n, uit/n, peak
     }' "$out/$name/metrics.csv"
 done
