@@ -251,7 +251,6 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   for (int i = 0; i < nlocal; ++i) {
     const int t = tag[i];
     const int sp = species_of_type_[type[i]];
-    const SpeciesForces& forces = *forces_[sp];
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     const Vec3 vi(v[i][0], v[i][1], v[i][2]);
     f[i][0] = f[i][1] = f[i][2] = 0.0;
@@ -276,68 +275,19 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     const Vec3 other = Vec3(contact[i][0], contact[i][1], contact[i][2]) + weight;
     FluidForce ff;
     if (evaluate) {
-      unwrap_z(t, xi.z());
-      const int cell = cell_of(t, xi);
-      if (cell < 0) {
-        ++outside_;
-        // Mostly a cell pushed through the wall by a contact the DEM step cannot resolve: say so.
-        note_problem(t, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
-                                    "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m; with a DEM step of {:.3g} s "
-                                    "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
-                                    t, coupling_step_, ntimestep, xi.x(), xi.y(), xi.z(), std::hypot(xi.x(), xi.y()),
-                                    dt_));
-        continue;
-      }
-      ParticleFlow flow;
-      flow.cell = cell;
-      flow.velocity = fluid_->velocity(cell, locator_->wrap(xi));
-      flow.slip = flow.velocity - vi;
-      if (forces.needs_gradient()) {
-        flow.gradient = fluid_->gradient(cell);
-        flow.shear_rate = fluid_->shear_rate(cell);
-        flow.centreline_speed = centreline_speed_;
-      }
-      if (rotation) flow.axis = symmetry_axis(q);
-      ff = forces.evaluate(flow, other, dt_);
-      if (!ff.finite()) {
-        note_problem(t, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
-                                    "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
-                                    t, coupling_step_, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(), ff.lift.x(),
-                                    ff.lift.y(), ff.lift.z(), flow.slip.norm()));
-        continue;
-      }
-      max_slip_squared_[sp] = std::max(max_slip_squared_[sp], flow.slip.squaredNorm());
-      if (held) {
-        double* h = held[i];
-        h[kBeta] = ff.beta;
-        h[kRatio] = ff.ratio;
-        for (int d = 0; d < 3; ++d) {
-          h[kVelocity + d] = flow.velocity[d];
-          h[kLift + d] = ff.lift[d];
-          h[kTorque + d] = ff.torque[d];
-        }
-      }
+      const Particle particle{t, sp, xi, vi, rotation ? symmetry_axis(q) : Vec3::UnitZ()};
+      Vec3 plasma_velocity;
+      if (!evaluate_fluid_force(particle, other, ntimestep, ff, plasma_velocity)) continue;
+      if (held) hold(ff, plasma_velocity, held[i]);
     } else {
-      const double* h = held[i];
-      ff.beta = h[kBeta];
-      ff.ratio = h[kRatio];
-      ff.lift = Vec3(h[kLift], h[kLift + 1], h[kLift + 2]);
-      ff.torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);
-      const Vec3 slip = Vec3(h[kVelocity], h[kVelocity + 1], h[kVelocity + 2]) - vi;
-      ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift);
+      ff = held_fluid_force(held[i], vi, other);
     }
     const Vec3 fluid_force = ff.total();
     const Vec3 applied = fluid_force + weight;
     f[i][0] = applied.x();
     f[i][1] = applied.y();
     f[i][2] = applied.z();
-    double* acc = impulse[i];
-    for (int d = 0; d < 3; ++d) acc[d] += duration * fluid_force[d];
-    acc[3] += duration * ff.beta;
-    if (last) {
-      for (int d = 0; d < 3; ++d) acc[4 + d] = fluid_force[d];
-      acc[7] = ff.beta;
-    }
+    accumulate_impulse(impulse[i], fluid_force, ff.beta, duration, last);
     if (rotation) {
       const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
       if (advance) rotation->kick(q, l, torque, dt_);
@@ -358,6 +308,74 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     rotation_dt_ = dt_;
   }
   pending_orientation_.clear();
+}
+
+bool DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+                                     Vec3& plasma_velocity) {
+  unwrap_z(p.tag, p.x.z());
+  const int cell = cell_of(p.tag, p.x);
+  if (cell < 0) {
+    ++outside_;
+    // Mostly a cell pushed through the wall by a contact the DEM step cannot resolve: say so.
+    note_problem(p.tag, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
+                                    "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m; with a DEM step of {:.3g} s "
+                                    "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
+                                    p.tag, coupling_step_, ntimestep, p.x.x(), p.x.y(), p.x.z(),
+                                    std::hypot(p.x.x(), p.x.y()), dt_));
+    return false;
+  }
+  const SpeciesForces& forces = *forces_[p.species];
+  ParticleFlow flow;
+  flow.cell = cell;
+  flow.velocity = fluid_->velocity(cell, locator_->wrap(p.x));
+  flow.slip = flow.velocity - p.v;
+  if (forces.needs_gradient()) {
+    flow.gradient = fluid_->gradient(cell);
+    flow.shear_rate = fluid_->shear_rate(cell);
+    flow.centreline_speed = centreline_speed_;
+  }
+  flow.axis = p.axis;
+  ff = forces.evaluate(flow, other, dt_);
+  if (!ff.finite()) {
+    note_problem(p.tag, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
+                                    "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
+                                    p.tag, coupling_step_, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(),
+                                    ff.lift.x(), ff.lift.y(), ff.lift.z(), flow.slip.norm()));
+    return false;
+  }
+  max_slip_squared_[p.species] = std::max(max_slip_squared_[p.species], flow.slip.squaredNorm());
+  plasma_velocity = flow.velocity;
+  return true;
+}
+
+void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, double* h) {
+  h[kBeta] = ff.beta;
+  h[kRatio] = ff.ratio;
+  for (int d = 0; d < 3; ++d) {
+    h[kVelocity + d] = plasma_velocity[d];
+    h[kLift + d] = ff.lift[d];
+    h[kTorque + d] = ff.torque[d];
+  }
+}
+
+FluidForce DemEngine::held_fluid_force(const double* h, const Vec3& v, const Vec3& other) {
+  FluidForce ff;
+  ff.beta = h[kBeta];
+  ff.ratio = h[kRatio];
+  ff.lift = Vec3(h[kLift], h[kLift + 1], h[kLift + 2]);
+  ff.torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);
+  const Vec3 slip = Vec3(h[kVelocity], h[kVelocity + 1], h[kVelocity + 2]) - v;
+  ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift);
+  return ff;
+}
+
+void DemEngine::accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last) {
+  for (int d = 0; d < 3; ++d) acc[d] += duration * fluid_force[d];
+  acc[3] += duration * beta;
+  if (last) {  // kept for the next run's first half kick
+    for (int d = 0; d < 3; ++d) acc[4 + d] = fluid_force[d];
+    acc[7] = beta;
+  }
 }
 
 int DemEngine::cell_of(int tag, const Vec3& x, bool* in_wall_gap) {

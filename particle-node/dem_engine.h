@@ -127,6 +127,22 @@ class DemEngine {
  private:
   static void force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
   void on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f);
+  // One particle as the force callback sees it.
+  struct Particle {
+    int tag, species;
+    Vec3 x, v;
+    Vec3 axis;  // symmetry axis (platelets with orientation; +z otherwise)
+  };
+  // Locates the particle, samples the plasma there and evaluates its species' closures; false
+  // (problem noted) when it is outside the mesh or the force is not finite.
+  bool evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+                            Vec3& plasma_velocity);
+  // Keeps the closures per atom for the steps until the next evaluation (closure_every_ > 1),
+  static void hold(const FluidForce& ff, const Vec3& plasma_velocity, double* held);
+  // and applies them there: the drag on the current velocity, with this step's other forces.
+  static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other);
+  // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.
+  static void accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last);
   void command(const std::string& line);
   void setup_box(const std::array<bool, kSpeciesCount>& used);
   double unwrap_z(int tag, double z);
