@@ -101,7 +101,12 @@ Trace run_protocol(RunContext ctx, int steps) {
 }  // namespace
 
 TEST(NodePort, SerialLockstepOrdersTheData) {
-  const Trace t = run_protocol(test::make_context("ls"), 4);
+  auto ctx = test::make_context("ls");
+  // A resend is asked for after retry_s without the message: 0.2 s (the helpers' value) is
+  // shorter than a busy CI machine can stall a thread, which made a slow message look lost. With
+  // 5 s only a message that never came (or was dropped instead of kept) is asked for again.
+  ctx.retry_s = 5;
+  const Trace t = run_protocol(ctx, 4);
   // particles at step k see the fluid of step k; the fluid at step k sees the feedback of k-1.
   EXPECT_EQ(t.fluid_saw, (std::vector<double>{0, 1, 11, 111}));
   EXPECT_EQ(t.particles_saw, (std::vector<double>{1, 11, 111, 1111}));
