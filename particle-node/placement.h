@@ -2,7 +2,7 @@
 // x^2 + y^2 < R^2, z in [z0, z0 + L). Every centre keeps radius + gap from the wall; every pair
 // keeps r_i + r_j + gap. Random sequential addition, species by species; a species it cannot
 // place (it jams near a volume fraction of 0.3) is placed instead on a random subset of the
-// sites of a randomly turned close-packed lattice (up to ~0.55 in a vessel). Reproducible from
+// sites of a randomly turned close-packed lattice (0.51 in a 50 um vessel). Reproducible from
 // the seed (own uniform mapping of mt19937_64, so the result does not depend on the standard
 // library's distributions).
 // SPDX-License-Identifier: GPL-3.0-or-later
