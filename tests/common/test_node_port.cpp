@@ -60,8 +60,7 @@ void run_particles(const RunContext& ctx, Trace& trace) {
 }
 
 // Drives `steps` coupling steps the way the coordinator does.
-void coordinate(const RunContext& ctx, int steps) {
-  Bus bus(ctx, "coordinator");
+void coordinate(Bus& bus, const RunContext& ctx, int steps) {
   std::map<std::string, long> done;
   auto await = [&](long k) {
     double asked = 0;
@@ -90,9 +89,12 @@ void coordinate(const RunContext& ctx, int steps) {
 
 Trace run_protocol(RunContext ctx, int steps) {
   Trace trace;
+  // The coordinator listens before the nodes start (as hemocosim does): their first step-done
+  // reports must not go out before anyone hears them.
+  Bus bus(ctx, "coordinator");
   std::thread fluid([&] { run_fluid(ctx, trace); });
   std::thread particles([&] { run_particles(ctx, trace); });
-  coordinate(ctx, steps);
+  coordinate(bus, ctx, steps);
   fluid.join();
   particles.join();
   return trace;
