@@ -97,7 +97,7 @@ mesh_t ParticlePort::initialize() {
 }
 
 std::optional<ParticleStep> ParticlePort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
-  auto next = advance_with(channel::particle_feedback, feedback, channel::fluid_state, 0, diag);
+  auto next = advance_with(channel::particle_feedback, feedback, channel::fluid_state, -fluid_lag_, diag);
   if (!next) return std::nullopt;
   return ParticleStep{next->first, next->second.as<fluid_state_t>()};
 }

@@ -40,7 +40,8 @@ struct FluidStep {
   particle_feedback_t feedback;
 };
 
-// What the particle node gets for a step: the order and the fluid state at the step's end.
+// What the particle node gets for a step: the order and the fluid state it runs in (the step's
+// own in the serial scheme, the step before's in the parallel one).
 struct ParticleStep {
   step_order_t order;
   fluid_state_t fluid;
@@ -107,13 +108,23 @@ class FluidPort : public NodePort {
 
 class ParticlePort : public NodePort {
  public:
-  using NodePort::NodePort;
+  // The coupling scheme (DESIGN.md "Lockstep coupling") is decided here, by which fluid state
+  // a step waits for. Serial (Gauss-Seidel): step k runs in the fluid state of step k, after the
+  // fluid has computed it. Parallel (Jacobi, `lagged_fluid`): step k runs in the state of step
+  // k - 1, so both nodes compute step k at once. The fluid node is the same for both: it always
+  // uses the feedback of step k - 1.
+  ParticlePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1,
+               bool lagged_fluid = false)
+      : NodePort(ctx, std::move(role), std::move(program), ranks), fluid_lag_(lagged_fluid ? 1 : 0) {}
   // Says hello and waits for the fluid mesh.
   mesh_t initialize();
   // Publishes the feedback of the current step; returns the next order and the fluid state,
   // or nothing when the coordinator says stop.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag = {});
   void finalize();
+
+ private:
+  int fluid_lag_ = 0;  // steps between the fluid state used and the step computed
 };
 
 }  // namespace hemo

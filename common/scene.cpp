@@ -160,6 +160,9 @@ void read_species(Reader& r, Species& s, bool rbc) {
             "must be positive and below semi_axis_a_um (an oblate spheroid)");
     read_name(r, p + "orientation_integrator", s.orientation_integrator, {"splitting", "euler"});
   }
+  r.read(p + "mass_scaling", s.mass_scaling);
+  r.check(s.mass_scaling == 0 || (s.mass_scaling >= 1 && std::isfinite(s.mass_scaling)), p + "mass_scaling",
+          "must be 0 (time.mass_scaling's) or at least 1 (1: the physical mass)");
   r.check(s.diameter > 0, p + "diameter_um", "must be positive");
   r.check(s.volume > 0, p + "volume_um3", "must be positive");
   r.check(s.mass > 0, p + (rbc ? "density_kg_m3" : "mass_pg"), "must be positive");
@@ -322,6 +325,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
   r.read("coupling.two_way", s.two_way);
   read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
+  read_name(r, "coupling.scheme", s.coupling_scheme, {"serial", "parallel"});
 
   r.report_unknown();
   catalogue = std::move(r.catalogue());

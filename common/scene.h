@@ -47,6 +47,10 @@ struct Species {
   double volume = 0;              // m^3, the cell's own volume (deposited as solid fraction)
   double hematocrit = 0;          // rbc: volume fraction of the vessel
   double number_density = 0;      // platelet: per m^3 of blood
+  // The DEM integrates this species with mass_scaling x its mass (0: time.mass_scaling's).
+  // Platelets' contacts are the shortest (they set the DEM step): scaling them more than the red
+  // cells lengthens the step without making the red cells heavier.
+  double mass_scaling = 0;
   // Closures chosen by name (particle-node/closures/; MODEL.md §2, §3). A scene file's defaults
   // are the paper's models: RBC "rbc_fit" + "rbc_lift", platelet "oblate" for all three
   // (spherical surrogate: drag "schiller_naumann", lift "shear_lift", torque "none"). A Species
@@ -106,7 +110,7 @@ struct Timing {
   // DEM step does; what it costs is the particles' inertia: their drag relaxation time grows
   // like s and must stay far below the flow's time scale 1 / shear rate (docs/performance.md,
   // bench mass-scaling). 1: the physical masses.
-  double mass_scaling = 1;
+  double mass_scaling = 1;         // every species' DEM mass factor unless the species sets its own
 };
 
 // Body force on the particles (m g); MODEL.md §1: off by default.
@@ -171,6 +175,10 @@ struct Scene {
   // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
   // face of its cell) or "centre_cell" (all to the cell holding its centre).
   std::string solid_fraction = "sphere_overlap";
+  // How a coupling step is shared between the nodes (DESIGN.md "Lockstep coupling"): "serial"
+  // (Gauss-Seidel: the fluid solves step k, then the particles move in it) or "parallel"
+  // (Jacobi: both compute step k at once, the particles in the fluid of step k - 1).
+  std::string coupling_scheme = "serial";
 };
 
 // One problem found in a scene, with where it is.

@@ -55,7 +55,7 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
   double d_max = 0;
   const Vec3 gravity(scene.gravity.x, scene.gravity.y, scene.gravity.z);
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
-    const Species& s = species_of(scene_, sp);  // masses x time.mass_scaling
+    const Species& s = species_of(scene_, sp);  // masses x dem_mass_scaling
     if (!s.present) continue;
     if (!(s.diameter > 0) || !(s.mass > 0) || !(s.volume > 0))
       throw std::invalid_argument(s.name + ": diameter, mass and volume must be positive");

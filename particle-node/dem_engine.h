@@ -164,7 +164,7 @@ class DemEngine {
   std::array<std::unique_ptr<OrientationIntegrator>, kSpeciesCount> rotation_;  // null: a sphere
   std::array<double, kSpeciesCount> volume_{};    // m^3, deposited as solid
   std::array<double, kSpeciesCount> diameter_{};  // m
-  std::array<double, kSpeciesCount> mass_{};      // kg, the DEM's (time.mass_scaling x physical)
+  std::array<double, kSpeciesCount> mass_{};      // kg, the DEM's (dem_mass_scaling x physical)
   std::array<Vec3, kSpeciesCount> weight_{Vec3::Zero(), Vec3::Zero()};  // N, physical mass x gravity
   std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
   std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, during the run (Re after it)

@@ -36,9 +36,13 @@ double wall_shear_rate(const Scene& s) {
   return 0;
 }
 
+double dem_mass_scaling(const Scene& scene, const Species& species) {
+  return species.mass_scaling > 0 ? species.mass_scaling : scene.time.mass_scaling;
+}
+
 Scene dem_scene(const Scene& scene) {
   Scene s = scene;
-  for (Species* sp : {&s.rbc, &s.platelet}) sp->mass *= s.time.mass_scaling;
+  for (Species* sp : {&s.rbc, &s.platelet}) sp->mass *= dem_mass_scaling(scene, *sp);
   return s;
 }
 

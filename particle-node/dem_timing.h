@@ -29,7 +29,10 @@ double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2
 // Rayleigh time pi r sqrt(rho / G) / (0.1631 nu + 0.8766), G = E / (2 (1 + nu)).
 double rayleigh_time(double radius, double density, double youngs, double poisson);
 
-// The scene as the DEM integrates it: every species' mass times time.mass_scaling (the rest is
+// The factor the DEM multiplies a species' mass by: its own mass_scaling, else time.mass_scaling.
+double dem_mass_scaling(const Scene& scene, const Species& species);
+
+// The scene as the DEM integrates it: every species' mass times dem_mass_scaling (the rest is
 // the scene's). derive_dem_timing and DemEngine take the physical scene and apply it themselves.
 Scene dem_scene(const Scene& scene);
 

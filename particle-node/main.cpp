@@ -99,7 +99,10 @@ int main(int argc, char** argv) {
     scene = hemo::load_scene(scene_path);
     ctx.load_secret();
     port = std::make_unique<hemo::particles::RankedPort>(
-        MPI_COMM_WORLD, [&] { return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size()); });
+        MPI_COMM_WORLD, [&] {
+          return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size(),
+                                                      scene.coupling_scheme == "parallel");
+        });
   } catch (const std::exception& e) {
     if (mpi.rank() == 0) std::cerr << "hemocosim-particles: error: " << one_line(e.what()) << "\n";
     return 1;

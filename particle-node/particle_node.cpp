@@ -69,9 +69,10 @@ void ParticleNode::set_interval(double interval) {
       timing_.dt, interval, timing_.substeps, timing_.contact_time, timing_.limiting, timing_.rayleigh_time,
       timing_.relaxation_time, timing_.relaxation_limited ? "limits the step" : "exponential drag: not a limit",
       timing_.dt / timing_.relaxation_time);
-  if (scene_.time.mass_scaling != 1)
-    spdlog::info("mass scaling: the DEM integrates the particles with {:g} x their mass (time.mass_scaling)",
-                 scene_.time.mass_scaling);
+  for (const Species* sp : {&scene_.rbc, &scene_.platelet})
+    if (sp->present && dem_mass_scaling(scene_, *sp) != 1)
+      spdlog::info("mass scaling: the DEM integrates the {} with {:g} x their mass", sp->name,
+                   dem_mass_scaling(scene_, *sp));
 }
 
 std::string ParticleNode::check(const fluid_state_t& fluid) const {

@@ -40,8 +40,8 @@ void run_fluid(const RunContext& ctx, Trace& trace) {
   port.finalize();
 }
 
-void run_particles(const RunContext& ctx, Trace& trace) {
-  ParticlePort port(ctx, "particles", "test particles");
+void run_particles(const RunContext& ctx, Trace& trace, bool parallel) {
+  ParticlePort port(ctx, "particles", "test particles", 1, parallel);
   const mesh_t mesh = port.initialize();
   ASSERT_EQ(mesh.mesh_hash, "m1");
   particle_feedback_t fb{};
@@ -87,13 +87,13 @@ void coordinate(Bus& bus, const RunContext& ctx, int steps) {
   }
 }
 
-Trace run_protocol(RunContext ctx, int steps) {
+Trace run_protocol(RunContext ctx, int steps, bool parallel = false) {
   Trace trace;
   // The coordinator listens before the nodes start (as hemocosim does): their first step-done
   // reports must not go out before anyone hears them.
   Bus bus(ctx, "coordinator");
   std::thread fluid([&] { run_fluid(ctx, trace); });
-  std::thread particles([&] { run_particles(ctx, trace); });
+  std::thread particles([&] { run_particles(ctx, trace, parallel); });
   coordinate(bus, ctx, steps);
   fluid.join();
   particles.join();
@@ -116,10 +116,24 @@ TEST(NodePort, SerialLockstepOrdersTheData) {
   EXPECT_EQ(t.resend_requests, 0u);
 }
 
+// The parallel (Jacobi) scheme: the particles at step k see the fluid of step k - 1, the fluid
+// at step k the feedback of k - 1, so neither waits for the other within a step.
+TEST(NodePort, ParallelLockstepLagsTheFluidByOneStep) {
+  auto ctx = test::make_context("jacobi");
+  ctx.retry_s = 5;
+  const Trace t = run_protocol(ctx, 4, /*parallel=*/true);
+  EXPECT_EQ(t.fluid_saw, (std::vector<double>{0, 1, 1, 11}));
+  EXPECT_EQ(t.particles_saw, (std::vector<double>{1, 1, 11, 11}));
+  EXPECT_EQ(t.resend_requests, 0u);
+}
+
 TEST(NodePort, LostDatagramsDoNotChangeTheResult) {
   auto ctx = test::make_context("lossy");
   ctx.drop_every = 3;  // every process loses every third message it receives
   const Trace t = run_protocol(ctx, 4);
   EXPECT_EQ(t.fluid_saw, (std::vector<double>{0, 1, 11, 111}));
   EXPECT_EQ(t.particles_saw, (std::vector<double>{1, 11, 111, 1111}));
+  const Trace p = run_protocol(ctx, 4, /*parallel=*/true);
+  EXPECT_EQ(p.fluid_saw, (std::vector<double>{0, 1, 1, 11}));
+  EXPECT_EQ(p.particles_saw, (std::vector<double>{1, 1, 11, 11}));
 }

@@ -86,10 +86,13 @@ hematocrit = 0.9
 [time]
 coupling_steps = 0
 mass_scaling = 0.5
+[platelet]
+mass_scaling = 0.5
 )");
   std::set<std::string> keys;
   for (auto& p : ps) keys.insert(p.key);
   EXPECT_TRUE(keys.count("time.mass_scaling"));
+  EXPECT_TRUE(keys.count("platelet.mass_scaling"));
   EXPECT_TRUE(keys.count("vessel.diameter_um"));
   EXPECT_TRUE(keys.count("driving"));
   EXPECT_TRUE(keys.count("rbc.hematocrit"));
@@ -129,19 +132,28 @@ torque = "none"
 semi_axis_a_um = 2
 semi_axis_c_um = 1
 orientation_integrator = "euler"
+mass_scaling = 60
 [coupling]
 solid_fraction = "centre_cell"
+scheme = "parallel"
 [gravity]
 z_m_s2 = -9.81
 [time]
 dem_steps_per_contact = 20
 dem_step_max_relaxation_times = 2
+mass_scaling = 10
 )"));
+  EXPECT_EQ(s.platelet.mass_scaling, 0);  // unset: time.mass_scaling's
+  EXPECT_EQ(t.platelet.mass_scaling, 60);
+  EXPECT_EQ(t.rbc.mass_scaling, 0);
+  EXPECT_EQ(t.time.mass_scaling, 10);
   EXPECT_EQ(t.platelet.drag, "schiller_naumann");
   EXPECT_EQ(t.platelet.lift, "shear_lift");
   EXPECT_DOUBLE_EQ(t.platelet.semi_axis_c, 1e-6);
   EXPECT_EQ(t.platelet.orientation_integrator, "euler");
   EXPECT_EQ(t.solid_fraction, "centre_cell");
+  EXPECT_EQ(s.coupling_scheme, "serial");
+  EXPECT_EQ(t.coupling_scheme, "parallel");
   EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
   EXPECT_EQ(t.time.steps_per_contact, 20);
   EXPECT_EQ(t.time.relaxation_factor, 2);

@@ -93,6 +93,30 @@ TEST(DemTiming, MassScalingStretchesContactTimeByItsTwoFifthPower) {
   }
 }
 
+// A species' own mass_scaling overrides time.mass_scaling for it alone. The platelets' contacts
+// are the shortest; scaled 60x against the red cells' 10x, the red cell on the wall limits the
+// step instead, with the contact time it has when only the red cells are scaled 10x.
+TEST(DemTiming, PlateletMassScalingHandsTheStepToTheRedCells) {
+  hemo::Scene s = calibration_scene();
+  s.time.mass_scaling = 10;
+  const auto together = derive_dem_timing(s, 1e-4);
+  EXPECT_EQ(together.limiting, "platelet-wall");
+  s.platelet.mass_scaling = 60;
+  const auto apart = derive_dem_timing(s, 1e-4);
+  EXPECT_EQ(dem_scene(s).platelet.mass, 60 * s.platelet.mass);
+  EXPECT_EQ(dem_scene(s).rbc.mass, 10 * s.rbc.mass);
+  EXPECT_EQ(apart.limiting, "rbc-wall");
+  hemo::Scene red_only = s;
+  red_only.platelet.present = false;
+  EXPECT_NEAR(apart.contact_time, derive_dem_timing(red_only, 1e-4).contact_time, 1e-12 * apart.contact_time);
+  // rbc-wall against platelet-wall at equal scaling: (m_rbc r_plt / (m_plt r_rbc))^(2/5) ~ 1.96
+  EXPECT_GT(apart.contact_time, 1.9 * together.contact_time);
+  EXPECT_LT(apart.substeps, together.substeps / 1.9);
+  // Set back to 0, a species follows time.mass_scaling again.
+  s.platelet.mass_scaling = 0;
+  EXPECT_EQ(dem_scene(s).platelet.mass, 10 * s.platelet.mass);
+}
+
 TEST(DemTiming, WallShearRateFromPressureDrop) {
   hemo::Scene s;
   s.vessel.diameter = 100e-6;
