@@ -9,8 +9,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <unistd.h>
 
@@ -63,10 +65,10 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   state.last_heard = now();
 }
 
-void Lockstep::order(long step, double time_s, bool write_output) {
+void Lockstep::order(long step, double time_s, double dt_s, bool write_output) {
   step_order_t o;
   o.time_s = time_s;
-  o.dt_s = scene_.time.coupling_interval;
+  o.dt_s = dt_s;
   o.write_output = write_output;
   o.stop = false;
   step_time_s_ = time_s;
@@ -93,6 +95,8 @@ void Lockstep::record(const Received& msg) {
     for (std::size_t i = 0; i < done.names.size(); ++i)
       if (done.names[i].rfind("phase_", 0) == 0) node.totals[done.names[i]] += done.values[i];
   }
+  node.last.clear();
+  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i) node.last[done.names[i]] = done.values[i];
   metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
   metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
   for (std::size_t i = 0; i < done.names.size(); ++i)
@@ -100,6 +104,12 @@ void Lockstep::record(const Received& msg) {
   metrics_.flush();
   // Raised by await() once the bus has returned: never thrown through the bus's handlers.
   if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
+}
+
+double Lockstep::diagnostic(const std::string& node, const std::string& name) const {
+  const auto& last = nodes_.at(node).last;
+  const auto it = last.find(name);
+  return it != last.end() ? it->second : std::numeric_limits<double>::quiet_NaN();
 }
 
 void Lockstep::check_health(long step) {
@@ -135,7 +145,16 @@ void Lockstep::await(long step, double timeout_s) {
       bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again
       last_asked = now();
     }
-    if (all_done() && step >= 1) stepping_wall_s_ += now() - ordered_at_;
+    if (all_done() && step >= 1) {
+      // Serial: the nodes compute one after the other; parallel: at once. What the step took
+      // beyond that is the coupling: messages, waking up, the coordinator's bookkeeping.
+      const double wall = now() - ordered_at_;
+      double computing = 0;
+      for (const auto& [name, node] : nodes_)
+        computing = scene_.coupling_scheme == "parallel" ? std::max(computing, node.compute) : computing + node.compute;
+      stepping_wall_s_ += wall;
+      overhead_s_ += wall - computing;
+    }
     if (now() - start > timeout_s) {
       for (auto& [name, node] : nodes_)
         if (node.done_step < step)
@@ -176,24 +195,19 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
   std::string csv = "node,phase,total_s,per_step_ms\n";
   std::string text = fmt::format("profile of {} coupled steps ({:.2f} s wall, {:.2f} s stepping):\n", steps, wall_s,
                                  stepping_wall_s_);
-  double computing = 0;
   for (const auto& [name, node] : nodes_) {
     for (const auto& [phase, total] : node.totals) {
       csv += fmt::format("{},{},{:.6g},{:.6g}\n", name, phase, total, 1e3 * total / std::max(steps, 1L));
       text += fmt::format("  {:<10} {:<28} {:10.3f} s {:10.3f} ms/step\n", name, phase, total,
                           1e3 * total / std::max(steps, 1L));
     }
-    auto it = node.totals.find("compute_s");
-    if (it != node.totals.end()) computing += it->second;
   }
   for (const auto& [name, node] : nodes_) {
     const double mib = node.process->peak_memory_mib();
     csv += fmt::format("{},peak_memory_MiB,{:.1f},\n", name, mib);
     text += fmt::format("  {:<10} {:<28} {:10.1f} MiB\n", name, "peak memory", mib);
   }
-  // In the serial scheme the nodes compute one after the other; what the step took beyond
-  // both computations is the coupling: messages, waking up, the coordinator's bookkeeping.
-  const double overhead = stepping_wall_s_ - computing;
+  const double overhead = overhead_s_;
   csv += fmt::format("lockstep,coupling_overhead_s,{:.6g},{:.6g}\n", overhead, 1e3 * overhead / std::max(steps, 1L));
   text += fmt::format("  {:<10} {:<28} {:10.3f} s {:10.3f} ms/step ({:.1f} % of stepping)\n", "lockstep",
                       "coupling overhead", overhead, 1e3 * overhead / std::max(steps, 1L),

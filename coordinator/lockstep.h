@@ -27,8 +27,8 @@ class Lockstep {
   Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx);
   ~Lockstep();
 
-  // Orders step k (time at its end, output wanted or not).
-  void order(long step, double time_s, bool write_output);
+  // Orders step k (time at its end, its coupling interval, output wanted or not).
+  void order(long step, double time_s, double dt_s, bool write_output);
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
   // that failed, exited or stopped answering.
   void await(long step, double timeout_s);
@@ -38,6 +38,8 @@ class Lockstep {
   // Per-node seconds of the last step: computing and waiting.
   double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
   double wait_s(const std::string& node) const { return nodes_.at(node).wait; }
+  // The value a node reported for the last step it finished (NaN when it reported none).
+  double diagnostic(const std::string& node, const std::string& name) const;
 
   // Where the time of the coupled steps went: per node, compute and wait and the phases the
   // node reports (diagnostics named phase_*_s), and the coupling overhead of the lockstep
@@ -51,6 +53,7 @@ class Lockstep {
     long done_step = -1;
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
+    std::map<std::string, double> last;    // the diagnostics of the last step done
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks);
   void check_health(long step);
@@ -66,6 +69,7 @@ class Lockstep {
   double step_time_s_ = 0;
   double ordered_at_ = 0;       // wall clock when the current step was ordered
   double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time
+  double overhead_s_ = 0;       // the part of it no node spent computing (see profile_report)
   std::string unstable_;        // the first broken stability guard, if any
 };
 
