@@ -287,9 +287,6 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("time.dem_step_max_relaxation_times", s.time.relaxation_factor);
   r.read("time.closure_every_dem_steps", s.time.closure_every_dem_steps);
   r.check(s.time.closure_every_dem_steps >= 1, "time.closure_every_dem_steps", "must be at least 1 (1: every DEM step)");
-  r.read("time.max_flow_change", s.time.max_flow_change);
-  r.check(s.time.max_flow_change >= 0 && std::isfinite(s.time.max_flow_change), "time.max_flow_change",
-          "must not be negative (0: fixed coupling intervals)");
   r.read("time.mass_scaling", s.time.mass_scaling);
   r.check(s.time.mass_scaling >= 1 && std::isfinite(s.time.mass_scaling), "time.mass_scaling",
           "must be at least 1 (1: the physical masses)");

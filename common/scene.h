@@ -111,10 +111,6 @@ struct Timing {
   // like s and must stay far below the flow's time scale 1 / shear rate (docs/performance.md,
   // bench mass-scaling). 1: the physical masses.
   double mass_scaling = 1;         // every species' DEM mass factor unless the species sets its own
-  // Adaptive coupling intervals (coordinator/coupling_clock.h): each interval as long as keeps
-  // the flow's change over it, max|dU| / max|U|, at this value; coupling_interval is then the
-  // longest interval and coupling_steps x coupling_interval the physical time. 0: fixed.
-  double max_flow_change = 0;
 };
 
 // Body force on the particles (m g); MODEL.md §1: off by default.

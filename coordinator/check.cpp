@@ -28,12 +28,7 @@ int check_command(const std::string& scene_path) {
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
   fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
-  if (s.time.max_flow_change > 0)
-    fmt::print("  time        {:.4g} s physical in adaptive coupling intervals of at most {:.3g} s (flow change {:.3g} "
-               "per interval)\n",
-               s.time.coupling_steps * s.time.coupling_interval, s.time.coupling_interval, s.time.max_flow_change);
-  else
-    fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
+  fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
   return 0;

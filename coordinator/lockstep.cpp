@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
-#include <limits>
 #include <sstream>
 #include <unistd.h>
 
@@ -95,8 +94,7 @@ void Lockstep::record(const Received& msg) {
     for (std::size_t i = 0; i < done.names.size(); ++i)
       if (done.names[i].rfind("phase_", 0) == 0) node.totals[done.names[i]] += done.values[i];
   }
-  node.last.clear();
-  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i) node.last[done.names[i]] = done.values[i];
+
   metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
   metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
   for (std::size_t i = 0; i < done.names.size(); ++i)
@@ -104,12 +102,6 @@ void Lockstep::record(const Received& msg) {
   metrics_.flush();
   // Raised by await() once the bus has returned: never thrown through the bus's handlers.
   if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
-}
-
-double Lockstep::diagnostic(const std::string& node, const std::string& name) const {
-  const auto& last = nodes_.at(node).last;
-  const auto it = last.find(name);
-  return it != last.end() ? it->second : std::numeric_limits<double>::quiet_NaN();
 }
 
 void Lockstep::check_health(long step) {

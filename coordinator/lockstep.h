@@ -38,8 +38,6 @@ class Lockstep {
   // Per-node seconds of the last step: computing and waiting.
   double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
   double wait_s(const std::string& node) const { return nodes_.at(node).wait; }
-  // The value a node reported for the last step it finished (NaN when it reported none).
-  double diagnostic(const std::string& node, const std::string& name) const;
 
   // Where the time of the coupled steps went: per node, compute and wait and the phases the
   // node reports (diagnostics named phase_*_s), and the coupling overhead of the lockstep
@@ -53,7 +51,6 @@ class Lockstep {
     long done_step = -1;
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
-    std::map<std::string, double> last;    // the diagnostics of the last step done
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks);
   void check_health(long step);

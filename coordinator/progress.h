@@ -2,7 +2,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -12,21 +11,17 @@ namespace hemo {
 
 class Progress {
  public:
-  // total_steps: 0 when not known in advance (adaptive intervals); the ETA then comes from the
-  // physical time covered.
-  Progress(long total_steps, double end_time_s)
-      : total_(total_steps), end_time_(end_time_s), tty_(isatty(STDERR_FILENO)) {}
+  Progress(long total_steps, double dt_s) : total_(total_steps), dt_(dt_s), tty_(isatty(STDERR_FILENO)) {}
 
-  void update(long step, double time_s, const std::string& extra = "", bool last = false) {
+  void update(long step, const std::string& extra = "") {
     const double elapsed = seconds();
-    last = last || step == total_;
+    const bool last = step == total_;
     if (!last && elapsed - last_print_ < (tty_ ? 0.2 : 5.0)) return;
     last_print_ = elapsed;
     const double rate = step / std::max(elapsed, 1e-9);
-    const double eta = elapsed * std::max(end_time_ - time_s, 0.0) / std::max(time_s, 1e-300);
-    const std::string of = total_ > 0 ? "/" + std::to_string(total_) : "";
-    std::fprintf(stderr, "%sstep %ld%s  t = %.4g s  %.3g steps/s  elapsed %.0f s  ETA %.0f s  %s%s",
-                 tty_ ? "\r\033[K" : "", step, of.c_str(), time_s, rate, elapsed, eta, extra.c_str(),
+    const double eta = (total_ - step) / std::max(rate, 1e-12);
+    std::fprintf(stderr, "%sstep %ld/%ld  t = %.4g s  %.3g steps/s  elapsed %.0f s  ETA %.0f s  %s%s",
+                 tty_ ? "\r\033[K" : "", step, total_, step * dt_, rate, elapsed, eta, extra.c_str(),
                  (tty_ && !last) ? "" : "\n");
     std::fflush(stderr);
   }
@@ -36,7 +31,7 @@ class Progress {
 
  private:
   long total_;
-  double end_time_;
+  double dt_;
   bool tty_;
   double last_print_ = -1e9;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();

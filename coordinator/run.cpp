@@ -1,7 +1,6 @@
 // hemocosim run: launch both nodes and drive the lockstep to the end.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
-#include "coupling_clock.h"
 #include "lockstep.h"
 #include "progress.h"
 #include "scene.h"
@@ -31,14 +30,12 @@ void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
   Lockstep lockstep(scene, dir, ctx);
   lockstep.await(0, scene.run.startup_timeout);
 
-  CouplingClock clock(scene.time, scene.output);
-  Progress progress(clock.adaptive() ? 0 : clock.fixed_steps(), clock.end_time());
-  long k = 0;
-  while (!clock.finished()) {
-    const auto step = clock.next();
-    k = step.number;
+  const long steps = scene.time.coupling_steps;
+  Progress progress(steps, scene.time.coupling_interval);
+  for (long k = 1; k <= steps; ++k) {
     if (interrupted) throw std::runtime_error(fmt::format("interrupted at step {}; output so far is in {}", k, dir.path));
-    lockstep.order(k, step.time_s, step.dt_s, step.output);
+    const bool output = k % scene.output.every_steps == 0 || k == steps;
+    lockstep.order(k, k * scene.time.coupling_interval, scene.time.coupling_interval, output);
     try {
       lockstep.await(k, scene.run.step_timeout);
     } catch (const UnstableRun&) {
@@ -46,15 +43,11 @@ void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
       try { lockstep.stop(k + 1); } catch (const std::exception&) {}
       throw;
     }
-    clock.observe_flow_change(lockstep.diagnostic("fluid", "velocity_change"));
-    progress.update(k, step.time_s,
-                    fmt::format("{}fluid {:.2f} s, particles {:.2f} s",
-                                clock.adaptive() ? fmt::format("dt {:.3g} s  ", step.dt_s) : "",
-                                lockstep.compute_s("fluid"), lockstep.compute_s("particles")),
-                    clock.finished());
+    progress.update(k, fmt::format("fluid {:.2f} s, particles {:.2f} s", lockstep.compute_s("fluid"),
+                                   lockstep.compute_s("particles")));
   }
-  lockstep.stop(k + 1);
-  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), k));
+  lockstep.stop(steps + 1);
+  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), steps));
   fmt::print(stderr, "hemocosim: done in {:.1f} s; results in {}\n", progress.seconds(), dir.path);
 }
 }  // namespace
