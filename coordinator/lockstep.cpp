@@ -64,10 +64,10 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   state.last_heard = now();
 }
 
-void Lockstep::order(long step, double time_s, double dt_s, bool write_output) {
+void Lockstep::order(long step, double time_s, bool write_output) {
   step_order_t o;
   o.time_s = time_s;
-  o.dt_s = dt_s;
+  o.dt_s = scene_.time.coupling_interval;
   o.write_output = write_output;
   o.stop = false;
   step_time_s_ = time_s;
@@ -94,7 +94,6 @@ void Lockstep::record(const Received& msg) {
     for (std::size_t i = 0; i < done.names.size(); ++i)
       if (done.names[i].rfind("phase_", 0) == 0) node.totals[done.names[i]] += done.values[i];
   }
-
   metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
   metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
   for (std::size_t i = 0; i < done.names.size(); ++i)

@@ -27,8 +27,8 @@ class Lockstep {
   Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx);
   ~Lockstep();
 
-  // Orders step k (time at its end, its coupling interval, output wanted or not).
-  void order(long step, double time_s, double dt_s, bool write_output);
+  // Orders step k (time at its end, output wanted or not).
+  void order(long step, double time_s, bool write_output);
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
   // that failed, exited or stopped answering.
   void await(long step, double timeout_s);

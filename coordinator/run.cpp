@@ -35,7 +35,7 @@ void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
   for (long k = 1; k <= steps; ++k) {
     if (interrupted) throw std::runtime_error(fmt::format("interrupted at step {}; output so far is in {}", k, dir.path));
     const bool output = k % scene.output.every_steps == 0 || k == steps;
-    lockstep.order(k, k * scene.time.coupling_interval, scene.time.coupling_interval, output);
+    lockstep.order(k, k * scene.time.coupling_interval, output);
     try {
       lockstep.await(k, scene.run.step_timeout);
     } catch (const UnstableRun&) {

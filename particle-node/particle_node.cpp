@@ -127,7 +127,6 @@ Diagnostics ParticleNode::diagnostics() {
       {"particles", static_cast<double>(d.particles)},
       {"dem_substeps", static_cast<double>(timing_.substeps)},
       {"dem_dt_s", timing_.dt},
-      {"coupling_interval_s", interval_},
       {"total_force_x_N", f.x()},
       {"total_force_y_N", f.y()},
       {"total_force_z_N", f.z()},
