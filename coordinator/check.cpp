@@ -29,7 +29,7 @@ int check_command(const std::string& scene_path) {
              s.driving.wall_shear_rate);
   fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
   fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
-               s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
+             s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
   return 0;
 }

@@ -163,7 +163,6 @@ TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
   EXPECT_GT(one_way.at({"particles", "core_particle_axial_velocity_m_s"}).rbegin()->second, 0);
 }
 
-
 // coupling.scheme = "parallel" (Jacobi): the particles move in the fluid of the step before,
 // and both nodes compute at once. In a flow that never changes (the analytic fluid node) the
 // lag is nothing, so both schemes give the particles bit for bit the same motion. With the
