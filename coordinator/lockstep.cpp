@@ -189,18 +189,18 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
   for (const auto& [name, node] : nodes_) {
     for (const auto& [phase, total] : node.totals) {
       csv += fmt::format("{},{},{:.6g},{:.6g}\n", name, phase, total, 1e3 * total / std::max(steps, 1L));
-      text += fmt::format("  {:<10} {:<28} {:10.3f} s {:10.3f} ms/step\n", name, phase, total,
+      text += fmt::format("  {:<10} {:<30} {:10.3f} s {:10.3f} ms/step\n", name, phase, total,
                           1e3 * total / std::max(steps, 1L));
     }
   }
   for (const auto& [name, node] : nodes_) {
     const double mib = node.process->peak_memory_mib();
     csv += fmt::format("{},peak_memory_MiB,{:.1f},\n", name, mib);
-    text += fmt::format("  {:<10} {:<28} {:10.1f} MiB\n", name, "peak memory", mib);
+    text += fmt::format("  {:<10} {:<30} {:10.1f} MiB\n", name, "peak memory", mib);
   }
   const double overhead = overhead_s_;
   csv += fmt::format("lockstep,coupling_overhead_s,{:.6g},{:.6g}\n", overhead, 1e3 * overhead / std::max(steps, 1L));
-  text += fmt::format("  {:<10} {:<28} {:10.3f} s {:10.3f} ms/step ({:.1f} % of stepping)\n", "lockstep",
+  text += fmt::format("  {:<10} {:<30} {:10.3f} s {:10.3f} ms/step ({:.1f} % of stepping)\n", "lockstep",
                       "coupling overhead", overhead, 1e3 * overhead / std::max(steps, 1L),
                       100 * overhead / std::max(stepping_wall_s_, 1e-12));
   std::ofstream(dir_.path + "/profile.csv") << csv;

@@ -57,6 +57,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -110,6 +111,8 @@ class DemEngine {
 
   // Diagnostics at the current state in `fluid` (collective).
   EngineDiagnostics diagnostics(const FluidSampler* fluid);
+  // Wall seconds spent in the fluid-force callback (location, sampling, closures) since the last call.
+  double take_fluid_force_seconds() { return std::exchange(fluid_force_seconds_, 0.0); }
 
   // Every particle, sorted by id, z unwrapped (collective; complete on every rank).
   ParticleSnapshot snapshot(long step, double time_s);
@@ -143,6 +146,8 @@ class DemEngine {
   static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other);
   // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.
   static void accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last);
+  // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
+  double local_max_overlap() const;
   void command(const std::string& line);
   void setup_box(const std::array<bool, kSpeciesCount>& used);
   double unwrap_z(int tag, double z);
@@ -195,6 +200,7 @@ class DemEngine {
   std::int64_t run_start_ = 0;
   int run_steps_ = 0;
   long callbacks_ = 0;
+  double fluid_force_seconds_ = 0;
   long outside_ = 0;
   long outside_total_ = 0;          // over all ranks, last run
   long coupling_step_ = 0;

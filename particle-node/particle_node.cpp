@@ -6,13 +6,19 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
+#include <utility>
 
 namespace hemo::particles {
 
 namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 void require_same(double scene_value, double mesh_value, const char* what) {
   if (std::abs(scene_value - mesh_value) > 1e-9 * std::abs(scene_value))
@@ -87,23 +93,33 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   step_ = order.envelope.step;
   time_ = order.time_s;
   interval_ = order.dt_s;
+  auto t0 = std::chrono::steady_clock::now();
   std::string error = engine_->run(step_, timing_.substeps, timing_.dt, fluid_);
+  const double fluid_forces = engine_->take_fluid_force_seconds();
+  phase_.dem += seconds_since(t0) - fluid_forces;
+  phase_.fluid_forces += fluid_forces;
   if (!error.empty()) return error;
+  t0 = std::chrono::steady_clock::now();
   engine_->deposit(deposition_);
+  phase_.deposition += seconds_since(t0);
   warn_reynolds();
   return {};
 }
 
 particle_feedback_t ParticleNode::feedback() const {
+  const auto t0 = std::chrono::steady_clock::now();
   particle_feedback_t fb;
   deposition_.finish(interval_, &fluid_, fb);
+  phase_.deposition += seconds_since(t0);
   fb.mesh_hash = mesh_hash_;
   return fb;
 }
 
 void ParticleNode::write_output(long step, double time_s) {
+  const auto t0 = std::chrono::steady_clock::now();
   ParticleSnapshot snap = engine_->snapshot(step, time_s);  // collective
   if (output_) output_->write(snap);
+  phase_.output += seconds_since(t0);
 }
 
 void ParticleNode::warn_reynolds() {
@@ -121,9 +137,16 @@ void ParticleNode::warn_reynolds() {
 }
 
 Diagnostics ParticleNode::diagnostics() {
+  const auto t0 = std::chrono::steady_clock::now();
   const EngineDiagnostics d = engine_->diagnostics(fluid_.has_state() ? &fluid_ : nullptr);
   const Vec3 f = deposition_.total_force(interval_);
+  const PhaseSeconds phase = std::exchange(phase_, PhaseSeconds{});
   return {
+      {"phase_particles_dem_s", phase.dem},
+      {"phase_particles_fluid_forces_s", phase.fluid_forces},
+      {"phase_particles_deposition_s", phase.deposition},
+      {"phase_particles_output_s", phase.output},
+      {"phase_particles_diagnostics_s", seconds_since(t0)},
       {"particles", static_cast<double>(d.particles)},
       {"dem_substeps", static_cast<double>(timing_.substeps)},
       {"dem_dt_s", timing_.dt},

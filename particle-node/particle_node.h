@@ -54,6 +54,14 @@ class ParticleNode {
   void set_interval(double interval);
   void warn_reynolds();
 
+  // Wall seconds of this rank since the last diagnostics, per phase (the coordinator's profile).
+  struct PhaseSeconds {
+    double dem = 0;           // LIGGGHTS's step: integration, neighbour lists, contacts, MPI
+    double fluid_forces = 0;  // in the DEM step: location, plasma sampling, closures
+    double deposition = 0;    // impulses and volumes to cells, the feedback message's fields
+    double output = 0;
+  };
+
   Scene scene_;
   std::string mesh_hash_;
   MPI_Comm comm_;
@@ -71,6 +79,7 @@ class ParticleNode {
   std::string run_dir_;
   bool used_[kSpeciesCount] = {false, false};
   bool warned_re_[kSpeciesCount] = {false, false};
+  mutable PhaseSeconds phase_;
 };
 
 }  // namespace hemo::particles
