@@ -69,6 +69,8 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--out", bench.out, "Bench directory")->capture_default_str();
   bench_cmd->add_option("--hemocosim", bench.hemocosim, "hemocosim executable for the runs (its nodes are used; default: this one)");
   bench_cmd->add_flag("--no-plot", bench.no_plot, "Write bench.md without figures");
+  bench_cmd->add_flag("--check", bench.check_only,
+                      "Only expand and validate the suites' scenes (stress suites too) and print the plan");
 
   CLI11_PARSE(app, argc, argv);
   try {

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <unistd.h>
 
 #ifndef HEMO_BENCH_SOURCE
 #define HEMO_BENCH_SOURCE ""
@@ -457,6 +458,35 @@ BenchResult run_bench(const BenchOptions& opt) {
   return result;
 }
 
-int bench_command(const BenchOptions& opt) { return run_bench(opt).failed ? 1 : 0; }
+std::vector<std::string> check_bench(const BenchOptions& opt) {
+  const fs::path tmp = fs::temp_directory_path() / fmt::format("hemocosim-bench-check-{}", ::getpid());
+  struct Cleanup {
+    fs::path p;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    }
+  } cleanup{tmp};
+  std::vector<std::string> files = opt.suites.empty() ? resolve_bench_suites({}) : resolve_bench_suites(opt.suites);
+  if (opt.suites.empty())
+    for (const auto& f : resolve_bench_suites({"stress"})) files.push_back(f);
+  std::vector<std::string> lines;
+  for (const auto& f : files) {
+    const BenchSuite suite = load_bench_suite(f, tmp.string());
+    StudyOptions so;
+    so.study = suite.study_path;
+    lines.push_back(fmt::format("{} ({}suite {}):", f, suite.stress ? "stress " : "", suite.name));
+    for (auto& line : check_study(so)) lines.push_back(std::move(line));
+  }
+  return lines;
+}
+
+int bench_command(const BenchOptions& opt) {
+  if (opt.check_only) {
+    for (const auto& l : check_bench(opt)) fmt::print("{}\n", l);
+    return 0;
+  }
+  return run_bench(opt).failed ? 1 : 0;
+}
 
 }  // namespace hemo

@@ -33,6 +33,7 @@ struct BenchOptions {
   std::string hemocosim;            // the hemocosim executable for the runs; default: this one
   bool no_plot = false;
   bool quiet = false;
+  bool check_only = false;  // expand and validate every suite's scenes, print the plan, run nothing
 };
 
 struct BenchSuite {
@@ -70,6 +71,10 @@ struct BenchResult {
 };
 
 BenchResult run_bench(const BenchOptions& opt);
+// --check: each suite loaded and its scenes expanded (into a temporary folder, removed after)
+// and validated, stress suites included; returns the plan as printable lines. Throws StudyError
+// (naming the suite file) on the first bad suite or scene.
+std::vector<std::string> check_bench(const BenchOptions& opt);
 int bench_command(const BenchOptions& opt);
 
 // bench.csv and the tables of bench.md (exposed for the tests).
