@@ -42,8 +42,13 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
   if (bad) {
     char range[64];
     std::snprintf(range, sizeof range, " (must be in [0, %g))", max_solid_fraction);
+    // A finite value at or above the limit is physical, not a corrupt message: say what it means.
+    const char* why = std::isfinite(first_value) && first_value >= max_solid_fraction
+                          ? "; the particles in it hold more volume than it has: pressed together by a load or "
+                            "a DEM step too long for their contacts, or a cell too small for them"
+                          : "";
     return format("particle feedback: cell %ld has solid fraction %g; %ld cells out of range", first,
-                  first_value, bad) + range + step;
+                  first_value, bad) + range + why + step;
   }
   for (std::size_t i = 0; i < n; ++i) {
     const double k = fb.drag_coefficient[i];

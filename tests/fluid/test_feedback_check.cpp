@@ -38,9 +38,11 @@ TEST(FeedbackCheck, NamesEachCauseOnOneLine) {
   fb = good(5);
   fb.solid_fraction[3] = 1.0;
   expect(fb, 5, "cell 3 has solid fraction 1");
+  expect(fb, 5, "more volume than it has");  // a physical overfill says what it means
   fb = good(5);
   fb.solid_fraction[1] = std::numeric_limits<double>::quiet_NaN();
   expect(fb, 5, "cell 1 has solid fraction nan");
+  EXPECT_EQ(hemo::feedback_problem(fb, "abc", 5).find("more volume"), std::string::npos);  // NaN: not a packing
   fb = good(5);
   fb.solid_fraction[2] = -0.1;
   expect(fb, 5, "cell 2 has solid fraction -0.1");
