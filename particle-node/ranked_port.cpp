@@ -1,9 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "ranked_port.h"
 
-#include <chrono>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 namespace hemo::particles {
@@ -46,16 +44,7 @@ RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<Partic
 }
 
 void RankedPort::broadcast_control(int& control, std::string& error) {
-  // The other ranks wait here while the fluid solves its step. A blocking broadcast would spin
-  // on a core (Open MPI polls) that the fluid node, the coordinator and rank 0 then share: the
-  // wait sleeps in short naps instead.
-  MPI_Request request;
-  MPI_Ibcast(&control, 1, MPI_INT, 0, comm_, &request);
-  for (int done = 0;;) {
-    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-    if (done) break;
-    std::this_thread::sleep_for(std::chrono::microseconds(50));
-  }
+  MPI_Bcast(&control, 1, MPI_INT, 0, comm_);
   if (control != kError) return;
   int len = static_cast<int>(error.size());
   MPI_Bcast(&len, 1, MPI_INT, 0, comm_);
