@@ -15,7 +15,6 @@
 #include <fstream>
 #include <set>
 #include <sstream>
-#include <unistd.h>
 
 #ifndef HEMO_BENCH_SOURCE
 #define HEMO_BENCH_SOURCE ""
@@ -459,20 +458,13 @@ BenchResult run_bench(const BenchOptions& opt) {
 }
 
 std::vector<std::string> check_bench(const BenchOptions& opt) {
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("hemocosim-bench-check-{}", ::getpid());
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{tmp};
+  const ScratchFolder tmp("hemocosim-bench-check");
   std::vector<std::string> files = opt.suites.empty() ? resolve_bench_suites({}) : resolve_bench_suites(opt.suites);
   if (opt.suites.empty())
     for (const auto& f : resolve_bench_suites({"stress"})) files.push_back(f);
   std::vector<std::string> lines;
   for (const auto& f : files) {
-    const BenchSuite suite = load_bench_suite(f, tmp.string());
+    const BenchSuite suite = load_bench_suite(f, tmp.path());
     StudyOptions so;
     so.study = suite.study_path;
     lines.push_back(fmt::format("{} ({}suite {}):", f, suite.stress ? "stress " : "", suite.name));

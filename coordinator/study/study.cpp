@@ -376,18 +376,19 @@ StudyResult run_study(const StudyOptions& opt) {
   return result;
 }
 
+ScratchFolder::ScratchFolder(const std::string& prefix)
+    : path_((fs::temp_directory_path() / fmt::format("{}-{}", prefix, ::getpid())).string()) {}
+
+ScratchFolder::~ScratchFolder() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
 std::vector<std::string> check_study(const StudyOptions& opt) {
   const Study study = load_study(resolve_study(opt.study));
   const Reduction reduction_spec;
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("hemocosim-study-check-{}", ::getpid());
-  struct Cleanup {
-    fs::path p;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(p, ec);
-    }
-  } cleanup{tmp};
-  const auto cases = expand_study(study, tmp.string(), opt.reduced ? &reduction_spec : nullptr);
+  const ScratchFolder tmp("hemocosim-study-check");
+  const auto cases = expand_study(study, tmp.path(), opt.reduced ? &reduction_spec : nullptr);
   std::vector<std::string> lines;
   lines.push_back(fmt::format("{}: ok, {} runs of {} (base {}){}", study.path, cases.size(), swept_header(study), study.base,
                               opt.reduced ? ", reduced" : ""));

@@ -57,6 +57,20 @@ struct StudyResult {
 StudyResult run_study(const StudyOptions& opt);
 int study_command(const StudyOptions& opt);
 
+// A folder under the system's temporary directory, named for the process, removed with all it
+// holds when this goes out of scope (the scenes of a --check).
+class ScratchFolder {
+ public:
+  explicit ScratchFolder(const std::string& prefix);
+  ~ScratchFolder();
+  ScratchFolder(const ScratchFolder&) = delete;
+  ScratchFolder& operator=(const ScratchFolder&) = delete;
+  std::string path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
 // --check: the study's scenes expanded (into a temporary folder, removed after) and validated;
 // returns the plan as printable lines. Throws StudyError like run_study.
 std::vector<std::string> check_study(const StudyOptions& opt);
