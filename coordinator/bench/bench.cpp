@@ -468,7 +468,11 @@ std::vector<std::string> check_bench(const BenchOptions& opt) {
     StudyOptions so;
     so.study = suite.study_path;
     lines.push_back(fmt::format("{} ({}suite {}):", f, suite.stress ? "stress " : "", suite.name));
-    for (auto& line : check_study(so)) lines.push_back(std::move(line));
+    try {
+      for (auto& line : check_study(so)) lines.push_back(std::move(line));
+    } catch (const StudyError& e) {
+      throw StudyError(fmt::format("bench suite {}: {}", f, e.what()));  // the study file is a temporary
+    }
   }
   return lines;
 }
