@@ -6,9 +6,9 @@
 #include <atom.h>
 #include <fix.h>
 #include <fix_external.h>
+#include <force.h>
 #include <input.h>
 #include <lammps.h>
-#include <force.h>
 #include <modify.h>
 #include <neigh_list.h>
 #include <neighbor.h>
