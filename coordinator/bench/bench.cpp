@@ -467,9 +467,12 @@ std::vector<std::string> check_bench(const BenchOptions& opt) {
     const BenchSuite suite = load_bench_suite(f, tmp.path());
     StudyOptions so;
     so.study = suite.study_path;
-    lines.push_back(fmt::format("{} ({}suite {}):", f, suite.stress ? "stress " : "", suite.name));
     try {
-      for (auto& line : check_study(so)) lines.push_back(std::move(line));
+      auto plan = check_study(so);
+      // The plan names the study file written from the suite, a temporary: name the suite instead.
+      if (!plan.empty() && plan.front().rfind(suite.study_path, 0) == 0)
+        plan.front().replace(0, suite.study_path.size(), fmt::format("{} ({}suite)", f, suite.stress ? "stress " : ""));
+      for (auto& line : plan) lines.push_back(std::move(line));
     } catch (const StudyError& e) {
       throw StudyError(fmt::format("bench suite {}: {}", f, e.what()));  // the study file is a temporary
     }
