@@ -15,6 +15,7 @@
 #include <pair.h>
 #include <update.h>
 
+#include <clock.h>
 #include <fmt/format.h>
 #include <units.h>
 
@@ -231,7 +232,7 @@ void DemEngine::force_callback(void* self, std::int64_t ntimestep, int nlocal, i
   auto* engine = static_cast<DemEngine*>(self);
   const auto t0 = std::chrono::steady_clock::now();
   engine->on_force(ntimestep, nlocal, tag, x, f);
-  engine->fluid_force_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  engine->fluid_force_seconds_ += seconds_since(t0);
 }
 
 void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f) {

@@ -3,6 +3,7 @@
 
 #include "placement.h"
 
+#include <clock.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -15,10 +16,6 @@
 namespace hemo::particles {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 void require_same(double scene_value, double mesh_value, const char* what) {
   if (std::abs(scene_value - mesh_value) > 1e-9 * std::abs(scene_value))
@@ -106,7 +103,7 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   return {};
 }
 
-particle_feedback_t ParticleNode::feedback() const {
+particle_feedback_t ParticleNode::feedback() {
   const auto t0 = std::chrono::steady_clock::now();
   particle_feedback_t fb;
   deposition_.finish(interval_, &fluid_, fb);

@@ -40,7 +40,7 @@ class ParticleNode {
   std::string advance(const step_order_t& order, const fluid_state_t& fluid);
 
   // The feedback of the last interval (step 0: volumes only, no forces yet).
-  particle_feedback_t feedback() const;
+  particle_feedback_t feedback();
 
   void write_output(long step, double time_s);
   Diagnostics diagnostics();
@@ -79,7 +79,7 @@ class ParticleNode {
   std::string run_dir_;
   bool used_[kSpeciesCount] = {false, false};
   bool warned_re_[kSpeciesCount] = {false, false};
-  mutable PhaseSeconds phase_;
+  PhaseSeconds phase_;
 };
 
 }  // namespace hemo::particles
