@@ -76,10 +76,16 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
   bus_->publish(channel::step_done, done, step_, /*keep=*/true);
 }
 
+void NodePort::finalize() {
+  report_done(true, "", {{"finalized", 1}});
+  heartbeat_.reset();
+}
+
 void NodePort::fail(const std::string& error) {
   times_.compute_s = now() - step_started_;
   // Several copies: the coordinator must learn why, even if UDP drops one.
   for (int i = 0; i < 3; ++i) report_done(false, error, {});
+  heartbeat_.reset();
 }
 
 void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0, /*keep=*/true); }
@@ -90,8 +96,6 @@ std::optional<FluidStep> FluidPort::advance(fluid_state_t& state, const Diagnost
   return FluidStep{next->first, next->second.as<particle_feedback_t>()};
 }
 
-void FluidPort::finalize() { report_done(true, "", {{"finalized", 1}}); }
-
 mesh_t ParticlePort::initialize() {
   return wait_for(channel::mesh, 0, "the fluid mesh").as<mesh_t>();
 }
@@ -101,7 +105,5 @@ std::optional<ParticleStep> ParticlePort::advance(particle_feedback_t& feedback,
   if (!next) return std::nullopt;
   return ParticleStep{next->first, next->second.as<fluid_state_t>()};
 }
-
-void ParticlePort::finalize() { report_done(true, "", {{"finalized", 1}}); }
 
 }  // namespace hemo

@@ -55,7 +55,11 @@ class NodePort {
   Bus& bus() { return *bus_; }
   std::int64_t step() const { return step_; }
 
-  // Reports a failure of the current step to the coordinator (one line) before exiting.
+  // Reports the end of the run (finalize) or a failure of the current step (one line) to the
+  // coordinator. Either one is the node's last word: its heartbeat stops, because the process
+  // may exit (MPI_Abort, UPstream::exit, LIGGGHTS's exit) without unwinding, and a heartbeat
+  // still signing while OpenSSL is torn down at exit crashes the process after a good run.
+  void finalize();
   void fail(const std::string& error);
 
  protected:
@@ -103,7 +107,6 @@ class FluidPort : public NodePort {
   // Publishes the state of the current step; returns the next step's order and feedback,
   // or nothing when the coordinator says stop.
   std::optional<FluidStep> advance(fluid_state_t& state, const Diagnostics& diag = {});
-  void finalize();
 };
 
 class ParticlePort : public NodePort {
@@ -121,7 +124,6 @@ class ParticlePort : public NodePort {
   // Publishes the feedback of the current step; returns the next order and the fluid state,
   // or nothing when the coordinator says stop.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag = {});
-  void finalize();
 
  private:
   int fluid_lag_ = 0;  // steps between the fluid state used and the step computed

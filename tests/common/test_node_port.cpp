@@ -137,3 +137,28 @@ TEST(NodePort, LostDatagramsDoNotChangeTheResult) {
   EXPECT_EQ(p.fluid_saw, (std::vector<double>{0, 1, 1, 11}));
   EXPECT_EQ(p.particles_saw, (std::vector<double>{1, 1, 11, 11}));
 }
+
+// finalize and fail are a node's last word: its heartbeat stops with them. A heartbeat that kept
+// signing while the process exits without unwinding (UPstream::exit, MPI_Abort) crashed a
+// decomposed fluid node in OpenSSL's torn-down locks after a good run (exit 139 in CI).
+TEST(NodePort, HeartbeatStopsWithTheLastWord) {
+  const auto ctx = test::make_context("last-word");
+  Bus coordinator(ctx, "coordinator");
+  auto heartbeats_within = [&](double seconds) {
+    int n = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end)
+      coordinator.poll(0.05, [&](const Received& m) { n += m.kind == channel::heartbeat; });
+    return n;
+  };
+  for (const bool ok : {true, false}) {
+    FluidPort port(ctx, "fluid", "test fluid");
+    EXPECT_GE(heartbeats_within(1.2), 1) << "a live node beats (period 0.5 s)";
+    if (ok)
+      port.finalize();
+    else
+      port.fail("a reason");
+    heartbeats_within(0.1);  // what was already on its way
+    EXPECT_EQ(heartbeats_within(1.2), 0) << (ok ? "after finalize" : "after fail");
+  }
+}
