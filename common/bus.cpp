@@ -57,6 +57,10 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option("--ranks", ranks, "MPI ranks to run this node on")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
+  app.add_option("--resume-step", resume_step,
+                 "Start from the run's checkpoint of this coupling step (RUN_DIR/checkpoints) instead of from scratch")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
 }
 
 void RunContext::load_secret() {

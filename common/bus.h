@@ -33,8 +33,9 @@ struct RunContext {
   double retry_s = 0.5;               // ask again for a missing message after this long
   int drop_every = 0;                 // fault injection: drop every n-th received message (0: none)
   int ranks = 1;                      // MPI ranks the node should run on (it launches them itself)
+  long resume_step = 0;               // > 0: start from the run's checkpoint of this step
 
-  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --drop-every
+  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --drop-every --resume-step
   void load_secret();                 // reads secret_file; throws with a one-line reason
 };
 

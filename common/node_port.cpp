@@ -20,6 +20,7 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
     : bus_(std::make_unique<Bus>(ctx, role)),
       heartbeat_(std::make_unique<Heartbeat>(ctx, role)),
       role_(std::move(role)),
+      step_(ctx.resume_step),
       step_started_(now()) {
   hello_t hello;
   hello.role = role_;

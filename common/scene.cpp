@@ -299,6 +299,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");
+  r.read("output.checkpoint_every_steps", s.output.checkpoint_every_steps);
+  r.check(s.output.checkpoint_every_steps >= 0, "output.checkpoint_every_steps", "must not be negative (0: never)");
 
   r.read("gravity.x_m_s2", s.gravity.x);
   r.read("gravity.y_m_s2", s.gravity.y);

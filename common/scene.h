@@ -138,6 +138,7 @@ struct FluidSolver {
 
 struct Output {
   long every_steps = 10;            // particle snapshot every this many coupling steps (and last)
+  long checkpoint_every_steps = 1000;  // both nodes' whole state every this many steps (0: never)
 };
 
 struct RunSettings {

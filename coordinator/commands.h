@@ -11,8 +11,16 @@ struct RunOptions {
   std::string out;     // run directory; default runs/<name>-<time>
   int fluid_ranks = 0;     // 0: as the scene says
   int particle_ranks = 0;
+  long stop_after_step = 0;  // > 0: stop after this step, writing a checkpoint there
 };
 int run_command(const RunOptions& opt);
+
+// Goes on with a run from its last checkpoint (after an interrupt, --stop-after-step, a failure).
+struct ResumeOptions {
+  std::string run_dir;
+  long stop_after_step = 0;
+};
+int resume_command(const ResumeOptions& opt);
 
 int check_command(const std::string& scene_path);
 int list_keys_command();  // every scene key with its default, as a Markdown table

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "lockstep.h"
 
+#include "checkpoint.h"
 #include "stability_guard.h"
 
 #include <hemo/heartbeat_t.hpp>
@@ -34,14 +35,18 @@ std::vector<std::string> split(const std::string& s) {
 }
 }  // namespace
 
-Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx)
+Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step)
     : scene_(scene), dir_(std::move(dir)), ctx_(ctx) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator");
   heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
-  metrics_.open(dir_.metrics_file());
-  metrics_ << "step,time_s,node,name,value\n";
-  launch("fluid", scene.run.fluid_command, "hemocosim-fluid", scene.run.fluid_ranks);
-  launch("particles", scene.run.particle_command, "hemocosim-particles", scene.run.particle_ranks);
+  if (first_step > 0) {
+    metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
+  } else {
+    metrics_.open(dir_.metrics_file());
+    metrics_ << "step,time_s,node,name,value\n";
+  }
+  launch("fluid", scene.run.fluid_command, "hemocosim-fluid", scene.run.fluid_ranks, first_step);
+  launch("particles", scene.run.particle_command, "hemocosim-particles", scene.run.particle_ranks, first_step);
 }
 
 Lockstep::~Lockstep() {
@@ -49,7 +54,8 @@ Lockstep::~Lockstep() {
     if (node.process) node.process->terminate();
 }
 
-void Lockstep::launch(const std::string& node, const std::string& command, const char* default_program, int ranks) {
+void Lockstep::launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
+                      long first_step) {
   auto argv = split(command);
   if (argv.empty()) argv.push_back(self_dir() + "/" + default_program);
   for (const auto& a : {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path,
@@ -58,17 +64,22 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
                         fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
                         fmt::format("{}", ctx_.drop_every), std::string("--ranks"), fmt::format("{}", ranks)})
     argv.push_back(a);
+  if (first_step > 0) {
+    argv.push_back("--resume-step");
+    argv.push_back(fmt::format("{}", first_step));
+  }
   auto& state = nodes_[node];
   state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));
   std::ofstream(dir_.path + "/" + node + ".pid") << state.process->pid() << "\n";
   state.last_heard = now();
 }
 
-void Lockstep::order(long step, double time_s, bool write_output) {
+void Lockstep::order(long step, double time_s, bool write_output, bool write_checkpoint) {
   step_order_t o;
   o.time_s = time_s;
   o.dt_s = scene_.time.coupling_interval;
   o.write_output = write_output;
+  o.write_checkpoint = write_checkpoint;
   o.stop = false;
   step_time_s_ = time_s;
   ordered_at_ = now();
@@ -96,11 +107,23 @@ void Lockstep::record(const Received& msg) {
   }
   metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
   metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
-  for (std::size_t i = 0; i < done.names.size(); ++i)
+  for (std::size_t i = 0; i < done.names.size(); ++i) {
     metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", k, step_time_s_, done.node, done.names[i], done.values[i]);
+    if (done.names[i] == kCheckpointDiagnostic && done.values[i] == double(k)) node.checkpoint_step = k;
+  }
   metrics_.flush();
   // Raised by await() once the bus has returned: never thrown through the bus's handlers.
   if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
+}
+
+long Lockstep::common_checkpoint() const {
+  long common = -1;
+  bool first = true;
+  for (const auto& [name, node] : nodes_) {
+    common = first ? node.checkpoint_step : std::min(common, node.checkpoint_step);
+    first = false;
+  }
+  return common;
 }
 
 void Lockstep::check_health(long step) {
@@ -160,6 +183,7 @@ void Lockstep::stop(long step) {
   o.time_s = step_time_s_;
   o.dt_s = 0;
   o.write_output = false;
+  o.write_checkpoint = false;
   o.stop = true;
   bus_->publish(channel::step, o, step, /*keep=*/true);
   // Nodes that missed the order ask for it again; keep answering while they finish.

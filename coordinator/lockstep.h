@@ -24,16 +24,20 @@ struct UnstableRun : std::runtime_error {
 
 class Lockstep {
  public:
-  Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx);
+  // Launches both nodes: from scratch (first_step 0) or from the run's checkpoint of first_step.
+  Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step = 0);
   ~Lockstep();
 
-  // Orders step k (time at its end, output wanted or not).
-  void order(long step, double time_s, bool write_output);
+  // Orders step k (time at its end; output, checkpoint wanted or not).
+  void order(long step, double time_s, bool write_output, bool write_checkpoint = false);
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
   // that failed, exited or stopped answering.
   void await(long step, double timeout_s);
   // Orders the nodes to finish and waits for their clean exit.
   void stop(long step);
+
+  // The newest checkpoint both nodes have acknowledged (-1: none yet).
+  long common_checkpoint() const;
 
   // Per-node seconds of the last step: computing and waiting.
   double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
@@ -49,10 +53,12 @@ class Lockstep {
     std::unique_ptr<NodeProcess> process;
     double last_heard = 0;
     long done_step = -1;
+    long checkpoint_step = -1;  // the newest checkpoint the node acknowledged
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
   };
-  void launch(const std::string& node, const std::string& command, const char* default_program, int ranks);
+  void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
+              long first_step);
   void check_health(long step);
   void record(const Received& msg);
 

@@ -23,6 +23,17 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--np-particles", run.particle_ranks,
                       "MPI ranks of the particle node (overrides run.particle_ranks)")
       ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--stop-after-step", run.stop_after_step,
+                      "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
+      ->check(CLI::PositiveNumber);
+
+  hemo::ResumeOptions resume;
+  auto* resume_cmd = app.add_subcommand(
+      "resume", "Go on with a stopped run (interrupted, failed, --stop-after-step) from its last checkpoint");
+  resume_cmd->add_option("run_dir", resume.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
+  resume_cmd->add_option("--stop-after-step", resume.stop_after_step,
+                         "Stop again after this coupling step, writing a checkpoint there")
+      ->check(CLI::PositiveNumber);
 
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
@@ -75,6 +86,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return hemo::run_command(run);
+    if (*resume_cmd) return hemo::resume_command(resume);
     if (*check_cmd) return list_keys ? hemo::list_keys_command() : hemo::check_command(check_scene);
     if (*mon_cmd) return hemo::monitor_command(mon);
     if (*ana_cmd) return hemo::analyze_command(ana);

@@ -11,14 +11,16 @@ namespace hemo {
 
 class Progress {
  public:
-  Progress(long total_steps, double dt_s) : total_(total_steps), dt_(dt_s), tty_(isatty(STDERR_FILENO)) {}
+  // Steps first_step + 1 .. total_steps are to come (first_step > 0: a resumed run).
+  Progress(long total_steps, double dt_s, long first_step = 0)
+      : total_(total_steps), first_(first_step), dt_(dt_s), tty_(isatty(STDERR_FILENO)) {}
 
   void update(long step, const std::string& extra = "") {
     const double elapsed = seconds();
     const bool last = step == total_;
     if (!last && elapsed - last_print_ < (tty_ ? 0.2 : 5.0)) return;
     last_print_ = elapsed;
-    const double rate = step / std::max(elapsed, 1e-9);
+    const double rate = (step - first_) / std::max(elapsed, 1e-9);
     const double eta = (total_ - step) / std::max(rate, 1e-12);
     std::fprintf(stderr, "%sstep %ld/%ld  t = %.4g s  %.3g steps/s  elapsed %.0f s  ETA %.0f s  %s%s",
                  tty_ ? "\r\033[K" : "", step, total_, step * dt_, rate, elapsed, eta, extra.c_str(),
@@ -31,6 +33,7 @@ class Progress {
 
  private:
   long total_;
+  long first_;
   double dt_;
   bool tty_;
   double last_print_ = -1e9;

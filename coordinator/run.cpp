@@ -25,30 +25,82 @@ std::string default_run_dir(const Scene& scene) {
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", std::localtime(&t));
   return fmt::format("runs/{}-{}", scene.run.name, stamp);
 }
-// The lockstep from start-up to the stop order, with progress and the final profile.
-void drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx) {
-  Lockstep lockstep(scene, dir, ctx);
-  lockstep.await(0, scene.run.startup_timeout);
+// Where the lockstep begins and ends, and why it stopped early.
+struct Span {
+  long first = 0;  // the step the nodes start from (0, or the checkpoint resumed)
+  long last = 0;   // the step after which they stop (the scene's end, or --stop-after-step)
+};
+
+// Tells where to go on from after a run stopped before its end.
+std::string resume_hint(const RunDirectory& dir) {
+  const auto last = dir.last_checkpoint();
+  return last ? fmt::format("; its last checkpoint is step {}: `hemocosim resume {}` goes on from there", *last, dir.path)
+              : "; it has no checkpoint to resume from";
+}
+
+// The lockstep from start-up to the stop order, with progress and the final profile. Both nodes
+// write a checkpoint every output.checkpoint_every_steps and at an early stop (interrupt,
+// --stop-after-step); a run that fails keeps the last one both acknowledged. Returns the last
+// step done.
+long drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span) {
+  Lockstep lockstep(scene, dir, ctx, span.first);
+  lockstep.await(span.first, scene.run.startup_timeout);
 
   const long steps = scene.time.coupling_steps;
-  Progress progress(steps, scene.time.coupling_interval);
-  for (long k = 1; k <= steps; ++k) {
-    if (interrupted) throw std::runtime_error(fmt::format("interrupted at step {}; output so far is in {}", k, dir.path));
+  const long every_checkpoint = scene.output.checkpoint_every_steps;
+  Progress progress(span.last, scene.time.coupling_interval, span.first);
+  long k = span.first + 1;
+  for (; k <= span.last; ++k) {
+    const bool stopping_early = (interrupted || k == span.last) && k < steps;
     const bool output = k % scene.output.every_steps == 0 || k == steps;
-    lockstep.order(k, k * scene.time.coupling_interval, output);
+    const bool checkpoint = (every_checkpoint > 0 && k % every_checkpoint == 0) || stopping_early;
+    lockstep.order(k, k * scene.time.coupling_interval, output, checkpoint);
     try {
       lockstep.await(k, scene.run.step_timeout);
     } catch (const UnstableRun&) {
-      // Keep the state the run went unstable in: the nodes write it as they finish.
+      // Keep the state the run went unstable in: the nodes write it as they finish (the last
+      // checkpoint, from before, is kept as it is).
       try { lockstep.stop(k + 1); } catch (const std::exception&) {}
       throw;
     }
+    if (checkpoint && lockstep.common_checkpoint() == k) dir.keep_only_checkpoint(k);
     progress.update(k, fmt::format("fluid {:.2f} s, particles {:.2f} s", lockstep.compute_s("fluid"),
                                    lockstep.compute_s("particles")));
+    if (stopping_early) break;
   }
-  lockstep.stop(steps + 1);
-  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), steps));
-  fmt::print(stderr, "hemocosim: done in {:.1f} s; results in {}\n", progress.seconds(), dir.path);
+  const long stopped_after = std::min(k, span.last);
+  lockstep.stop(stopped_after + 1);
+  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), stopped_after - span.first));
+  fmt::print(stderr, "hemocosim: {} in {:.1f} s; results in {}\n",
+             stopped_after < steps ? fmt::format("stopped after step {} of {}", stopped_after, steps) : "done",
+             progress.seconds(), dir.path);
+  return stopped_after;
+}
+
+// Drives the run, then makes what the nodes wrote openable in ParaView, also after a failure.
+int drive_and_finish(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span) {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  long stopped_after = 0;
+  try {
+    stopped_after = drive(scene, dir, ctx, span);
+  } catch (const std::exception& e) {
+    // The nodes are stopped by now.
+    try { write_paraview_sidecars(dir.path); } catch (const std::exception&) {}
+    throw std::runtime_error(e.what() + resume_hint(dir));
+  }
+  const int snapshots = write_paraview_sidecars(dir.path);
+  fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
+             snapshots, dir.path);
+  if (stopped_after < scene.time.coupling_steps) {
+    if (interrupted) throw std::runtime_error(fmt::format("interrupted after step {}", stopped_after) + resume_hint(dir));
+    fmt::print(stderr, "hemocosim: stopped as asked{}\n", resume_hint(dir));
+  }
+  return 0;
+}
+
+long last_step(const Scene& scene, long stop_after_step) {
+  return stop_after_step > 0 ? std::min(stop_after_step, scene.time.coupling_steps) : scene.time.coupling_steps;
 }
 }  // namespace
 
@@ -57,23 +109,29 @@ int run_command(const RunOptions& opt) {
   if (opt.fluid_ranks > 0) scene.run.fluid_ranks = opt.fluid_ranks;
   if (opt.particle_ranks > 0) scene.run.particle_ranks = opt.particle_ranks;
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
+  dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
   ctx.drop_every = scene.run.drop_every;
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
+  return drive_and_finish(scene, dir, ctx, {0, last_step(scene, opt.stop_after_step)});
+}
 
-  try {
-    drive(scene, dir, ctx);
-  } catch (...) {
-    // The nodes are stopped by now; make what they wrote openable before reporting.
-    try { write_paraview_sidecars(dir.path); } catch (const std::exception&) {}
-    throw;
-  }
-  const int snapshots = write_paraview_sidecars(dir.path);
-  fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
-             snapshots, dir.path);
-  return 0;
+int resume_command(const ResumeOptions& opt) {
+  auto [dir, ctx] = RunDirectory::open(opt.run_dir);
+  Scene scene = load_scene(dir.scene_copy());
+  if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
+  if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
+  const auto from = dir.last_checkpoint();
+  if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
+  const long last = last_step(scene, opt.stop_after_step);
+  if (*from >= last)
+    throw std::runtime_error(fmt::format("{}: its checkpoint of step {} is already at the end (step {})", dir.path,
+                                         *from, last));
+  ctx.drop_every = scene.run.drop_every;
+  dir.drop_metrics_after(*from);
+  std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
+  fmt::print(stderr, "hemocosim: run {} in {} resumes from step {}\n", ctx.run_id, dir.path, *from);
+  return drive_and_finish(scene, dir, ctx, {*from, last});
 }
 
 }  // namespace hemo

@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_directory.h"
 
+#include "checkpoint.h"
+
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 namespace fs = std::filesystem;
 
@@ -54,7 +57,61 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
   ctx.secret_file = info["secret_file"].value_or(std::string());
   if (ctx.run_id.empty() || ctx.lcm_url.empty()) throw std::runtime_error(dir.info_file() + " lacks run_id or lcm_url");
   ctx.load_secret();
+  dir.fluid_ranks = info["fluid_ranks"].value_or(0);
+  dir.particle_ranks = info["particle_ranks"].value_or(0);
   return {dir, ctx};
+}
+
+void RunDirectory::record_ranks(int fluid, int particles) {
+  fluid_ranks = fluid;
+  particle_ranks = particles;
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("fluid_ranks", fluid);
+  info.insert_or_assign("particle_ranks", particles);
+  std::ofstream(info_file()) << info << "\n";
+}
+
+namespace {
+// The steps of the run's checkpoint folders (complete or not), from RUN_DIR/checkpoints/step-<k>.
+std::vector<long> checkpoint_steps(const std::string& run_dir) {
+  std::vector<long> steps;
+  const fs::path root = fs::path(run_dir) / "checkpoints";
+  if (!fs::is_directory(root)) return steps;
+  for (const auto& entry : fs::directory_iterator(root)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("step-", 0) != 0) continue;
+    try {
+      steps.push_back(std::stol(name.substr(5)));
+    } catch (const std::exception&) {
+    }
+  }
+  return steps;
+}
+}  // namespace
+
+std::optional<long> RunDirectory::last_checkpoint() const {
+  std::optional<long> last;
+  for (const long k : checkpoint_steps(path)) {
+    const std::string folder = checkpoint_folder(path, k);
+    if (fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") && (!last || k > *last)) last = k;
+  }
+  return last;
+}
+
+void RunDirectory::keep_only_checkpoint(long step) const {
+  for (const long k : checkpoint_steps(path))
+    if (k != step) fs::remove_all(checkpoint_folder(path, k));
+}
+
+void RunDirectory::drop_metrics_after(long step) const {
+  std::ifstream in(metrics_file());
+  if (!in) return;
+  std::string header, line, kept;
+  std::getline(in, header);
+  while (std::getline(in, line))
+    if (!line.empty() && std::stol(line.substr(0, line.find(','))) <= step) kept += line + "\n";
+  in.close();
+  std::ofstream(metrics_file()) << header << "\n" << kept;
 }
 
 }  // namespace hemo

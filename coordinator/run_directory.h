@@ -4,6 +4,7 @@
 
 #include "bus.h"
 
+#include <optional>
 #include <string>
 
 namespace hemo {
@@ -15,11 +16,22 @@ struct RunDirectory {
   std::string secret_file() const { return path + "/secret"; }
   std::string metrics_file() const { return path + "/metrics.csv"; }
   std::string log(const std::string& node) const { return path + "/" + node + ".log"; }
+  int fluid_ranks = 0;     // as run (0: unknown, a run directory older than resume)
+  int particle_ranks = 0;
+
+  // Remembers the ranks the nodes run on: a resumed run must use the same decomposition.
+  void record_ranks(int fluid, int particles);
+  // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h).
+  std::optional<long> last_checkpoint() const;
+  // Removes every checkpoint but that of `step` (and partial ones of later steps).
+  void keep_only_checkpoint(long step) const;
+  // Drops the coordinator's metrics of steps after `step` (a resumed run writes them again).
+  void drop_metrics_after(long step) const;
 
   // Creates a fresh run directory (refusing to reuse a non-empty one), copies the scene,
   // and draws a run id, a bus URL of its own and a secret readable by the user only.
   static std::pair<RunDirectory, RunContext> create(const std::string& path, const std::string& scene_path);
-  // Reads the identity of an existing run (for the monitor).
+  // Reads the identity of an existing run (for the monitor and resume).
   static std::pair<RunDirectory, RunContext> open(const std::string& path);
 };
 

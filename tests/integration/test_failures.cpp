@@ -106,7 +106,9 @@ TEST(Failures, UnknownSceneKeyIsRefusedInOneLineNamingIt) {
 
 TEST(Failures, HelpWorksForEveryCommand) {
   for (const std::string cmd : {"hemocosim --help", "hemocosim run --help", "hemocosim check --help",
-                                "hemocosim monitor --help", "hemocosim-fluid --help", "hemocosim-particles --help"}) {
+                                "hemocosim monitor --help", "hemocosim resume --help", "hemocosim analyze --help",
+                                "hemocosim plot --help", "hemocosim study --help", "hemocosim bench --help",
+                                "hemocosim-fluid --help", "hemocosim-particles --help"}) {
     const auto r = run(bin("") + cmd);
     EXPECT_EQ(r.exit_code, 0) << cmd << "\n" << r.output;
     EXPECT_NE(r.output.find("--"), std::string::npos) << cmd;
@@ -137,4 +139,9 @@ TEST(Monitor, ShowsTheTrafficOfARunningRun) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("interrupted"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(dir + "/particles.h5"));
+  // Interrupted, it checkpoints the step it stopped after: `hemocosim resume` can go on.
+  const auto at = r.output.find("interrupted after step ");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const long step = std::stol(r.output.substr(at + 23));
+  EXPECT_NE(r.output.find("its last checkpoint is step " + std::to_string(step)), std::string::npos) << r.output;
 }

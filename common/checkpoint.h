@@ -1,0 +1,51 @@
+// Where a run's checkpoints live, and how a node writes one so that a crash mid-write never
+// leaves a checkpoint that looks complete (DESIGN.md "Checkpoint, restart, swap").
+//
+//   RUN_DIR/checkpoints/step-<k>/<role>/   the node's whole state at the end of step k
+//
+// A node writes into <role>.partial and renames it to <role> when everything is on disk; only
+// then does it tell the coordinator (diagnostic "checkpoint_step" = k in its step-done report).
+// The coordinator keeps the newest step both nodes have acknowledged and removes older ones.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+namespace hemo {
+
+// The diagnostic with which a node acknowledges checkpoint k.
+inline constexpr const char* kCheckpointDiagnostic = "checkpoint_step";
+
+inline std::string checkpoint_folder(const std::string& run_dir, long step) {
+  return fmt::format("{}/checkpoints/step-{}", run_dir, step);
+}
+
+// The complete checkpoint of `role` at `step`; throws with a one-line reason when there is none.
+inline std::string checkpoint_of(const std::string& run_dir, long step, const std::string& role) {
+  const std::string path = checkpoint_folder(run_dir, step) + "/" + role;
+  if (!std::filesystem::is_directory(path))
+    throw std::runtime_error(fmt::format("no {} checkpoint of step {} in {}", role, step, run_dir));
+  return path;
+}
+
+// An empty folder to write `role`'s checkpoint of `step` into (what a failed write left is
+// removed first).
+inline std::string begin_checkpoint(const std::string& run_dir, long step, const std::string& role) {
+  const std::string partial = checkpoint_folder(run_dir, step) + "/" + role + ".partial";
+  std::filesystem::remove_all(partial);
+  std::filesystem::create_directories(partial);
+  return partial;
+}
+
+// Makes the checkpoint begun by begin_checkpoint complete (one rename).
+inline void commit_checkpoint(const std::string& run_dir, long step, const std::string& role) {
+  const std::string folder = checkpoint_folder(run_dir, step);
+  std::filesystem::remove_all(folder + "/" + role);
+  std::filesystem::rename(folder + "/" + role + ".partial", folder + "/" + role);
+}
+
+}  // namespace hemo

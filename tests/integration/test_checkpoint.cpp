@@ -1,0 +1,153 @@
+// Checkpoints and resume (DESIGN.md "Checkpoint, restart, swap") on the real nodes over real LCM:
+// a run stopped part-way and resumed from its checkpoint ends as the uninterrupted run does; a
+// run whose node dies keeps its last checkpoint and goes on from it.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <sstream>
+#include <thread>
+
+using namespace hemo::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The small coupled scene with a checkpoint every `every` steps.
+std::string scene_with_checkpoints(long steps, long every) {
+  std::string text = small_scene_text(steps);
+  const std::string output = "every_steps = 10";
+  text.replace(text.find(output), output.size(), output + "\ncheckpoint_every_steps = " + std::to_string(every));
+  return text;
+}
+
+std::vector<std::string> checkpoint_folders(const std::string& dir) {
+  std::vector<std::string> names;
+  if (fs::is_directory(dir + "/checkpoints"))
+    for (const auto& e : fs::directory_iterator(dir + "/checkpoints")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those).
+std::vector<std::string> metric_rows(const std::string& dir) {
+  std::ifstream in(dir + "/metrics.csv");
+  std::vector<std::string> rows;
+  for (std::string line; std::getline(in, line);)
+    if (line.find(",checkpoint_step,") == std::string::npos && line.find(",compute_s,") == std::string::npos &&
+        line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos)
+      rows.push_back(line.substr(0, line.find(',', line.find(',', line.find(',') + 1) + 1)));  // step,time,node
+  return rows;
+}
+
+long step_after(const std::string& text, const std::string& marker) {
+  const auto at = text.find(marker);
+  if (at == std::string::npos) return -1;
+  return std::stol(text.substr(at + marker.size()));
+}
+
+}  // namespace
+
+// 40 steps in one go, and the same scene stopped after step 20 and resumed: the same snapshots,
+// the same particles at the end and the same flow, to round-off; the same metrics, each step once.
+TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
+  const std::string whole = fresh_run_dir("checkpoint-whole"), parts = fresh_run_dir("checkpoint-parts");
+  std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8);
+  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  EXPECT_EQ(checkpoint_folders(whole), std::vector<std::string>{"step-40"}) << "only the newest is kept";
+
+  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_NE(first.output.find("stopped after step 20 of 40"), std::string::npos) << first.output;
+  EXPECT_NE(first.output.find("its last checkpoint is step 20"), std::string::npos) << first.output;
+  EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-20"});
+  EXPECT_EQ(snapshot_names(parts + "/particles.h5").size(), 3u);  // steps 0, 10, 20
+
+  const auto second = run(bin("hemocosim") + " resume " + parts);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_NE(second.output.find("resumes from step 20"), std::string::npos) << second.output;
+  EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-40"});
+
+  const auto names = snapshot_names(whole + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(parts + "/particles.h5"));
+  // Round-off: the resumed DEM rebuilds its neighbour lists, so forces may be summed in another
+  // order; differences of 1e-16 relative grow through the contacts over 20 coupling steps
+  // (~300 DEM steps). Positions are ~1e-5 m; a wrong or missing piece of state moves cells by
+  // far more than 1e-12 m within one step (checked: see the nodes' own checkpoint tests).
+  double worst_position = 0, worst_velocity = 0, speed_scale = 0;
+  for (const auto& name : names) {
+    const auto sa = read_snapshot(whole + "/particles.h5", name), sb = read_snapshot(parts + "/particles.h5", name);
+    ASSERT_EQ(sa.id, sb.id) << name;
+    EXPECT_DOUBLE_EQ(sa.time_s, sb.time_s) << name;
+    for (std::size_t i = 0; i < sa.position.size(); ++i) {
+      worst_position = std::max(worst_position, std::abs(sa.position[i] - sb.position[i]));
+      worst_velocity = std::max(worst_velocity, std::abs(sa.velocity[i] - sb.velocity[i]));
+      speed_scale = std::max(speed_scale, std::abs(sa.velocity[i]));
+    }
+  }
+  std::printf("resumed vs uninterrupted, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
+              names.size(), worst_position, worst_velocity, speed_scale);
+  EXPECT_LT(worst_position, 1e-12);
+  EXPECT_LT(worst_velocity, 1e-9 * speed_scale);
+
+  const auto ma = read_metrics(whole), mb = read_metrics(parts);
+  const auto& ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
+  ASSERT_EQ(ua.size(), ub.size());
+  for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, 1e-12 * std::abs(value)) << "step " << step;
+  EXPECT_EQ(metric_rows(whole), metric_rows(parts)) << "each step's metrics once, in order";
+}
+
+// A node killed mid-run: the run stops naming its last checkpoint, which is complete, and
+// `hemocosim resume` goes on from it.
+TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
+  const std::string dir = fresh_run_dir("checkpoint-killed");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(100000, 5);
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  for (int i = 0; i < 600 && checkpoint_folders(dir) < std::vector<std::string>{"step-10"}; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  long pid = 0;
+  std::ifstream(dir + "/particles.pid") >> pid;
+  ASSERT_GT(pid, 0);
+  kill(static_cast<pid_t>(pid), SIGKILL);
+  const auto r = result.get();
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("particles node"), std::string::npos) << r.output;
+  const long last = step_after(r.output, "its last checkpoint is step ");
+  ASSERT_GE(last, 5) << r.output;
+  EXPECT_EQ(last % 5, 0);
+  EXPECT_TRUE(fs::is_directory(dir + "/checkpoints/step-" + std::to_string(last) + "/fluid"));
+  EXPECT_TRUE(fs::is_directory(dir + "/checkpoints/step-" + std::to_string(last) + "/particles"));
+
+  const auto resumed = run(bin("hemocosim") + " resume " + dir + " --stop-after-step " + std::to_string(last + 12));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("resumes from step " + std::to_string(last)), std::string::npos) << resumed.output;
+  EXPECT_NE(resumed.output.find("stopped after step " + std::to_string(last + 12)), std::string::npos);
+  // Snapshots every 10 steps, each once, up to the new stop.
+  const auto names = snapshot_names(dir + "/particles.h5");
+  for (std::size_t i = 1; i < names.size(); ++i) EXPECT_LT(std::stol(names[i - 1]), std::stol(names[i]));
+  EXPECT_EQ(std::stol(names.back()), (last + 12) - (last + 12) % 10);
+}
+
+TEST(Checkpoint, ResumeWithoutACheckpointIsRefusedInOneLine) {
+  const std::string dir = fresh_run_dir("checkpoint-none");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(4, 0);
+  const auto a = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  EXPECT_TRUE(checkpoint_folders(dir).empty()) << "checkpoint_every_steps = 0: none";
+  const auto r = run(bin("hemocosim") + " resume " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("no complete checkpoint"), std::string::npos) << r.output;
+  const auto not_a_run = run(bin("hemocosim") + " resume " + fs::temp_directory_path().string());
+  EXPECT_NE(not_a_run.exit_code, 0);
+  EXPECT_EQ(std::count(not_a_run.output.begin(), not_a_run.output.end(), '\n'), 1) << not_a_run.output;
+}
