@@ -12,8 +12,10 @@
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace hemo {
 
@@ -30,6 +32,33 @@ inline std::string checkpoint_of(const std::string& run_dir, long step, const st
   if (!std::filesystem::is_directory(path))
     throw std::runtime_error(fmt::format("no {} checkpoint of step {} in {}", role, step, run_dir));
   return path;
+}
+
+// The steps of the run's checkpoint folders, complete or not (RUN_DIR/checkpoints/step-<k>).
+inline std::vector<long> checkpoint_steps(const std::string& run_dir) {
+  namespace fs = std::filesystem;
+  std::vector<long> steps;
+  const fs::path root = fs::path(run_dir) / "checkpoints";
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return steps;
+  for (const auto& entry : fs::directory_iterator(root, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("step-", 0) != 0 || name.size() == 5) continue;
+    if (name.find_first_not_of("0123456789", 5) == std::string::npos) steps.push_back(std::stol(name.substr(5)));
+  }
+  return steps;
+}
+
+// The newest step of which both nodes wrote a complete checkpoint: where a run can resume.
+inline std::optional<long> last_complete_checkpoint(const std::string& run_dir) {
+  namespace fs = std::filesystem;
+  std::optional<long> last;
+  for (const long k : checkpoint_steps(run_dir)) {
+    const std::string folder = checkpoint_folder(run_dir, k);
+    if (fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") && (!last || k > *last))
+      last = k;
+  }
+  return last;
 }
 
 // An empty folder to write `role`'s checkpoint of `step` into (what a failed write left is

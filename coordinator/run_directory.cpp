@@ -71,32 +71,7 @@ void RunDirectory::record_ranks(int fluid, int particles) {
   std::ofstream(info_file()) << info << "\n";
 }
 
-namespace {
-// The steps of the run's checkpoint folders (complete or not), from RUN_DIR/checkpoints/step-<k>.
-std::vector<long> checkpoint_steps(const std::string& run_dir) {
-  std::vector<long> steps;
-  const fs::path root = fs::path(run_dir) / "checkpoints";
-  if (!fs::is_directory(root)) return steps;
-  for (const auto& entry : fs::directory_iterator(root)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("step-", 0) != 0) continue;
-    try {
-      steps.push_back(std::stol(name.substr(5)));
-    } catch (const std::exception&) {
-    }
-  }
-  return steps;
-}
-}  // namespace
-
-std::optional<long> RunDirectory::last_checkpoint() const {
-  std::optional<long> last;
-  for (const long k : checkpoint_steps(path)) {
-    const std::string folder = checkpoint_folder(path, k);
-    if (fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") && (!last || k > *last)) last = k;
-  }
-  return last;
-}
+std::optional<long> RunDirectory::last_checkpoint() const { return last_complete_checkpoint(path); }
 
 void RunDirectory::keep_only_checkpoint(long step) const {
   for (const long k : checkpoint_steps(path))

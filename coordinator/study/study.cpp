@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "study.h"
 
+#include "checkpoint.h"
 #include "child_process.h"
 #include "plot.h"
 #include "scene.h"
@@ -69,11 +70,29 @@ void remove_unfinished(const std::string& run_dir) {
   fs::remove_all(run_dir);
 }
 
+// The checkpoint an unfinished run of this very scene can go on from (none: it is redone).
+std::optional<long> resumable_from(const std::string& run_dir, const std::string& scene_text) {
+  std::ifstream in(fs::path(run_dir) / "scene.toml");
+  if (!in) return std::nullopt;
+  std::stringstream ran;
+  ran << in.rdbuf();
+  if (ran.str() != scene_text) return std::nullopt;
+  const auto last = last_complete_checkpoint(run_dir);
+  if (!last || *last >= load_scene((fs::path(run_dir) / "scene.toml").string()).time.coupling_steps) return std::nullopt;
+  return last;
+}
+
+// `hemocosim run SCENE --out RUN_DIR`, or `hemocosim resume RUN_DIR` when RUN_DIR was kept.
 SceneRunner child_runner(const std::string& hemocosim) {
   return [hemocosim](const std::string& scene, const std::string& run_dir, const std::string& log_path,
                      const std::function<void(const std::string&)>& progress) {
+    const std::vector<std::string> args = fs::exists(fs::path(run_dir) / "scene.toml")
+                                              ? std::vector<std::string>{hemocosim, "resume", run_dir}
+                                              : std::vector<std::string>{hemocosim, "run", scene, "--out", run_dir};
     std::ofstream log(log_path, std::ios::app);
-    log << "$ " << hemocosim << " run " << scene << " --out " << run_dir << "\n";
+    log << "$";
+    for (const auto& a : args) log << " " << a;
+    log << "\n";
     log.flush();
     ChildOptions opt;
     opt.merge_stderr = true;
@@ -83,8 +102,8 @@ SceneRunner child_runner(const std::string& hemocosim) {
       log.flush();
       if (progress && (line.rfind("step ", 0) == 0 || line.find("error") != std::string::npos)) progress(line);
     };
-    const auto r = run_child({hemocosim, "run", scene, "--out", run_dir}, opt);
-    log << "# hemocosim run " << r.describe() << "\n";
+    const auto r = run_child(args, opt);
+    log << "# hemocosim " << args[1] << " " << r.describe() << "\n";
     return r.exit_code;
   };
 }
@@ -294,11 +313,13 @@ StudyResult run_study(const StudyOptions& opt) {
       result.runs.push_back(st);
       continue;
     }
+    const auto checkpoint = resumable_from(st.run_dir, c.scene_text);
+    if (checkpoint) why[i] = fmt::format("unfinished: goes on from its checkpoint of step {}", *checkpoint);
     if (why[i] != "no run yet") {
       say(fmt::format("{} {}", tag, why[i]));
       st.why = why[i];
     }
-    remove_unfinished(st.run_dir);
+    if (!checkpoint) remove_unfinished(st.run_dir);
     const std::string log = (out / "logs" / (c.dir_name + ".log")).string();
     say(fmt::format("{} {} = {}: running into {}", tag, swept_header(study), study.value_text(i), st.run_dir));
     const auto start = std::chrono::steady_clock::now();

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
 
 using namespace hemo;
 using namespace hemo::studytest;
@@ -21,13 +22,19 @@ namespace {
 struct FakeRunner {
   std::map<std::string, int> calls;
   std::set<std::string> fail;
+  std::set<std::string> resumed;  // runs whose directory the study left for `hemocosim resume`
   SceneRunner runner() {
     return [this](const std::string& scene, const std::string& run_dir, const std::string& log,
                   const std::function<void(const std::string&)>&) {
       const std::string label = fs::path(run_dir).filename().string();
       ++calls[label];
-      // `hemocosim run` refuses a non-empty directory: the study must have cleared it.
-      EXPECT_FALSE(fs::exists(run_dir)) << run_dir;
+      // `hemocosim run` refuses a non-empty directory: the study must have cleared it, unless
+      // the run goes on from its checkpoint.
+      if (fs::exists(run_dir)) {
+        EXPECT_TRUE(fs::exists(run_dir + "/checkpoints")) << run_dir;
+        resumed.insert(label);
+        fs::remove_all(run_dir);  // what `hemocosim resume` leaves is a whole run again
+      }
       write_text(log, "fake run of " + scene + "\n");
       if (fail.count(label)) {
         fs::create_directories(run_dir);
@@ -103,6 +110,24 @@ TEST(StudyResume, UnfinishedRunIsRedone) {
   EXPECT_EQ(fx.fake.calls["03-c"], 1);
   EXPECT_EQ(states(r), (std::vector<State>{State::skipped, State::ran, State::skipped}));
   EXPECT_NE(r.runs[1].why.find("unfinished"), std::string::npos) << r.runs[1].why;
+}
+
+// An unfinished run of the same scene with a complete checkpoint (both nodes) is left for the
+// runner to go on from; one whose particles never completed theirs is redone from scratch.
+TEST(StudyResume, UnfinishedRunWithACheckpointGoesOnFromIt) {
+  StudyFixture fx("checkpointed");
+  fx.run();
+  for (const char* d : {"02-b", "03-c"}) {
+    fs::remove(fx.run_dir(d) + "/" + kFinishedMarker);
+    fs::create_directories(fx.run_dir(d) + "/checkpoints/step-7/fluid");
+  }
+  fs::create_directories(fx.run_dir("02-b") + "/checkpoints/step-7/particles");
+  fs::create_directories(fx.run_dir("03-c") + "/checkpoints/step-7/particles.partial");
+  const auto r = fx.run();
+  EXPECT_EQ(states(r), (std::vector<State>{State::skipped, State::ran, State::ran}));
+  EXPECT_EQ(fx.fake.resumed, std::set<std::string>{"02-b"});
+  EXPECT_NE(r.runs[1].why.find("goes on from its checkpoint of step 7"), std::string::npos) << r.runs[1].why;
+  EXPECT_NE(r.runs[2].why.find("unfinished (no"), std::string::npos) << r.runs[2].why;
 }
 
 TEST(StudyResume, FailedRunIsReportedAndRetriedNextTime) {
