@@ -12,6 +12,10 @@
 //   mpirun -np N -x WM_PROJECT_DIR -x FOAM_ETC hemocosim-fluid-solver ARGS --parallel
 // with Open MPI's root, oversubscription and yield settings in the environment
 // (HEMOCOSIM_MPIRUN overrides the mpirun program; HEMOCOSIM_MPIRUN_ARGS adds options).
+//
+// With --resume-step K (passed on to the solver, which restores checkpoint K) the case and its
+// decomposition are those the run already has: they hold its output up to step K, and
+// decomposePar -force would delete the processor folders.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "fluid_case.h"
 #include "vessel_mesh.h"
@@ -107,10 +111,13 @@ int main(int argc, char* argv[]) {
   if (!ranks_text.empty()) ranks = std::atoi(ranks_text.c_str());
   if (ranks <= 1) exec(solver_args);
 
+  const std::string resume_step = option(argc, argv, "--resume-step");
+  const bool resuming = !resume_step.empty() && std::atol(resume_step.c_str()) > 0;
   try {
     const std::string scene = option(argc, argv, "--scene"), run_dir = option(argc, argv, "--run-dir");
     if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
-    prepare_decomposed_case(scene, std::filesystem::absolute(run_dir).lexically_normal().string(), ranks);
+    if (!resuming)
+      prepare_decomposed_case(scene, std::filesystem::absolute(run_dir).lexically_normal().string(), ranks);
   } catch (const std::exception& e) {
     std::cerr << "hemocosim-fluid: error: cannot decompose the fluid case: " << e.what() << std::endl;
     return 1;

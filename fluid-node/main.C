@@ -18,8 +18,11 @@ Description
     alone talks to the bus, hands orders and feedback to every rank and
     gathers the whole-mesh fields it publishes (fluidLink.H, publishState.H).
 
+    Checkpoints: the order of a step may ask for the whole state at its end
+    (writeCheckpoint.H); --resume-step K starts from that of step K (restoreCheckpoint.H).
+
 Usage
-    hemocosim-fluid --scene FILE --run-dir DIR [bus options] [--ranks N]
+    hemocosim-fluid --scene FILE --run-dir DIR [bus options] [--ranks N] [--resume-step K]
 \*---------------------------------------------------------------------------*/
 
 // hemocosim's own headers first: they must not see OpenFOAM's macros.
@@ -28,6 +31,7 @@ Usage
 #include "fvCFD.H"
 #include "pisoControl.H"
 #include "fluidLink.H"
+#include "fluidCheckpoint.H"
 
 int main(int argc, char* argv[])
 {
@@ -42,6 +46,7 @@ int main(int argc, char* argv[])
         #include "createMesh.H"
         #include "createFields.H"
         #include "feedbackFields.H"
+        #include "restoreCheckpoint.H"
 
         port.initialize(meshMsg);
         #include "publishState.H"
@@ -93,6 +98,10 @@ int main(int argc, char* argv[])
             if (step->order.write_output)
             {
                 #include "writeOutput.H"
+            }
+            if (step->order.write_checkpoint)
+            {
+                #include "writeCheckpoint.H"
             }
         }
 
