@@ -80,7 +80,7 @@ void run_logged(const std::vector<std::string>& args, const std::string& log) {
 }
 
 // Writes and decomposes the case of an N-rank run.
-void prepare_decomposed_case(const std::string& scene_file, const std::string& run_dir, int ranks) {
+void prepare_decomposed_case(const std::string& scene_file, const std::string& run_dir, int ranks) try {
   const hemo::Scene scene = hemo::load_scene(scene_file);
   const hemo::FluidSettings fluid = hemo::fluid_settings(scene);
   const hemo::PolyMesh mesh = hemo::make_vessel_mesh(scene.vessel, scene.mesh);
@@ -90,6 +90,17 @@ void prepare_decomposed_case(const std::string& scene_file, const std::string& r
   run_logged({"decomposePar", "-case", case_dir, "-force"}, case_dir + "/log.decomposePar");
   std::cout << "hemocosim-fluid: case " << case_dir << " decomposed into " << ranks << " subdomains along the axis"
             << std::endl;
+} catch (const std::exception& e) {
+  throw std::runtime_error(std::string("cannot decompose the fluid case: ") + e.what());
+}
+
+// A resumed N-rank run goes on in the case as the run decomposed it: N subdomains.
+void check_decomposed_case(const std::string& run_dir, int ranks) {
+  const std::filesystem::path case_dir = std::filesystem::path(run_dir) / "fluid";
+  if (!std::filesystem::is_directory(case_dir / ("processor" + std::to_string(ranks - 1))) ||
+      std::filesystem::is_directory(case_dir / ("processor" + std::to_string(ranks))))
+    throw std::runtime_error("cannot resume on " + std::to_string(ranks) + " ranks: the fluid case " +
+                             case_dir.string() + " is not decomposed into " + std::to_string(ranks) + " subdomains");
 }
 
 }  // namespace
@@ -116,10 +127,13 @@ int main(int argc, char* argv[]) {
   try {
     const std::string scene = option(argc, argv, "--scene"), run_dir = option(argc, argv, "--run-dir");
     if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
-    if (!resuming)
-      prepare_decomposed_case(scene, std::filesystem::absolute(run_dir).lexically_normal().string(), ranks);
+    const std::string dir = std::filesystem::absolute(run_dir).lexically_normal().string();
+    if (resuming)
+      check_decomposed_case(dir, ranks);
+    else
+      prepare_decomposed_case(scene, dir, ranks);
   } catch (const std::exception& e) {
-    std::cerr << "hemocosim-fluid: error: cannot decompose the fluid case: " << e.what() << std::endl;
+    std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
     return 1;
   }
 

@@ -22,10 +22,16 @@
 // last fluid state it received, per cell, to RUN_DIR/FILE (CSV: cell, centre, volume, phi,
 // u, grad u) for tests that need the fields.
 //
+// Its feedback is a function of the step and the options alone, so its checkpoint (written when
+// an order asks, acknowledged with checkpoint_step like a real node's) is an empty folder: with
+// --resume-step K it needs that folder and starts at step K. It lets the fluid node's
+// checkpoints be tested through `hemocosim run --stop-after-step` and `hemocosim resume`.
+//
 // Use it from a scene:
 //   [run] particle_command = "/path/to/hemocosim-prescribed-particles --mode blob --blob-phi 0.3"
 // The coordinator appends --scene, --run-dir and the bus options.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <checkpoint.h>
 #include <node_port.h>
 #include <scene.h>
 
@@ -272,11 +278,16 @@ int main(int argc, char** argv) {
     std::cout << "hemocosim-prescribed-particles: mesh " << mesh.mesh_hash << ", " << mesh.n_cells << " cells"
               << std::endl;
     const Prescription prescription(opt, mesh);
-    hemo::particle_feedback_t feedback = prescription.feedback(0, 0.0);
+    const long first = ctx.resume_step;
+    if (first > 0) hemo::checkpoint_of(run_dir, first, "particles");  // throws when there is none
+    hemo::particle_feedback_t feedback =
+        prescription.feedback(first, static_cast<double>(first) * scene.time.coupling_interval);
     hemo::particle_feedback_t previous = feedback;
     hemo::fluid_state_t last_fluid;
     bool have_fluid = false;
-    hemo::Diagnostics diag = diagnostics(mesh, previous, feedback, nullptr, scene.plasma.density);
+    // A resumed run's first report is of a step the coordinator has already recorded.
+    hemo::Diagnostics diag;
+    if (first == 0) diag = diagnostics(mesh, previous, feedback, nullptr, scene.plasma.density);
 
     while (auto step = port->advance(feedback, diag)) {
       const long k = step->order.envelope.step;
@@ -285,6 +296,11 @@ int main(int argc, char** argv) {
       previous = feedback;  // what the fluid used for this step
       feedback = prescription.feedback(k, step->order.time_s);
       diag = diagnostics(mesh, previous, feedback, &last_fluid, scene.plasma.density);
+      if (step->order.write_checkpoint) {
+        hemo::begin_checkpoint(run_dir, k, "particles");
+        hemo::commit_checkpoint(run_dir, k, "particles");
+        diag.push_back({hemo::kCheckpointDiagnostic, static_cast<double>(k)});
+      }
       std::cout << "step " << k << " t = " << step->order.time_s << std::endl;
     }
 

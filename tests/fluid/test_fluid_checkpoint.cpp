@@ -363,9 +363,11 @@ void resumed_equals_uninterrupted(int ranks) {
   Drive b = a;
   b.run_dir = parts;
   b.first = K;
-  b.checkpoints = {};
+  b.checkpoints = {K + 3};  // a resumed run writes checkpoints too
   const Published pb = drive(b);
   ASSERT_TRUE(pb.complete) << pb.failure << "\n" << pb.command.output;
+  EXPECT_EQ(pb.diagnostics.at(K + 3).count(hemo::kCheckpointDiagnostic), 1u);
+  EXPECT_NO_THROW(hemo::checkpoint_of(parts, K + 3, "fluid"));
   EXPECT_NE(pb.command.output.find("resumed from checkpoint 5"), std::string::npos) << pb.command.output;
 
   // The first report after the resume is step K's, with its state and no diagnostics (as
@@ -494,7 +496,82 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
   }
 }
 
+// metrics.csv rows of one node, but the wall-clock ones: "step,time,node,name" -> value text.
+std::map<std::string, std::string> node_rows(const std::string& run_dir, const std::string& node, int& repeats) {
+  std::ifstream in(run_dir + "/metrics.csv");
+  std::map<std::string, std::string> out;
+  repeats = 0;
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    const auto value_at = line.rfind(',');
+    const std::string key = line.substr(0, value_at);
+    if (key.find("," + node + ",") == std::string::npos) continue;
+    if (key.find(",compute_s") != std::string::npos || key.find(",wait_s") != std::string::npos ||
+        key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos)
+      continue;
+    if (out.count(key)) ++repeats;
+    out[key] = line.substr(value_at + 1);
+  }
+  return out;
+}
+
+// Through the coordinator, with hemocosim-prescribed-particles (the moving blob of
+// FluidContinuity): `hemocosim run --stop-after-step 5` and `hemocosim resume` against the run
+// in one go. The fluid state the particle node received last and every fluid metric are the
+// same to the last digit, each step's metrics written once.
+void coordinator_resume_equals_one_go(int ranks) {
+  const std::string tag = ranks == 1 ? "serial" : std::to_string(ranks) + "-ranks";
+  SceneSpec s = small_scene("fluid-resume-" + tag, 1e-4);
+  s.steps = 10;
+  s.every_steps = 2;
+  s.particle_command = bin("hemocosim-prescribed-particles") +
+                       " --mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-x-um 15 "
+                       "--blob-speed-m-s 0.05 --record state.csv";
+  const std::string ranks_cli = ranks > 1 ? "--np-fluid " + std::to_string(ranks) : "";
+  const auto whole = run_scene(s, ranks_cli);
+  ASSERT_EQ(whole.command.exit_code, 0) << whole.command.output;
+  s.name += "-parts";
+  const auto parts = run_scene(s, ranks_cli + " --stop-after-step 5");
+  ASSERT_EQ(parts.command.exit_code, 0) << parts.command.output;
+  EXPECT_NE(parts.command.output.find("its last checkpoint is step 5"), std::string::npos) << parts.command.output;
+  const auto resumed = run(bin("hemocosim") + " resume " + parts.dir);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("resumes from step 5"), std::string::npos) << resumed.output;
+
+  const auto a = read_state(whole.dir + "/state.csv"), b = read_state(parts.dir + "/state.csv");
+  ASSERT_EQ(a.size(), b.size());
+  double du = 0, dg = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (int k = 0; k < 3; ++k) du = std::max(du, std::abs(a[i].u[k] - b[i].u[k]));
+    for (int k = 0; k < 9; ++k) dg = std::max(dg, std::abs(a[i].grad[k] - b[i].grad[k]));
+  }
+  int repeats_a = 0, repeats_b = 0;
+  const auto rows_a = node_rows(whole.dir, "fluid", repeats_a), rows_b = node_rows(parts.dir, "fluid", repeats_b);
+  long differing = 0;
+  for (const auto& [key, value] : rows_a) {
+    const auto it = rows_b.find(key);
+    if (it == rows_b.end() || it->second != value) {
+      ++differing;
+      ADD_FAILURE() << key << ": " << value << " in one go, " << (it == rows_b.end() ? "none" : it->second)
+                    << " resumed";
+    }
+  }
+  std::printf("hemocosim run --stop-after-step 5 + resume (%s) vs one go, 10 steps: max |du| = %.3e, max |dG| = %.3e "
+              "at the end; %zu fluid metrics, %ld differ, %d written twice\n",
+              tag.c_str(), du, dg, rows_a.size(), differing, repeats_b);
+  EXPECT_EQ(du, 0.0);
+  EXPECT_EQ(dg, 0.0);
+  EXPECT_EQ(rows_a.size(), rows_b.size());
+  EXPECT_EQ(repeats_a, 0);
+  EXPECT_EQ(repeats_b, 0) << "each step's fluid metrics once";
+}
+
 }  // namespace
+
+TEST(FluidCheckpoint, StoppedAndResumedRunEqualsTheRunInOneGo) { coordinator_resume_equals_one_go(1); }
+
+TEST(FluidCheckpoint, StoppedAndResumedRunEqualsTheRunInOneGoOnTwoRanks) { coordinator_resume_equals_one_go(2); }
 
 TEST(FluidCheckpoint, ResumeFromAMissingCheckpointIsRefused) {
   const ShortRun r = short_run("fluid-checkpoint-missing", 1);
@@ -526,6 +603,32 @@ TEST(FluidCheckpoint, ResumeFromACheckpointCorruptOnOneRankIsRefused) {
   const std::string text = read_text(U);
   std::ofstream(U, std::ios::binary | std::ios::trunc) << text.substr(0, text.size() / 2);
   expect_refused_resume(r, r.drive.run_dir, 2, "cannot resume from " + checkpoint + ": rank 1: ");
+}
+
+// A checkpoint goes on on the ranks that wrote it: a 2-rank one resumed serially is refused
+// by the node, a serial one resumed on 2 ranks by the launcher (the case is not decomposed).
+TEST(FluidCheckpoint, ResumeOnAnotherNumberOfRanksIsRefused) {
+  const ShortRun two = short_run("fluid-checkpoint-2-ranks-to-1", 2);
+  ASSERT_TRUE(two.published.complete) << two.published.command.output;
+  ShortRun serial = two;
+  serial.drive.ranks = 1;
+  expect_refused_resume(serial, two.drive.run_dir, 2, "it was written by 2 fluid ranks, this run has 1");
+
+  const ShortRun one = short_run("fluid-checkpoint-1-rank-to-2", 1);
+  ASSERT_TRUE(one.published.complete) << one.published.command.output;
+  const auto before = listing(one.drive.run_dir + "/fluid");
+  Drive d = one.drive;
+  d.ranks = 2;
+  d.first = 2;
+  d.checkpoints = {};
+  const Published p = drive(d);
+  std::printf("serial checkpoint resumed on 2 ranks: exit %d, %s", p.command.exit_code, p.command.output.c_str());
+  EXPECT_NE(p.command.exit_code, 0);
+  EXPECT_NE(p.command.output.find("hemocosim-fluid: error: cannot resume on 2 ranks: the fluid case " +
+                                  one.drive.run_dir + "/fluid is not decomposed into 2 subdomains"),
+            std::string::npos)
+      << p.command.output;
+  EXPECT_EQ(listing(one.drive.run_dir + "/fluid"), before);
 }
 
 TEST(FluidCheckpoint, ResumedSteadyOneWayRunEqualsTheUninterruptedRun) {
