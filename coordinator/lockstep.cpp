@@ -36,7 +36,7 @@ std::vector<std::string> split(const std::string& s) {
 }  // namespace
 
 Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step)
-    : scene_(scene), dir_(std::move(dir)), ctx_(ctx) {
+    : scene_(scene), dir_(std::move(dir)), ctx_(ctx), first_step_(first_step) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator");
   heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
   if (first_step > 0) {
@@ -99,7 +99,9 @@ void Lockstep::record(const Received& msg) {
   node.compute = done.compute_s;
   node.wait = done.wait_s;
   const long k = msg.envelope.step;
-  if (k >= 1) {
+  // A resumed run's start-up report is of the checkpoint's step, whose metrics the run kept.
+  if (k == first_step_ && k > 0) return;
+  if (k > first_step_) {  // step 0 is the nodes' set-up, not a step
     node.totals["compute_s"] += done.compute_s;
     node.totals["wait_s"] += done.wait_s;
     for (std::size_t i = 0; i < done.names.size(); ++i)
@@ -159,7 +161,7 @@ void Lockstep::await(long step, double timeout_s) {
       bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again
       last_asked = now();
     }
-    if (all_done() && step >= 1) {
+    if (all_done() && step > first_step_) {
       // Serial: the nodes compute one after the other; parallel: at once. What the step took
       // beyond that is the coupling: messages, waking up, the coordinator's bookkeeping.
       const double wall = now() - ordered_at_;

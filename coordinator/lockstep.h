@@ -65,6 +65,7 @@ class Lockstep {
   const Scene& scene_;
   RunDirectory dir_;
   RunContext ctx_;
+  long first_step_ = 0;         // the step the nodes started from
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::map<std::string, NodeState> nodes_;
