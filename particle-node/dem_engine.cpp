@@ -4,8 +4,11 @@
 #include "closures/exponential_drag.h"
 
 #include <atom.h>
+#include <atom_vec.h>
 #include <fix.h>
+#include <fix_contact_history.h>
 #include <fix_external.h>
+#include <fix_property_atom.h>
 #include <force.h>
 #include <input.h>
 #include <lammps.h>
@@ -36,11 +39,17 @@ constexpr const char* kFluidFix = "hemo_fluid";
 constexpr const char* kImpulseFix = "hemo_impulse";
 constexpr const char* kRotationFix = "hemo_rotation";
 constexpr const char* kClosureFix = "hemo_closures";
+constexpr const char* kWallFix = "hemo_wall";
+// LIGGGHTS's names: where fix wall/gran keeps a primitive wall's contact history per atom, and
+// the fix in which pair gran keeps the pair contacts' history between neighbour list builds.
+constexpr const char* kWallHistoryFix = "history_hemo_wall";
+constexpr const char* kContactHistoryFix = "contacthistory";
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1).
 enum ClosureSlot { kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kClosureSlots = 11 };
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
+constexpr double kContactReach = 1.02;  // contact histories are cleared within this x the contact distance
 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
 
@@ -55,7 +64,8 @@ double max_all(double v, MPI_Comm comm) {
 
 }  // namespace
 
-DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm)
+DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
+                     bool append_log)
     : scene_(dem_scene(scene)), locator_(&locator), comm_(comm), log_path_(log_path) {
   double d_max = 0;
   const Vec3 gravity(scene.gravity.x, scene.gravity.y, scene.gravity.z);
@@ -80,7 +90,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
   }
   if (d_max == 0) throw std::invalid_argument("the scene has no particle species");
 
-  std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log", log_path};
+  std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
+                                   append_log ? std::string("none") : log_path};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm);
@@ -102,6 +113,7 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
       // A lost atom is our error (named, one line), not LIGGGHTS's exit.
       "thermo_modify lost ignore",
   };
+  if (append_log && log_path != "none") command("log " + log_path + " append");  // a resumed run keeps the log
   for (const auto& line : setup) command(line);
   d_max_ = d_max;
 }
@@ -147,8 +159,8 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
       "pair_style gran model hertz tangential history",
       "pair_coeff * *",
       "timestep 1e-7",
-      fmt::format("fix hemo_wall all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} 0 0",
-                  wall_type, R),
+      fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} 0 0",
+                  kWallFix, wall_type, R),
       "fix hemo_integrate all nve/sphere",
       fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix,
                   " 0 0 0 0 0 0 0 0"),
@@ -156,6 +168,14 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
       fmt::format("fix {} all external pf/callback 1 1", kFluidFix),
   };
   for (const auto& line : setup) command(line);
+  // A pair's tangential history is cleared when it separates, not at the next neighbour-list
+  // rebuild: LIGGGHTS clears it only for pairs within this factor x the contact distance (and
+  // keeps the rest until a rebuild drops it), so with 1 a pair that separates and touches again
+  // before the next rebuild would find its old shear spring, and results would depend on when
+  // lists are rebuilt (a checkpoint rebuilds them). The band, 2 % of the contact distance
+  // (53 nm for two platelets), is wider than a separating pair moves in a DEM step (~1 nm at the
+  // impact velocity the step is made for), and adds ~5 % of pairs to the lists.
+  lmp_->neighbor->register_contact_dist_factor(kContactReach);
   if (any_orientation_) command(fmt::format("fix {} all property/atom hemoRotation vector yes no no 1 0 0 0 0 0 0", kRotationFix));
   if (closure_every_ > 1) {
     std::string zeros;
@@ -171,6 +191,8 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
   impulse_fix_ = find(kImpulseFix);
   if (any_orientation_) rotation_fix_ = find(kRotationFix);
   if (closure_every_ > 1) closure_fix_ = find(kClosureFix);
+  wall_history_fix_ = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
+  if (wall_history_fix_ == nullptr) throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
 }
 
 double** DemEngine::per_atom(LAMMPS_NS::Fix* fix) { return fix != nullptr ? fix->array_atom : nullptr; }
@@ -230,6 +252,7 @@ double DemEngine::unwrap_z(int tag, double z) {
 
 void DemEngine::force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f) {
   auto* engine = static_cast<DemEngine*>(self);
+  if (engine->rebuilding_) return;
   const auto t0 = std::chrono::steady_clock::now();
   engine->on_force(ntimestep, nlocal, tag, x, f);
   engine->fluid_force_seconds_ += seconds_since(t0);

@@ -37,12 +37,21 @@
 // them to the particle's current velocity and the step's contacts (the exponential update). They
 // vary with the flow the particle sees, on the scale of the coupling interval; the contacts vary
 // on the DEM step's scale. The bench suite `closure-interval` measures what m costs in accuracy.
+//
+// Checkpoints (engine_state.h): between two runs LIGGGHTS holds its atoms, their fixes' values,
+// the contact histories and its neighbour lists. The lists cannot be saved, so a checkpoint first
+// rebuilds them (and the ghost atoms, and the periodic wrap) from the atoms, as any `run` set-up
+// does, keeping the forces, torques and fix values as they are; a restored engine recreates the
+// same atoms in the same order on the same ranks and rebuilds the same way. Both then go on
+// bit for bit alike. (A run that writes a checkpoint differs from one that does not by that
+// rebuild: the same contacts summed in another order, round-off.)
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
 #include "cell_locator.h"
 #include "dem_timing.h"
 #include "deposition.h"
+#include "engine_state.h"
 #include "fluid_forces.h"
 #include "fluid_sampler.h"
 #include "h5_output.h"
@@ -63,6 +72,8 @@
 namespace LAMMPS_NS {
 class LAMMPS;
 class Fix;
+class FixContactHistory;
+class FixPropertyAtom;
 }
 
 namespace hemo::particles {
@@ -84,8 +95,10 @@ struct EngineDiagnostics {
 class DemEngine {
  public:
   // Starts LIGGGHTS for the scene; the box, materials, contact model, wall, integrator and
-  // fluid callback are set up with the particles (create_particles). The LIGGGHTS log goes to `log_path` ("none": no log); the screen stays quiet.
-  DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm);
+  // fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
+  // goes to `log_path` ("none": no log; appended to with `append_log`); the screen stays quiet.
+  DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
+            bool append_log = false);
   ~DemEngine();
   DemEngine(const DemEngine&) = delete;
   DemEngine& operator=(const DemEngine&) = delete;
@@ -93,6 +106,15 @@ class DemEngine {
   // Creates the particles (the same list on every rank); tags are 1..N in list order.
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return n_particles_; }
+
+  // Checkpoint, between runs (collective): rebuilds the neighbour lists from the atoms (see the
+  // header) and returns this rank's state.
+  EngineState checkpoint_state();
+  // Instead of create_particles: the particles and all the engine carries, as a checkpoint holds
+  // them (every rank its own part, written on as many ranks). The next run goes on exactly as
+  // the checkpointed engine's next run. Throws std::invalid_argument when the state does not fit
+  // the scene.
+  void restore(const EngineState& state);
   long local_particle_count() const;  // on this rank
 
   // Runs `substeps` DEM steps of `dt` in `fluid`, each particle accumulating the impulse the
@@ -160,6 +182,36 @@ class DemEngine {
   double** per_atom(LAMMPS_NS::Fix* fix);
   void start_accumulators(bool carry);
 
+  // Checkpoints. A LIGGGHTS set-up without dynamics (`run 0`): periodic wrap, atoms to their
+  // ranks, ghosts, pair and wall neighbour lists, contact histories onto the new lists. Its
+  // forces are thrown away (the callback does nothing meanwhile): the caller puts back what the
+  // next run's first half kick needs.
+  void rebuild_neighbours();
+  // The per-atom values a rebuild must leave as they were: force, torque, impulse, rotation,
+  // held closures, wall history (the fixes present), and the state's vectors in the same order.
+  struct Column {
+    double** values;
+    int width;
+  };
+  std::vector<Column> carried_columns();
+  int carried_width();
+  template <class State>
+  auto carried_fields(State& state) const;
+  // Every particle's carried values by tag: gathered over the ranks, or from a checkpoint; and
+  // back onto this rank's atoms.
+  std::vector<double> gather_carried();
+  std::vector<double> carried_by_tag(const EngineState& state);
+  void scatter_carried(const std::vector<double>& by_tag);
+  void save_globals(EngineState& state) const;
+  void save_atoms(EngineState& state);
+  void save_contact_history(EngineState& state) const;
+  void save_tracking(EngineState& state) const;
+  void check_fits(const EngineState& state) const;
+  void create_atoms_as(const EngineState& state);
+  void restore_contact_history(const EngineState& state);
+  void restore_globals(const EngineState& state);
+  LAMMPS_NS::FixContactHistory* contact_history() const;
+
   const Scene scene_;
   const CellLocator* locator_;
   MPI_Comm comm_;
@@ -177,6 +229,8 @@ class DemEngine {
   LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
   LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)
   LAMMPS_NS::Fix* closure_fix_ = nullptr;  // per atom: beta, r, u (3), lift (3), torque (3)
+  LAMMPS_NS::FixPropertyAtom* wall_history_fix_ = nullptr;  // LIGGGHTS's: the wall contacts' history
+  bool rebuilding_ = false;                // rebuild_neighbours in progress: the callback does nothing
   const int closure_every_ = scene_.time.closure_every_dem_steps;
   std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
   double rotation_dt_ = 0;                 // the step length of that kick

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 
 namespace hemo::particles {
@@ -61,6 +62,34 @@ H5Output::H5Output(const std::string& path) : path_(path) {
   }
   file_ = f;
   snapshots_ = g;
+}
+
+std::unique_ptr<H5Output> H5Output::resume(const std::string& path, long last_step, std::vector<long>* dropped) {
+  if (!std::filesystem::exists(path)) return std::make_unique<H5Output>(path);
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (f < 0) fail("cannot open " + path + " to go on with it");
+  const bool has_group = H5Lexists(f, "snapshots", H5P_DEFAULT) > 0;
+  const hid_t g = has_group ? H5Gopen2(f, "snapshots", H5P_DEFAULT)
+                            : H5Gcreate2(f, "snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) {
+    H5Fclose(f);
+    fail("cannot open /snapshots in " + path);
+  }
+  std::unique_ptr<H5Output> out(new H5Output(path, f, g));
+  std::vector<long> later;
+  H5G_info_t info;
+  H5Gget_info(g, &info);
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    char name[64] = {0};
+    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, i, name, sizeof name, H5P_DEFAULT);
+    if (std::stol(name) > last_step) later.push_back(std::stol(name));
+  }
+  for (const long step : later)
+    if (H5Ldelete(g, snapshot_name(step).c_str(), H5P_DEFAULT) < 0)
+      fail("cannot remove snapshot " + snapshot_name(step) + " from " + path);
+  if (H5Fflush(f, H5F_SCOPE_GLOBAL) < 0) fail("cannot flush " + path);
+  if (dropped) *dropped = later;
+  return out;
 }
 
 H5Output::~H5Output() {

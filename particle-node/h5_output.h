@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,10 @@ class H5Output {
  public:
   // Creates (truncates) the file; throws std::runtime_error naming the path on failure.
   explicit H5Output(const std::string& path);
+  // Goes on with the file of a run resumed after step `last_step`: the snapshots of later steps
+  // are removed (the resumed run writes them again; HDF5 does not shrink the file), those up to
+  // it kept; listed in `dropped` if given. A missing file is created.
+  static std::unique_ptr<H5Output> resume(const std::string& path, long last_step, std::vector<long>* dropped = nullptr);
   ~H5Output();
   H5Output(const H5Output&) = delete;
   H5Output& operator=(const H5Output&) = delete;
@@ -43,6 +48,8 @@ class H5Output {
   const std::string& path() const { return path_; }
 
  private:
+  H5Output(const std::string& path, long long file, long long snapshots)
+      : path_(path), file_(file), snapshots_(snapshots) {}
   std::string path_;
   long long file_ = -1;      // hid_t
   long long snapshots_ = -1; // hid_t of /snapshots

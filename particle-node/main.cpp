@@ -2,10 +2,12 @@
 // platelets, coupled in lockstep to the fluid node over the run's message bus).
 //
 //   hemocosim-particles --scene FILE --run-dir DIR --run-id ID --lcm-url URL --secret-file FILE
-//                       [--ranks N]
+//                       [--ranks N] [--resume-step K]
 //
 // With --ranks N > 1 the node re-executes itself under mpirun; rank 0 talks to the bus and
 // broadcasts what it receives (ranked_port.h), every rank runs its share of the DEM.
+// With --resume-step K the node starts from DIR/checkpoints/step-K/particles (written on the
+// same number of ranks) and its first report is the feedback of step K.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "liggghts_errors.h"
 #include "mpi_launch.h"
@@ -113,7 +115,7 @@ int main(int argc, char** argv) {
                                         [&](const std::string& why) { failed(*port, why); });
   try {
     const hemo::mesh_t mesh = port->initialize();
-    hemo::particles::ParticleNode node(scene, mesh, run_dir, MPI_COMM_WORLD);
+    hemo::particles::ParticleNode node(scene, mesh, run_dir, MPI_COMM_WORLD, ctx.resume_step);
     hemo::particle_feedback_t feedback = node.feedback();
     hemo::Diagnostics diagnostics = node.diagnostics();
 
@@ -122,12 +124,15 @@ int main(int argc, char** argv) {
       if (auto why = node.advance(step->order, step->fluid); !why.empty()) return stop(*port, why);
       feedback = node.feedback();
       if (step->order.write_output) node.write_output(node.step(), node.time());
+      if (step->order.write_checkpoint) node.write_checkpoint();  // acknowledged in the diagnostics
       diagnostics = node.diagnostics();
     }
 
     node.write_output(node.step(), node.time());  // the final state (kept once if already written)
     hemo::particles::disarm_liggghts_exit();
     port->finalize();
+  } catch (const hemo::particles::CheckpointError& e) {  // every rank knows it: a clean stop
+    return stop(*port, e.what());
   } catch (const std::exception& e) {
     hemo::particles::disarm_liggghts_exit();
     if (mpi.size() > 1) abort_job(port.get(), e.what());

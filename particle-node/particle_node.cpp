@@ -1,13 +1,17 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "particle_node.h"
 
+#include "checkpoint_file.h"
+#include "engine_state.h"
 #include "placement.h"
 
+#include <checkpoint.h>
 #include <clock.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -23,9 +27,48 @@ void require_same(double scene_value, double mesh_value, const char* what) {
                                          scene_value));
 }
 
+constexpr const char* kRole = "particles";  // the checkpoint's folder (common/checkpoint.h)
+constexpr std::int64_t kCheckpointFormat = 1;
+
+void broadcast(std::string& text, int root, MPI_Comm comm) {
+  int len = static_cast<int>(text.size());
+  MPI_Bcast(&len, 1, MPI_INT, root, comm);
+  text.resize(static_cast<std::size_t>(len));
+  MPI_Bcast(text.data(), len, MPI_CHAR, root, comm);
+}
+
+// The error of the lowest rank that has one, on every rank ("" when none has).
+std::string agree_on_error(std::string error, MPI_Comm comm) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  int first = error.empty() ? INT_MAX : rank;
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first == INT_MAX) return {};
+  broadcast(error, first, comm);
+  return error;
+}
+
+std::string encode(const fluid_state_t& fluid) {
+  std::string bytes(static_cast<std::size_t>(fluid.getEncodedSize()), '\0');
+  if (fluid.encode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0)
+    throw std::runtime_error("cannot encode the fluid state for the checkpoint");
+  return bytes;
+}
+
 }  // namespace
 
-ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm)
+// What node.h5 holds.
+struct ParticleNode::NodeCheckpoint {
+  std::int64_t ranks = 0, particles = 0, step = 0;
+  double time_s = 0, interval_s = 0;
+  std::vector<std::int64_t> warned_re;
+  std::string mesh_hash;
+  std::vector<double> deposition;  // the interval's per-cell accumulators (Deposition::data)
+  std::string fluid_state;         // LCM-encoded; empty before any step
+};
+
+ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
+                           long resume_step)
     : scene_(scene),
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
@@ -37,29 +80,106 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
   require_same(scene.vessel.diameter, mesh.vessel_diameter_m, "vessel diameter");
   require_same(scene.vessel.length, mesh.vessel_length_m, "vessel length");
   std::filesystem::create_directories(run_dir);
-
-  const auto requests = placement_requests(scene);
-  if (requests.empty()) throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
-  const auto placed = place_particles(locator_.radius(), locator_.length(), locator_.z0(), requests, scene.run.seed);
-  engine_ = std::make_unique<DemEngine>(scene, locator_, run_dir + "/liggghts.log", comm_);
-  engine_->create_particles(placed);
+  for (int sp = 0; sp < kSpeciesCount; ++sp) used_[sp] = (sp == kRbc ? rbc_count(scene) : platelet_count(scene)) > 0;
+  if (!used_[kRbc] && !used_[kPlatelet]) throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
   set_interval(scene.time.coupling_interval);
+  if (resume_step > 0)
+    resume(resume_step);
+  else
+    start();
   spdlog::info("particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um); solid fraction "
                "'{}'",
-               placed.size(), rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6,
-               scene.solid_fraction);
-  for (int sp = 0; sp < kSpeciesCount; ++sp) {
-    used_[sp] = (sp == kRbc ? rbc_count(scene) : platelet_count(scene)) > 0;
+               engine_->particle_count(), rbc_count(scene), platelet_count(scene), locator_.n_cells(),
+               locator_.wall_gap() * 1e6, scene.solid_fraction);
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (used_[sp])
       spdlog::info("{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
                    engine_->tracks_orientation(sp) ? ", orientation tracked (" +
                                                          (sp == kRbc ? scene.rbc : scene.platelet).orientation_integrator + ")"
                                                    : std::string());
-  }
+}
 
+void ParticleNode::start() {
+  const auto placed =
+      place_particles(locator_.radius(), locator_.length(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
+  engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
+  engine_->create_particles(placed);
   engine_->deposit(deposition_);
-  if (rank_ == 0) output_ = std::make_unique<H5Output>(run_dir + "/particles.h5");
+  if (rank_ == 0) output_ = std::make_unique<H5Output>(run_dir_ + "/particles.h5");
   write_output(0, 0.0);
+}
+
+void ParticleNode::resume(long step) {
+  // Everything is read and checked before anything is changed: a checkpoint that cannot be used
+  // stops the node with the run directory as it was.
+  NodeCheckpoint saved;
+  EngineState engine_state;
+  std::string error;
+  try {
+    saved = read_checkpoint(step);
+    engine_state = read_engine_state(engine_state_file(checkpoint_of(run_dir_, step, kRole), rank_));
+    if (rank_ == 0 && std::filesystem::exists(run_dir_ + "/particles.h5")) list_snapshots(run_dir_ + "/particles.h5");
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw CheckpointError(fmt::format("cannot resume from step {}: {}", step, error));
+
+  engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_, /*append_log=*/true);
+  engine_->restore(engine_state);
+  step_ = saved.step;
+  time_ = saved.time_s;
+  interval_ = saved.interval_s;
+  if (interval_ > 0) set_interval(interval_);
+  for (int sp = 0; sp < kSpeciesCount; ++sp) warned_re_[sp] = saved.warned_re[sp] != 0;
+  std::copy(saved.deposition.begin(), saved.deposition.end(), deposition_.data());
+  if (!saved.fluid_state.empty()) {
+    fluid_state_.decode(saved.fluid_state.data(), 0, static_cast<int>(saved.fluid_state.size()));
+    fluid_.set_state(fluid_state_);
+  }
+  if (rank_ == 0) {
+    std::vector<long> dropped;
+    output_ = H5Output::resume(run_dir_ + "/particles.h5", step, &dropped);
+    if (!dropped.empty())
+      spdlog::info("particles.h5: dropped the {} snapshot(s) of steps {}..{}, written after step {}", dropped.size(),
+                   dropped.front(), dropped.back(), step);
+  }
+  spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
+}
+
+ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
+  const CheckpointReader in(checkpoint_of(run_dir_, step, kRole) + "/node.h5");
+  if (in.integer("format") != kCheckpointFormat)
+    throw std::runtime_error(fmt::format("{} is of format {}, this node reads {}", in.path(), in.integer("format"),
+                                         kCheckpointFormat));
+  NodeCheckpoint c;
+  c.ranks = in.integer("ranks");
+  c.particles = in.integer("particles");
+  c.step = in.integer("step");
+  c.time_s = in.real("time_s");
+  c.interval_s = in.real("interval_s");
+  in.get("warned_reynolds", c.warned_re);
+  c.mesh_hash = in.bytes("mesh_hash");
+  in.get("deposition", c.deposition);
+  c.fluid_state = in.bytes("fluid_state");
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  if (c.ranks != ranks)
+    throw std::runtime_error(fmt::format("it was written by {} MPI ranks, this node runs on {} (resume with --ranks {})",
+                                         c.ranks, ranks, c.ranks));
+  if (c.mesh_hash != mesh_hash_)
+    throw std::runtime_error(fmt::format("it fits the mesh '{}', the fluid's mesh is '{}'", c.mesh_hash, mesh_hash_));
+  const long particles = rbc_count(scene_) + platelet_count(scene_);
+  if (c.particles != particles)
+    throw std::runtime_error(fmt::format("it holds {} particles, the scene has {}", c.particles, particles));
+  if (c.step != step || c.warned_re.size() != kSpeciesCount ||
+      c.deposition.size() != static_cast<std::size_t>(deposition_.size()))
+    throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition values)", in.path(), c.step,
+                                         c.deposition.size()));
+  if (!c.fluid_state.empty() &&
+      fluid_state_t().decode(c.fluid_state.data(), 0, static_cast<int>(c.fluid_state.size())) < 0)
+    throw std::runtime_error(fmt::format("{}: the fluid state cannot be decoded", in.path()));
+  return c;
 }
 
 void ParticleNode::set_interval(double interval) {
@@ -86,6 +206,7 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
+  fluid_state_ = fluid;
   set_interval(order.dt_s);
   step_ = order.envelope.step;
   time_ = order.time_s;
@@ -119,6 +240,37 @@ void ParticleNode::write_output(long step, double time_s) {
   phase_.output += seconds_since(t0);
 }
 
+void ParticleNode::write_checkpoint() {
+  const auto t0 = std::chrono::steady_clock::now();
+  EngineState engine_state = engine_->checkpoint_state();  // collective
+  std::string folder;
+  if (rank_ == 0) folder = begin_checkpoint(run_dir_, step_, kRole);
+  broadcast(folder, 0, comm_);  // and it exists before any rank writes into it
+  write_engine_state(engine_state, engine_state_file(folder, rank_));
+  if (rank_ == 0) write_node_checkpoint(folder + "/node.h5");
+  MPI_Barrier(comm_);  // every rank's file is on disk
+  if (rank_ == 0) commit_checkpoint(run_dir_, step_, kRole);
+  checkpoint_written_ = step_;
+  phase_.checkpoint += seconds_since(t0);
+}
+
+void ParticleNode::write_node_checkpoint(const std::string& path) {
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  CheckpointWriter out(path);
+  out.put("format", kCheckpointFormat);
+  out.put("ranks", std::int64_t{ranks});
+  out.put("particles", std::int64_t{engine_->particle_count()});
+  out.put("step", std::int64_t{step_});
+  out.put("time_s", time_);
+  out.put("interval_s", interval_);
+  out.put("warned_reynolds", std::vector<std::int64_t>{warned_re_[kRbc], warned_re_[kPlatelet]});
+  out.put_bytes("mesh_hash", mesh_hash_);
+  out.put("deposition", std::vector<double>(deposition_.data(), deposition_.data() + deposition_.size()));
+  out.put_bytes("fluid_state", fluid_.has_state() ? encode(fluid_state_) : std::string());
+  out.close();
+}
+
 void ParticleNode::warn_reynolds() {
   // Once per run and species: the drag law is being used outside its fit.
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
@@ -138,11 +290,12 @@ Diagnostics ParticleNode::diagnostics() {
   const EngineDiagnostics d = engine_->diagnostics(fluid_.has_state() ? &fluid_ : nullptr);
   const Vec3 f = deposition_.total_force(interval_);
   const PhaseSeconds phase = std::exchange(phase_, PhaseSeconds{});
-  return {
+  Diagnostics out = {
       {"phase_particles_dem_s", phase.dem},
       {"phase_particles_fluid_forces_s", phase.fluid_forces},
       {"phase_particles_deposition_s", phase.deposition},
       {"phase_particles_output_s", phase.output},
+      {"phase_particles_checkpoint_s", phase.checkpoint},
       {"phase_particles_diagnostics_s", seconds_since(t0)},
       {"particles", static_cast<double>(d.particles)},
       {"dem_substeps", static_cast<double>(timing_.substeps)},
@@ -162,6 +315,9 @@ Diagnostics ParticleNode::diagnostics() {
       {"max_reynolds_platelet", d.max_reynolds[kPlatelet]},
       {"solid_volume_m3", deposition_.total_volume()},
   };
+  // The coordinator keeps a checkpoint only once both nodes have acknowledged it.
+  if (const long k = std::exchange(checkpoint_written_, -1); k >= 0) out.emplace_back(kCheckpointDiagnostic, double(k));
+  return out;
 }
 
 }  // namespace hemo::particles

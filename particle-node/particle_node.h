@@ -5,7 +5,16 @@
 //   node.check(fluid)                         the fluid state fits the mesh and is finite
 //   node.advance(order, fluid)                N DEM substeps in that flow, deposition
 //   node.write_output(step, time)             a particle snapshot
+//   node.write_checkpoint()                   the whole state, RUN_DIR/checkpoints/step-<k>/particles
 //   node.diagnostics()                        what the coordinator shows and the tests check
+//
+// A node constructed with resume_step = K > 0 starts from the checkpoint of step K instead of
+// placing particles: at step K, time K * interval, feedback and DEM exactly as the node that
+// wrote it had them, so that it goes on bit for bit as that node did.
+//
+// The checkpoint folder (common/checkpoint.h): node.h5 (this class: step, time, interval,
+// warnings given, the interval's deposition and the fluid state it was computed in, the mesh
+// hash and rank count it fits) and engine-rank<r>.h5 per MPI rank (engine_state.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -21,16 +30,28 @@
 #include <scene.h>
 
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 namespace hemo::particles {
+
+// Why a node cannot resume (no checkpoint, a damaged one, one of another mesh or rank count):
+// thrown alike on every rank, before anything in the run directory was changed.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 class ParticleNode {
  public:
   // Builds everything for step 0: the locator on the fluid's mesh, LIGGGHTS with the scene's
   // particles placed at random (seeded), their volumes deposited, snapshot 0 written.
+  // With resume_step K > 0: everything as at the end of step K from the run directory's
+  // checkpoint of step K, particles.h5 cut back to the snapshots of steps <= K, no snapshot
+  // written, the LIGGGHTS log appended to; throws CheckpointError when that is not possible.
   // Throws std::exception with a one-line reason when the scene and mesh do not fit together.
-  ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm);
+  ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
+               long resume_step = 0);
 
   // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
   std::string check(const fluid_state_t& fluid) const;
@@ -43,6 +64,9 @@ class ParticleNode {
   particle_feedback_t feedback();
 
   void write_output(long step, double time_s);
+  // The whole state as the checkpoint of step(), collective; acknowledged by the next
+  // diagnostics (hemo::kCheckpointDiagnostic = step()).
+  void write_checkpoint();
   Diagnostics diagnostics();
 
   long step() const { return step_; }
@@ -51,6 +75,11 @@ class ParticleNode {
   double time() const { return time_; }
 
  private:
+  struct NodeCheckpoint;
+  void start();
+  void resume(long step);
+  NodeCheckpoint read_checkpoint(long step) const;
+  void write_node_checkpoint(const std::string& path);
   void set_interval(double interval);
   void warn_reynolds();
 
@@ -60,6 +89,7 @@ class ParticleNode {
     double fluid_forces = 0;  // in the DEM step: location, plasma sampling, closures
     double deposition = 0;    // impulses and volumes to cells, the feedback message's fields
     double output = 0;
+    double checkpoint = 0;
   };
 
   Scene scene_;
@@ -68,6 +98,7 @@ class ParticleNode {
   int rank_ = 0;
   CellLocator locator_;
   FluidSampler fluid_;
+  fluid_state_t fluid_state_;  // the one fluid_ holds (a checkpoint keeps it for the feedback)
   Deposition deposition_;
   std::unique_ptr<DemEngine> engine_;
   std::unique_ptr<H5Output> output_;
@@ -80,6 +111,7 @@ class ParticleNode {
   bool used_[kSpeciesCount] = {false, false};
   bool warned_re_[kSpeciesCount] = {false, false};
   PhaseSeconds phase_;
+  long checkpoint_written_ = -1;  // since the last diagnostics (-1: none)
 };
 
 }  // namespace hemo::particles
