@@ -3,6 +3,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_engine.h"
 
+#include "agree.h"
+
 #include <atom.h>
 #include <atom_vec.h>
 #include <fix.h>
@@ -15,6 +17,7 @@
 
 #include <fmt/format.h>
 
+#include <functional>
 #include <stdexcept>
 
 namespace hemo::particles {
@@ -195,8 +198,9 @@ void DemEngine::save_tracking(EngineState& s) const {
 void DemEngine::restore(const EngineState& s) {
   if (n_particles_ > 0 || type_of_[kRbc] + type_of_[kPlatelet] > 0)
     throw std::logic_error("particles were already created");
-  check_fits(s);
+  agreed([&] { check_globals(s); });
   setup_box({s.type_of[kRbc] > 0, s.type_of[kPlatelet] > 0});
+  agreed([&] { check_atoms(s); });
   command(fmt::format("timestep {:.17g}", s.dt));
   command(fmt::format("reset_timestep {}", s.dem_step));
   create_atoms_as(s);
@@ -208,7 +212,20 @@ void DemEngine::restore(const EngineState& s) {
   restore_globals(s);
 }
 
-void DemEngine::check_fits(const EngineState& s) const {
+void DemEngine::agreed(const std::function<void()>& check) const {
+  // A damaged file may be one rank's only: every rank stops alike, before a collective step the
+  // others would wait in for ever.
+  std::string error;
+  try {
+    check();
+  } catch (const std::invalid_argument& e) {
+    error = e.what();
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw std::invalid_argument(error);
+}
+
+void DemEngine::check_globals(const EngineState& s) const {
   if (s.ranks != ranks_of(comm_))
     throw std::invalid_argument(fmt::format("the checkpoint was written on {} MPI ranks, this engine runs on {}", s.ranks,
                                             ranks_of(comm_)));
@@ -217,13 +234,32 @@ void DemEngine::check_fits(const EngineState& s) const {
     if (s.type_of[sp] > 0 && !forces_[sp])
       throw std::invalid_argument(fmt::format("the checkpoint has {} particles, the scene has none",
                                               sp == kRbc ? "red cell" : "platelet"));
-  const std::size_t n = s.tag.size();
-  for (const auto* v : {&s.type, &s.mask, &s.image, &s.partner_count}) expect_size(*v, n, "atoms");
-  for (const auto* v : {&s.radius, &s.rmass, &s.density}) expect_size(*v, n, "radius, rmass, density");
-  for (const auto* v : {&s.x, &s.v, &s.omega, &s.force, &s.torque}) expect_size(*v, 3 * n, "x, v, omega, force, torque");
+  if (s.particles < 1) throw std::invalid_argument("the checkpoint has no particles");
   expect_size(s.tracked, EngineState::kTrackedValues * static_cast<std::size_t>(s.particles + 1), "tracked");
   expect_size(s.max_reynolds, kSpeciesCount, "max_reynolds");
   expect_size(s.pending_orientations, 4 * s.pending_tags.size(), "pending_orientations");
+}
+
+void DemEngine::check_atoms(const EngineState& s) {
+  const std::size_t n = s.tag.size();
+  for (const auto* v : {&s.type, &s.mask, &s.image, &s.partner_count}) expect_size(*v, n, "atoms");
+  for (const auto* v : {&s.radius, &s.rmass, &s.density}) expect_size(*v, n, "radius, rmass, density");
+  for (const auto* v : {&s.x, &s.v, &s.omega}) expect_size(*v, 3 * n, "x, v, omega");
+  const std::vector<Column> columns = carried_columns();  // the fixes' widths, known once the box is set up
+  const auto fields = carried_fields(s);
+  for (std::size_t c = 0; c < columns.size(); ++c) expect_size(*fields[c], n * columns[c].width, "per-atom values");
+  for (std::size_t k = 0; k < n; ++k)
+    if (s.tag[k] < 1 || s.tag[k] > s.particles || (s.type[k] != type_of_[kRbc] && s.type[k] != type_of_[kPlatelet]) ||
+        s.type[k] < 1 || s.partner_count[k] < 0)
+      throw std::invalid_argument(fmt::format("the checkpoint's atom {} has tag {}, type {}", k, s.tag[k], s.type[k]));
+  std::size_t partners = 0;
+  for (const auto count : s.partner_count) partners += static_cast<std::size_t>(count);
+  expect_size(s.partner, partners, "partner");
+  // Pair and wall contacts have the same model, hence as many history values.
+  if (s.contact_values != wall_history_fix_->get_nvalues())
+    throw std::invalid_argument(fmt::format("the checkpoint's contacts carry {} history values, LIGGGHTS's {}",
+                                            s.contact_values, wall_history_fix_->get_nvalues()));
+  expect_size(s.contact_history, partners * static_cast<std::size_t>(s.contact_values), "contact_history");
 }
 
 void DemEngine::create_atoms_as(const EngineState& s) {
@@ -264,13 +300,9 @@ void DemEngine::create_atoms_as(const EngineState& s) {
 void DemEngine::restore_contact_history(const EngineState& s) {
   LAMMPS_NS::FixContactHistory* history = contact_history();
   const int values = history->get_dnum();
-  if (s.contact_values != values)
-    throw std::invalid_argument(fmt::format("the checkpoint's contacts carry {} history values, LIGGGHTS's {}",
+  if (s.contact_values != values)  // the same on every rank (check_atoms)
+    throw std::invalid_argument(fmt::format("the checkpoint's pair contacts carry {} history values, LIGGGHTS's {}",
                                             s.contact_values, values));
-  std::size_t total = 0;
-  for (const auto count : s.partner_count) total += static_cast<std::size_t>(count);
-  expect_size(s.partner, total, "partner");
-  expect_size(s.contact_history, total * values, "contact_history");
   // LIGGGHTS's own format for an atom arriving from another rank: count, then per partner its tag
   // and values (integers as bit patterns in doubles).
   using Bits = LAMMPS_NS::Fix::ubuf;
@@ -292,9 +324,7 @@ std::vector<double> DemEngine::carried_by_tag(const EngineState& s) {
   const auto fields = carried_fields(s);
   const std::size_t width = static_cast<std::size_t>(carried_width());
   std::vector<double> by_tag(width * static_cast<std::size_t>(n_particles_), 0.0);
-  const std::size_t n = s.tag.size();
-  for (std::size_t c = 0; c < columns.size(); ++c) expect_size(*fields[c], n * columns[c].width, "per-atom fix values");
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = 0; k < s.tag.size(); ++k) {
     double* row = &by_tag[width * static_cast<std::size_t>(s.tag[k] - 1)];
     for (std::size_t c = 0; c < columns.size(); ++c)
       for (int d = 0; d < columns[c].width; ++d) *row++ = (*fields[c])[k * columns[c].width + d];

@@ -64,6 +64,7 @@
 #include <array>
 #include <map>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -206,7 +207,10 @@ class DemEngine {
   void save_atoms(EngineState& state);
   void save_contact_history(EngineState& state) const;
   void save_tracking(EngineState& state) const;
-  void check_fits(const EngineState& state) const;
+  // Checks of a state to restore, agreed on by every rank (invalid_argument on all or none).
+  void agreed(const std::function<void()>& check) const;
+  void check_globals(const EngineState& state) const;
+  void check_atoms(const EngineState& state);
   void create_atoms_as(const EngineState& state);
   void restore_contact_history(const EngineState& state);
   void restore_globals(const EngineState& state);

@@ -50,5 +50,34 @@ void FluidSampler::set_state(const fluid_state_t& s) {
 }
 
 
+std::vector<double> FluidSampler::cell_velocities() const {
+  std::vector<double> out;
+  out.reserve(3 * velocity_.size());
+  for (const Vec3& u : velocity_) out.insert(out.end(), {u.x(), u.y(), u.z()});
+  return out;
+}
+
+std::vector<double> FluidSampler::cell_gradients() const {
+  std::vector<double> out;
+  out.reserve(9 * gradient_.size());
+  for (const Mat3& g : gradient_)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) out.push_back(g(i, j));
+  return out;
+}
+
+void FluidSampler::set_state(const std::vector<double>& velocities, const std::vector<double>& gradients) {
+  const std::size_t n = static_cast<std::size_t>(locator_->n_cells());
+  if (velocities.size() != 3 * n || gradients.size() != 9 * n)
+    throw std::invalid_argument("fluid fields of " + std::to_string(velocities.size() / 3) + " cells, the mesh has " +
+                                std::to_string(n));
+  fluid_state_t s;
+  s.n_cells = static_cast<int>(n);
+  for (std::size_t c = 0; c < n; ++c) {
+    s.velocity.emplace_back(&velocities[3 * c], &velocities[3 * c] + 3);
+    s.velocity_gradient.emplace_back(&gradients[9 * c], &gradients[9 * c] + 9);
+  }
+  set_state(s);
+}
 
 }  // namespace hemo::particles

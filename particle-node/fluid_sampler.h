@@ -21,6 +21,11 @@ class FluidSampler {
   // state does not fit the mesh or holds a non-finite value (the message names the cause).
   void set_state(const fluid_state_t& state);
   bool has_state() const { return !velocity_.empty(); }
+  // The per-cell fields it holds, as set_state takes them (checkpoints keep them this way).
+  std::vector<double> cell_velocities() const;  // 3 per cell
+  std::vector<double> cell_gradients() const;   // 9 per cell, row-major G[i][j]
+  // set_state from those fields (sizes checked); throws std::invalid_argument.
+  void set_state(const std::vector<double>& velocities, const std::vector<double>& gradients);
 
   // Checks a fluid state against the mesh without keeping it: empty string when fine, else a
   // one-line reason (wrong size, wrong mesh hash, non-finite value in cell i).

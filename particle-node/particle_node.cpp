@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "particle_node.h"
 
+#include "agree.h"
 #include "checkpoint_file.h"
 #include "engine_state.h"
 #include "placement.h"
@@ -11,7 +12,6 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
-#include <climits>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -37,24 +37,6 @@ void broadcast(std::string& text, int root, MPI_Comm comm) {
   MPI_Bcast(text.data(), len, MPI_CHAR, root, comm);
 }
 
-// The error of the lowest rank that has one, on every rank ("" when none has).
-std::string agree_on_error(std::string error, MPI_Comm comm) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  int first = error.empty() ? INT_MAX : rank;
-  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
-  if (first == INT_MAX) return {};
-  broadcast(error, first, comm);
-  return error;
-}
-
-std::string encode(const fluid_state_t& fluid) {
-  std::string bytes(static_cast<std::size_t>(fluid.getEncodedSize()), '\0');
-  if (fluid.encode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0)
-    throw std::runtime_error("cannot encode the fluid state for the checkpoint");
-  return bytes;
-}
-
 }  // namespace
 
 // What node.h5 holds.
@@ -64,7 +46,7 @@ struct ParticleNode::NodeCheckpoint {
   std::vector<std::int64_t> warned_re;
   std::string mesh_hash;
   std::vector<double> deposition;  // the interval's per-cell accumulators (Deposition::data)
-  std::string fluid_state;         // LCM-encoded; empty before any step
+  std::vector<double> fluid_velocity, fluid_gradient;  // the fluid state of the interval; empty before any
 };
 
 ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
@@ -126,17 +108,18 @@ void ParticleNode::resume(long step) {
   if (!error.empty()) throw CheckpointError(fmt::format("cannot resume from step {}: {}", step, error));
 
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_, /*append_log=*/true);
-  engine_->restore(engine_state);
+  try {
+    engine_->restore(engine_state);
+  } catch (const std::invalid_argument& e) {  // found alike on every rank (DemEngine::restore agrees on it)
+    throw CheckpointError(fmt::format("cannot resume from step {}: {}", step, e.what()));
+  }
   step_ = saved.step;
   time_ = saved.time_s;
   interval_ = saved.interval_s;
   if (interval_ > 0) set_interval(interval_);
   for (int sp = 0; sp < kSpeciesCount; ++sp) warned_re_[sp] = saved.warned_re[sp] != 0;
   std::copy(saved.deposition.begin(), saved.deposition.end(), deposition_.data());
-  if (!saved.fluid_state.empty()) {
-    fluid_state_.decode(saved.fluid_state.data(), 0, static_cast<int>(saved.fluid_state.size()));
-    fluid_.set_state(fluid_state_);
-  }
+  if (!saved.fluid_velocity.empty()) fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient);
   if (rank_ == 0) {
     std::vector<long> dropped;
     output_ = H5Output::resume(run_dir_ + "/particles.h5", step, &dropped);
@@ -161,7 +144,13 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   in.get("warned_reynolds", c.warned_re);
   c.mesh_hash = in.bytes("mesh_hash");
   in.get("deposition", c.deposition);
-  c.fluid_state = in.bytes("fluid_state");
+  in.get("fluid_velocity", c.fluid_velocity);
+  in.get("fluid_gradient", c.fluid_gradient);
+  check_fits(c, step, in.path());
+  return c;
+}
+
+void ParticleNode::check_fits(const NodeCheckpoint& c, long step, const std::string& path) const {
   int ranks = 1;
   MPI_Comm_size(comm_, &ranks);
   if (c.ranks != ranks)
@@ -172,14 +161,13 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   const long particles = rbc_count(scene_) + platelet_count(scene_);
   if (c.particles != particles)
     throw std::runtime_error(fmt::format("it holds {} particles, the scene has {}", c.particles, particles));
+  const std::size_t cells = static_cast<std::size_t>(locator_.n_cells());
+  const bool fluid_fits =
+      c.fluid_velocity.empty() || (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells);
   if (c.step != step || c.warned_re.size() != kSpeciesCount ||
-      c.deposition.size() != static_cast<std::size_t>(deposition_.size()))
-    throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition values)", in.path(), c.step,
-                                         c.deposition.size()));
-  if (!c.fluid_state.empty() &&
-      fluid_state_t().decode(c.fluid_state.data(), 0, static_cast<int>(c.fluid_state.size())) < 0)
-    throw std::runtime_error(fmt::format("{}: the fluid state cannot be decoded", in.path()));
-  return c;
+      c.deposition.size() != static_cast<std::size_t>(deposition_.size()) || !fluid_fits)
+    throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition and {} fluid values for {} cells)", path,
+                                         c.step, c.deposition.size(), c.fluid_velocity.size(), cells));
 }
 
 void ParticleNode::set_interval(double interval) {
@@ -206,7 +194,6 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
-  fluid_state_ = fluid;
   set_interval(order.dt_s);
   step_ = order.envelope.step;
   time_ = order.time_s;
@@ -267,7 +254,8 @@ void ParticleNode::write_node_checkpoint(const std::string& path) {
   out.put("warned_reynolds", std::vector<std::int64_t>{warned_re_[kRbc], warned_re_[kPlatelet]});
   out.put_bytes("mesh_hash", mesh_hash_);
   out.put("deposition", std::vector<double>(deposition_.data(), deposition_.data() + deposition_.size()));
-  out.put_bytes("fluid_state", fluid_.has_state() ? encode(fluid_state_) : std::string());
+  out.put("fluid_velocity", fluid_.cell_velocities());
+  out.put("fluid_gradient", fluid_.cell_gradients());
   out.close();
 }
 

@@ -79,6 +79,7 @@ class ParticleNode {
   void start();
   void resume(long step);
   NodeCheckpoint read_checkpoint(long step) const;
+  void check_fits(const NodeCheckpoint& saved, long step, const std::string& path) const;
   void write_node_checkpoint(const std::string& path);
   void set_interval(double interval);
   void warn_reynolds();
@@ -98,7 +99,6 @@ class ParticleNode {
   int rank_ = 0;
   CellLocator locator_;
   FluidSampler fluid_;
-  fluid_state_t fluid_state_;  // the one fluid_ holds (a checkpoint keeps it for the feedback)
   Deposition deposition_;
   std::unique_ptr<DemEngine> engine_;
   std::unique_ptr<H5Output> output_;

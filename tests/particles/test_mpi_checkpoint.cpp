@@ -1,0 +1,123 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Checkpoint and resume on 1 and 2 MPI ranks (ctest runs particles_mpi_tests under mpirun -np 1
+// and -np 2): every rank writes its own file, a node resumed on as many ranks goes on bit for bit
+// (particles crossing between the ranks' slabs meanwhile), one on another number is refused.
+#include "checkpoint_case.h"
+#include "engine_state.h"
+
+#include <checkpoint.h>
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <string>
+
+using namespace hemo::particles;
+using namespace hemo::particles::testing;
+using namespace hemo::particles::testing::checkpoint_case;
+namespace fs = std::filesystem;
+
+namespace {
+
+int world_rank() {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank;
+}
+
+int world_size() {
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  return size;
+}
+
+// A fresh temporary directory, the same on every rank.
+fs::path shared_dir(const std::string& name) {
+  std::string path = world_rank() == 0 ? fresh_dir(name).string() : std::string();
+  int len = static_cast<int>(path.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  path.resize(static_cast<std::size_t>(len));
+  MPI_Bcast(path.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+  return path;
+}
+
+}  // namespace
+
+TEST(NodeCheckpointMpi, ResumedOnAsManyRanksGoesOnBitForBit) {
+  const auto scene = contact_scene();
+  const auto mesh = wedge_mesh(16, 8, kR, kL, "wedge16");
+  const auto fluid = fluid_state(mesh, pressing_flow());
+  const long K = 3, N = 3;
+  const fs::path a_dir = shared_dir("hemo_mpi_ckpt_a"), b_dir = shared_dir("hemo_mpi_ckpt_b");
+  std::map<long, hemo::particle_feedback_t> written, unwritten;
+  {
+    ParticleNode node(scene, mesh, a_dir.string(), MPI_COMM_WORLD);
+    for (long k = 1; k <= K + N; ++k) written[k] = take_step(node, k, fluid, k == K);
+  }
+  {  // Writing the checkpoint changed the run by round-off only (atoms it moved to another rank kept their forces).
+    const fs::path c_dir = shared_dir("hemo_mpi_ckpt_c");
+    ParticleNode node(scene, mesh, c_dir.string(), MPI_COMM_WORLD);
+    for (long k = 1; k <= K + N; ++k) {
+      const auto fb = take_step(node, k, fluid);
+      if (k <= K) continue;
+      const auto a = flat(written[k].source_explicit), c = flat(fb.source_explicit);
+      double worst = 0, largest = 0;
+      for (std::size_t i = 0; i < c.size(); ++i) {
+        worst = std::max(worst, std::abs(a[i] - c[i]));
+        largest = std::max(largest, std::abs(c[i]));
+      }
+      EXPECT_LT(worst, 1e-12 * largest) << "step " << k;
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (world_rank() == 0) fs::remove_all(c_dir);
+  }
+  // Every rank wrote its part, and holds particles.
+  const std::string folder = hemo::checkpoint_of(a_dir.string(), K, "particles");
+  const auto mine = read_engine_state(engine_state_file(folder, world_rank()));
+  EXPECT_GT(mine.tag.size(), 0u) << "rank " << world_rank();
+  EXPECT_EQ(mine.ranks, world_size());
+  EXPECT_FALSE(fs::exists(engine_state_file(folder, world_size())));
+
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) fs::copy(a_dir, b_dir, fs::copy_options::recursive);
+  MPI_Barrier(MPI_COMM_WORLD);
+  ParticleNode resumed(scene, mesh, b_dir.string(), MPI_COMM_WORLD, K);
+  expect_same_feedback(resumed.feedback(), written[K], K);
+  resumed.diagnostics();
+  for (long k = K + 1; k <= K + N; ++k) {
+    expect_same_feedback(take_step(resumed, k, fluid), written[k], k);
+    if (world_rank() == 0) expect_same_snapshot((a_dir / "particles.h5").string(), (b_dir / "particles.h5").string(), k);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) {
+    fs::remove_all(a_dir);
+    fs::remove_all(b_dir);
+  }
+}
+
+TEST(NodeCheckpointMpi, RefusesACheckpointWrittenOnAnotherNumberOfRanks) {
+  if (world_size() != 2) GTEST_SKIP() << "runs on 2 ranks";
+  const auto scene = contact_scene(0.05);
+  const auto mesh = wedge_mesh(16, 8, kR, kL, "wedge16");
+  const auto fluid = fluid_state(mesh, poiseuille(kR, 799 * kR / 2));
+  const fs::path dir = shared_dir("hemo_mpi_ckpt_ranks");
+  if (world_rank() == 0) {  // a node of one rank
+    ParticleNode node(scene, mesh, dir.string(), MPI_COMM_SELF);
+    take_step(node, 1, fluid, true);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  try {
+    ParticleNode node(scene, mesh, dir.string(), MPI_COMM_WORLD, 1);
+    ADD_FAILURE() << "resumed on 2 ranks from a checkpoint of 1";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot resume from step 1: it was written by 1 MPI ranks, this node runs on 2 "
+                                         "(resume with --ranks 1)"),
+              std::string::npos)
+        << e.what();
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (world_rank() == 0) fs::remove_all(dir);
+}
