@@ -28,7 +28,8 @@ class RankedPort {
   void finalize();
   // Rank 0 tells the coordinator (other ranks: nothing).
   void fail(const std::string& error);
-  std::int64_t step() const { return step_; }
+  // The step being worked on (rank 0: the port's, which starts at a resumed run's step).
+  std::int64_t step() const { return port_ ? port_->step() : step_; }
   int rank() const { return rank_; }
 
  private:
