@@ -4,9 +4,7 @@
 #include "closures/exponential_drag.h"
 
 #include <atom.h>
-#include <atom_vec.h>
 #include <fix.h>
-#include <fix_contact_history.h>
 #include <fix_external.h>
 #include <fix_property_atom.h>
 #include <force.h>
@@ -40,10 +38,9 @@ constexpr const char* kImpulseFix = "hemo_impulse";
 constexpr const char* kRotationFix = "hemo_rotation";
 constexpr const char* kClosureFix = "hemo_closures";
 constexpr const char* kWallFix = "hemo_wall";
-// LIGGGHTS's names: where fix wall/gran keeps a primitive wall's contact history per atom, and
-// the fix in which pair gran keeps the pair contacts' history between neighbour list builds.
+// LIGGGHTS's name of the fix property/atom where fix wall/gran keeps a primitive wall's contact
+// history per atom (checkpoints save it).
 constexpr const char* kWallHistoryFix = "history_hemo_wall";
-constexpr const char* kContactHistoryFix = "contacthistory";
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1).
 enum ClosureSlot { kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kClosureSlots = 11 };
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta

@@ -107,16 +107,16 @@ class DemEngine {
   // Creates the particles (the same list on every rank); tags are 1..N in list order.
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return n_particles_; }
+  long local_particle_count() const;  // on this rank
 
   // Checkpoint, between runs (collective): rebuilds the neighbour lists from the atoms (see the
   // header) and returns this rank's state.
   EngineState checkpoint_state();
   // Instead of create_particles: the particles and all the engine carries, as a checkpoint holds
   // them (every rank its own part, written on as many ranks). The next run goes on exactly as
-  // the checkpointed engine's next run. Throws std::invalid_argument when the state does not fit
-  // the scene.
+  // the checkpointed engine's next run. Throws std::invalid_argument, on every rank alike, when
+  // the state does not fit the scene.
   void restore(const EngineState& state);
-  long local_particle_count() const;  // on this rank
 
   // Runs `substeps` DEM steps of `dt` in `fluid`, each particle accumulating the impulse the
   // fluid gave it. `coupling_step` only labels errors. Returns an empty string, or a one-line
