@@ -37,14 +37,17 @@ std::vector<std::string> checkpoint_folders(const std::string& dir) {
   return names;
 }
 
-// metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those).
-std::vector<std::string> metric_rows(const std::string& dir) {
+// metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those) and
+// the timings, sorted: the two nodes' rows of a step come in the order their reports arrived.
+// With `values` false, only which step, node and name (each once).
+std::vector<std::string> metric_rows(const std::string& dir, bool values) {
   std::ifstream in(dir + "/metrics.csv");
   std::vector<std::string> rows;
   for (std::string line; std::getline(in, line);)
     if (line.find(",checkpoint_step,") == std::string::npos && line.find(",compute_s,") == std::string::npos &&
         line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos)
-      rows.push_back(line.substr(0, line.find(',', line.find(',', line.find(',') + 1) + 1)));  // step,time,node
+      rows.push_back(values ? line : line.substr(0, line.rfind(',')));
+  std::sort(rows.begin(), rows.end());
   return rows;
 }
 
@@ -54,18 +57,19 @@ long step_after(const std::string& text, const std::string& marker) {
   return std::stol(text.substr(at + marker.size()));
 }
 
-}  // namespace
-
 // 40 steps in one go, and the same scene stopped after step 20 and resumed: the same snapshots,
-// the same particles at the end and the same flow, to round-off; the same metrics, each step once.
-TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
-  const std::string whole = fresh_run_dir("checkpoint-whole"), parts = fresh_run_dir("checkpoint-parts");
+// the same particles and the same flow, bit for bit; the same metrics, each step once.
+// `round_off` 0: bit for bit; else the largest |dx| (m) allowed, and |dv| and the flow within
+// that relative to their scale (1e-5 m).
+void expect_resumed_run_equals_uninterrupted(const std::string& name, const std::string& ranks, double round_off) {
+  const std::string whole = fresh_run_dir(name + "-whole"), parts = fresh_run_dir(name + "-parts");
   std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8);
-  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
+  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole + ranks);
   ASSERT_EQ(a.exit_code, 0) << a.output;
   EXPECT_EQ(checkpoint_folders(whole), std::vector<std::string>{"step-40"}) << "only the newest is kept";
 
-  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20");
+  // Resumed on the ranks it ran on (run.toml keeps them).
+  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20" + ranks);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   EXPECT_NE(first.output.find("stopped after step 20 of 40"), std::string::npos) << first.output;
   EXPECT_NE(first.output.find("its last checkpoint is step 20"), std::string::npos) << first.output;
@@ -79,10 +83,6 @@ TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
 
   const auto names = snapshot_names(whole + "/particles.h5");
   ASSERT_EQ(names, snapshot_names(parts + "/particles.h5"));
-  // Round-off: the resumed DEM rebuilds its neighbour lists, so forces may be summed in another
-  // order; differences of 1e-16 relative grow through the contacts over 20 coupling steps
-  // (~300 DEM steps). Positions are ~1e-5 m; a wrong or missing piece of state moves cells by
-  // far more than 1e-12 m within one step (checked: see the nodes' own checkpoint tests).
   double worst_position = 0, worst_velocity = 0, speed_scale = 0;
   for (const auto& name : names) {
     const auto sa = read_snapshot(whole + "/particles.h5", name), sb = read_snapshot(parts + "/particles.h5", name);
@@ -96,14 +96,34 @@ TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
   }
   std::printf("resumed vs uninterrupted, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
               names.size(), worst_position, worst_velocity, speed_scale);
-  EXPECT_LT(worst_position, 1e-12);
-  EXPECT_LT(worst_velocity, 1e-9 * speed_scale);
+  EXPECT_LE(worst_position, round_off);
+  EXPECT_LE(worst_velocity, round_off / 1e-5 * speed_scale);
+  EXPECT_GT(speed_scale, 1e-3) << "the cells move";
 
   const auto ma = read_metrics(whole), mb = read_metrics(parts);
   const auto& ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
   ASSERT_EQ(ua.size(), ub.size());
-  for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, 1e-12 * std::abs(value)) << "step " << step;
-  EXPECT_EQ(metric_rows(whole), metric_rows(parts)) << "each step's metrics once, in order";
+  for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, round_off / 1e-5 * std::abs(value)) << step;
+  EXPECT_EQ(metric_rows(whole, round_off == 0), metric_rows(parts, round_off == 0)) << "each step's metrics once";
+}
+
+}  // namespace
+
+// One rank per node: bit for bit. Both nodes restore every piece of state exactly, and the
+// particle node rebuilds its neighbour lists at a checkpoint the same way when writing and when
+// resuming (the nodes' own checkpoint tests show what leaving out each piece does).
+TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
+  expect_resumed_run_equals_uninterrupted("checkpoint", "", 0.0);
+}
+
+// Two particle ranks, as the calibration scene (the decomposed fluid's resume is tested bit for
+// bit in FluidCheckpoint.*): to round-off only. Writing a checkpoint rebuilds the neighbour
+// lists, which on two ranks can move cells between ranks and so reorder force sums; the
+// stopped run wrote one more (at step 20). Measured: bit for bit here; 7e-21 m after 20 steps
+// with two fluid ranks as well (first seen at step 25, in both nodes at once). A piece of state
+// left out moves cells by far more than 1e-15 m within a step.
+TEST(Checkpoint, ResumedRunOnTwoParticleRanksEqualsTheUninterruptedRunToRoundOff) {
+  expect_resumed_run_equals_uninterrupted("checkpoint-2-ranks", " --np-particles 2", 1e-15);
 }
 
 // A node killed mid-run: the run stops naming its last checkpoint, which is complete, and
@@ -112,8 +132,15 @@ TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
   const std::string dir = fresh_run_dir("checkpoint-killed");
   std::ofstream(dir + ".toml") << scene_with_checkpoints(100000, 5);
   auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
-  for (int i = 0; i < 600 && checkpoint_folders(dir) < std::vector<std::string>{"step-10"}; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // Until a checkpoint of both nodes is complete (the second: the run has gone past the first).
+  auto complete = [&] {
+    int n = 0;
+    for (const auto& name : checkpoint_folders(dir))
+      n += fs::is_directory(dir + "/checkpoints/" + name + "/fluid") &&
+           fs::is_directory(dir + "/checkpoints/" + name + "/particles") && name != "step-5";
+    return n > 0;
+  };
+  for (int i = 0; i < 600 && !complete(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   long pid = 0;
   std::ifstream(dir + "/particles.pid") >> pid;
   ASSERT_GT(pid, 0);
@@ -131,10 +158,10 @@ TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   EXPECT_NE(resumed.output.find("resumes from step " + std::to_string(last)), std::string::npos) << resumed.output;
   EXPECT_NE(resumed.output.find("stopped after step " + std::to_string(last + 12)), std::string::npos);
-  // Snapshots every 10 steps, each once, up to the new stop.
+  // Snapshots every 10 steps, each once, and the state at the new stop.
   const auto names = snapshot_names(dir + "/particles.h5");
   for (std::size_t i = 1; i < names.size(); ++i) EXPECT_LT(std::stol(names[i - 1]), std::stol(names[i]));
-  EXPECT_EQ(std::stol(names.back()), (last + 12) - (last + 12) % 10);
+  EXPECT_EQ(std::stol(names.back()), last + 12);
 }
 
 TEST(Checkpoint, ResumeWithoutACheckpointIsRefusedInOneLine) {
