@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "xdmf.h"
 
+#include "quiet_hdf5.h"
+
 #include <fmt/format.h>
 #include <hdf5.h>
 
@@ -21,16 +23,10 @@ struct SnapshotInfo {
 };
 
 std::vector<SnapshotInfo> scan(const std::string& h5_path) {
-  H5E_auto2_t old_func;
-  void* old_data;
-  H5Eget_auto2(H5E_DEFAULT, &old_func, &old_data);
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // we report failures ourselves, in one line
+  const QuietHdf5 quiet;
   std::vector<SnapshotInfo> out;
   const hid_t file = H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file < 0) {
-    H5Eset_auto2(H5E_DEFAULT, old_func, old_data);
-    throw std::runtime_error("cannot read " + h5_path);
-  }
+  if (file < 0) throw std::runtime_error("cannot read " + h5_path);
   const hid_t group = H5Gopen2(file, "/snapshots", H5P_DEFAULT);
   hsize_t n = 0;
   if (group >= 0) H5Gget_num_objs(group, &n);
@@ -54,7 +50,6 @@ std::vector<SnapshotInfo> scan(const std::string& h5_path) {
   }
   if (group >= 0) H5Gclose(group);
   H5Fclose(file);
-  H5Eset_auto2(H5E_DEFAULT, old_func, old_data);
   return out;
 }
 

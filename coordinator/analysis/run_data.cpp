@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_data.h"
 
+#include "quiet_hdf5.h"
+
 #include <hdf5.h>
 
 #include <algorithm>
@@ -16,20 +18,6 @@ namespace hemo::analysis {
 namespace {
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) { throw RunDataError(path + ": " + what); }
-
-// HDF5 prints its error stack to stderr by default; our own message says it in one line.
-class QuietHdf5 {
- public:
-  QuietHdf5() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
 
 // Closes an HDF5 handle on scope exit.
 class Handle {
