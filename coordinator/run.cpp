@@ -58,9 +58,10 @@ long drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, c
     try {
       lockstep.await(k, scene.run.step_timeout);
     } catch (const UnstableRun&) {
-      // Keep the state the run went unstable in: the nodes write it as they finish (the last
-      // checkpoint, from before, is kept as it is).
+      // Keep the state the run went unstable in: the nodes write it as they finish. The last
+      // checkpoint is the one from before: one of this step would resume into the instability.
       try { lockstep.stop(k + 1); } catch (const std::exception&) {}
+      if (checkpoint) dir.drop_checkpoint(k);  // once the nodes are done writing
       throw;
     }
     if (checkpoint && lockstep.common_checkpoint() == k) dir.keep_only_checkpoint(k);

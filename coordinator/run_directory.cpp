@@ -78,6 +78,8 @@ void RunDirectory::keep_only_checkpoint(long step) const {
     if (k != step) fs::remove_all(checkpoint_folder(path, k));
 }
 
+void RunDirectory::drop_checkpoint(long step) const { fs::remove_all(checkpoint_folder(path, step)); }
+
 void RunDirectory::drop_metrics_after(long step) const {
   std::ifstream in(metrics_file());
   if (!in) return;

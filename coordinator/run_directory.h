@@ -25,6 +25,8 @@ struct RunDirectory {
   std::optional<long> last_checkpoint() const;
   // Removes every checkpoint but that of `step` (and partial ones of later steps).
   void keep_only_checkpoint(long step) const;
+  // Removes the checkpoint of `step`, complete or not.
+  void drop_checkpoint(long step) const;
   // Drops the coordinator's metrics of steps after `step` (a resumed run writes them again).
   void drop_metrics_after(long step) const;
 

@@ -21,9 +21,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The small coupled scene with a checkpoint every `every` steps.
-std::string scene_with_checkpoints(long steps, long every) {
-  std::string text = small_scene_text(steps);
+// The small coupled scene with a checkpoint every `every` steps (and `run_keys` in [run]).
+std::string scene_with_checkpoints(long steps, long every, const std::string& run_keys = "") {
+  std::string text = small_scene_text(steps, run_keys);
   const std::string output = "every_steps = 10";
   text.replace(text.find(output), output.size(), output + "\ncheckpoint_every_steps = " + std::to_string(every));
   return text;
@@ -177,4 +177,17 @@ TEST(Checkpoint, ResumeWithoutACheckpointIsRefusedInOneLine) {
   const auto not_a_run = run(bin("hemocosim") + " resume " + fs::temp_directory_path().string());
   EXPECT_NE(not_a_run.exit_code, 0);
   EXPECT_EQ(std::count(not_a_run.output.begin(), not_a_run.output.end(), '\n'), 1) << not_a_run.output;
+}
+
+// A stability guard stops the run at a step that was to be checkpointed: that checkpoint, of
+// the unstable state, is not kept (resuming would start from the instability).
+TEST(Checkpoint, UnstableStepIsNotKeptAsACheckpoint) {
+  const std::string dir = fresh_run_dir("checkpoint-unstable");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(40, 1, "max_courant = 1e-9\n");  // breaks at step 1
+  const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("Courant number"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("at step 1 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("it has no checkpoint to resume from"), std::string::npos) << r.output;
+  EXPECT_TRUE(checkpoint_folders(dir).empty());
 }
