@@ -31,6 +31,10 @@ int check_command(const std::string& scene_path) {
   fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
              s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
+  fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
+             s.output.checkpoint_every_steps > 0
+                 ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)
+                 : std::string("no checkpoints (output.checkpoint_every_steps = 0)"));
   return 0;
 }
 
