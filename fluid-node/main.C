@@ -46,6 +46,7 @@ int main(int argc, char* argv[])
         #include "createMesh.H"
         #include "createFields.H"
         #include "feedbackFields.H"
+        #include "checkpointedFields.H"
         #include "restoreCheckpoint.H"
 
         port.initialize(meshMsg);
