@@ -141,11 +141,21 @@ static void warn_if_small_receive_buffer(const std::string& url) {
                bytes);
 }
 
-Bus::Bus(const RunContext& ctx, std::string sender) : ctx_(ctx), sender_(std::move(sender)), lcm_(ctx.lcm_url) {
+namespace channel {
+std::vector<std::string> all() {
+  return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend};
+}
+std::vector<std::string> heard_by_coordinator() { return {hello, heartbeat, step_done, resend}; }
+std::vector<std::string> heard_by_fluid() { return {step, particle_feedback, heartbeat, resend}; }
+std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state, heartbeat, resend}; }
+}  // namespace channel
+
+Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
+    : ctx_(ctx), sender_(std::move(sender)), lcm_(ctx.lcm_url) {
   if (!lcm_.good()) throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
   warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
-  lcm_.subscribe(ctx_.run_id + "/.*", &Bus::on_raw, this);
+  for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this);
 }
 
 void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {

@@ -49,6 +49,16 @@ inline constexpr const char* fluid_state = "FLUID_STATE";
 inline constexpr const char* particle_feedback = "PARTICLE_FEEDBACK";
 inline constexpr const char* step_done = "STEP_DONE";
 inline constexpr const char* resend = "RESEND";
+
+// Every kind: what the monitor and the tests listen to.
+std::vector<std::string> all();
+// What each process listens to. LCM drops a datagram of a channel nobody listens to in its
+// receive thread, so a process is neither woken nor made to check a tag for the large
+// messages meant for another; at the calibration size those wake-ups, at the moment the
+// receiving node should start, were most of the coupling overhead (docs/performance.md).
+std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend
+std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend
+std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend
 }  // namespace channel
 
 // Counters a process keeps about what it received; the monitor shows them.
@@ -79,7 +89,8 @@ struct Received {
 
 class Bus {
  public:
-  Bus(const RunContext& ctx, std::string sender);
+  // Listens to the run's channels of the given kinds.
+  Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds = channel::all());
   Bus(const Bus&) = delete;
   Bus& operator=(const Bus&) = delete;
 

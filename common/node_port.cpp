@@ -16,8 +16,9 @@ double NodePort::now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-NodePort::NodePort(const RunContext& ctx, std::string role, std::string program, int ranks)
-    : bus_(std::make_unique<Bus>(ctx, role)),
+NodePort::NodePort(const RunContext& ctx, std::string role, std::string program, int ranks,
+                   const std::vector<std::string>& kinds)
+    : bus_(std::make_unique<Bus>(ctx, role, kinds)),
       heartbeat_(std::make_unique<Heartbeat>(ctx, role)),
       role_(std::move(role)),
       step_(ctx.resume_step),
@@ -92,7 +93,8 @@ void NodePort::fail(const std::string& error) {
 void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0, /*keep=*/true); }
 
 std::optional<FluidStep> FluidPort::advance(fluid_state_t& state, const Diagnostics& diag) {
-  auto next = advance_with(channel::fluid_state, state, channel::particle_feedback, -1, diag);
+  auto next = advance_with(channel::fluid_state, state, channel::particle_feedback, -1, diag,
+                           /*report_first=*/false);
   if (!next) return std::nullopt;
   return FluidStep{next->first, next->second.as<particle_feedback_t>()};
 }
@@ -102,7 +104,8 @@ mesh_t ParticlePort::initialize() {
 }
 
 std::optional<ParticleStep> ParticlePort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
-  auto next = advance_with(channel::particle_feedback, feedback, channel::fluid_state, -fluid_lag_, diag);
+  auto next = advance_with(channel::particle_feedback, feedback, channel::fluid_state, -fluid_lag_, diag,
+                           /*report_first=*/true);
   if (!next) return std::nullopt;
   return ParticleStep{next->first, next->second.as<fluid_state_t>()};
 }

@@ -49,7 +49,9 @@ struct ParticleStep {
 
 class NodePort {
  public:
-  NodePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1);
+  // Joins the bus listening to `kinds` (channel::heard_by_*), says hello.
+  NodePort(const RunContext& ctx, std::string role, std::string program, int ranks,
+           const std::vector<std::string>& kinds);
   ~NodePort();
 
   Bus& bus() { return *bus_; }
@@ -63,16 +65,21 @@ class NodePort {
   void fail(const std::string& error);
 
  protected:
-  // Publishes `kind` for the current step (kept for resends), then STEP_DONE; waits for the
-  // next order and for `input_kind` at step `order.step + input_offset`.
+  // Publishes `kind` for the current step (kept for resends) and STEP_DONE, in the order that
+  // shortens the step: first what the run waits on (`report_first`: the report, when this
+  // node's is the last the coordinator needs before it orders the next step, so the order
+  // travels while the output does). Waits for the next order and for `input_kind` at step
+  // `order.step + input_offset`.
   template <class Out>
   std::optional<std::pair<step_order_t, Received>> advance_with(const std::string& out_kind, Out& out,
                                                                 const std::string& input_kind,
                                                                 int input_offset,
-                                                                const Diagnostics& diag) {
+                                                                const Diagnostics& diag,
+                                                                bool report_first) {
     times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
+    if (report_first) report_done(true, "", diag);
     bus_->publish(out_kind, out, step_, /*keep=*/true);
-    report_done(true, "", diag);
+    if (!report_first) report_done(true, "", diag);
     bus_->forget_before(step_ - 1);
     const double wait_start = now();
     const auto order_msg = wait_for(channel::step, step_ + 1, "the coordinator's next step order");
@@ -101,7 +108,8 @@ class NodePort {
 
 class FluidPort : public NodePort {
  public:
-  using NodePort::NodePort;
+  FluidPort(const RunContext& ctx, std::string role, std::string program, int ranks = 1)
+      : NodePort(ctx, std::move(role), std::move(program), ranks, channel::heard_by_fluid()) {}
   // Says hello and publishes the mesh (kept for anyone who asks again).
   void initialize(mesh_t& mesh);
   // Publishes the state of the current step; returns the next step's order and feedback,
@@ -118,7 +126,8 @@ class ParticlePort : public NodePort {
   // uses the feedback of step k - 1.
   ParticlePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1,
                bool lagged_fluid = false)
-      : NodePort(ctx, std::move(role), std::move(program), ranks), fluid_lag_(lagged_fluid ? 1 : 0) {}
+      : NodePort(ctx, std::move(role), std::move(program), ranks, channel::heard_by_particles()),
+        fluid_lag_(lagged_fluid ? 1 : 0) {}
   // Says hello and waits for the fluid mesh.
   mesh_t initialize();
   // Publishes the feedback of the current step; returns the next order and the fluid state,

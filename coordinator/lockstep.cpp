@@ -37,7 +37,7 @@ std::vector<std::string> split(const std::string& s) {
 
 Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step)
     : scene_(scene), dir_(std::move(dir)), ctx_(ctx), first_step_(first_step) {
-  bus_ = std::make_unique<Bus>(ctx_, "coordinator");
+  bus_ = std::make_unique<Bus>(ctx_, "coordinator", channel::heard_by_coordinator());
   heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
   if (first_step > 0) {
     metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
@@ -50,6 +50,7 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
 }
 
 Lockstep::~Lockstep() {
+  write_metrics();
   for (auto& [name, node] : nodes_)
     if (node.process) node.process->terminate();
 }
@@ -85,6 +86,14 @@ void Lockstep::order(long step, double time_s, bool write_output, bool write_che
   ordered_at_ = now();
   bus_->publish(channel::step, o, step, /*keep=*/true);
   bus_->forget_before(step - 1);
+  write_metrics();  // now that the nodes are busy
+}
+
+void Lockstep::write_metrics() {
+  for (const auto& r : unwritten_)
+    metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", r.step, r.time_s, r.source, r.name, r.value);
+  unwritten_.clear();
+  metrics_.flush();
 }
 
 void Lockstep::record(const Received& msg) {
@@ -107,13 +116,14 @@ void Lockstep::record(const Received& msg) {
     for (std::size_t i = 0; i < done.names.size(); ++i)
       if (done.names[i].rfind("phase_", 0) == 0) node.totals[done.names[i]] += done.values[i];
   }
-  metrics_ << fmt::format("{},{:.9g},{},compute_s,{:.6g}\n", k, step_time_s_, done.node, done.compute_s);
-  metrics_ << fmt::format("{},{:.9g},{},wait_s,{:.6g}\n", k, step_time_s_, done.node, done.wait_s);
-  for (std::size_t i = 0; i < done.names.size(); ++i) {
-    metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", k, step_time_s_, done.node, done.names[i], done.values[i]);
+  for (std::size_t i = 0; i < done.names.size(); ++i)
     if (done.names[i] == kCheckpointDiagnostic && done.values[i] == double(k)) node.checkpoint_step = k;
-  }
-  metrics_.flush();
+  auto row = [&](const std::string& name, double value) {
+    unwritten_.push_back({k, step_time_s_, done.node, name, value});
+  };
+  row("compute_s", done.compute_s);
+  row("wait_s", done.wait_s);
+  for (std::size_t i = 0; i < done.names.size(); ++i) row(done.names[i], done.values[i]);
   // Raised by await() once the bus has returned: never thrown through the bus's handlers.
   if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
 }
@@ -170,6 +180,8 @@ void Lockstep::await(long step, double timeout_s) {
         computing = scene_.coupling_scheme == "parallel" ? std::max(computing, node.compute) : computing + node.compute;
       stepping_wall_s_ += wall;
       overhead_s_ += wall - computing;
+      unwritten_.push_back({step, step_time_s_, "lockstep", "step_wall_s", wall});
+      unwritten_.push_back({step, step_time_s_, "lockstep", "coupling_overhead_s", wall - computing});
     }
     if (now() - start > timeout_s) {
       for (auto& [name, node] : nodes_)
@@ -181,6 +193,7 @@ void Lockstep::await(long step, double timeout_s) {
 }
 
 void Lockstep::stop(long step) {
+  write_metrics();
   step_order_t o;
   o.time_s = step_time_s_;
   o.dt_s = 0;

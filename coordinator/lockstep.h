@@ -13,6 +13,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace hemo {
 
@@ -61,6 +62,10 @@ class Lockstep {
               long first_step);
   void check_health(long step);
   void record(const Received& msg);
+  // Appends the reports recorded so far to RUN_DIR/metrics.csv. Called once the next step is
+  // ordered (the coordinator would otherwise keep the nodes waiting while it formats them), at
+  // the stop and when the lockstep ends, also by an error.
+  void write_metrics();
 
   const Scene& scene_;
   RunDirectory dir_;
@@ -70,6 +75,14 @@ class Lockstep {
   std::unique_ptr<Heartbeat> heartbeat_;
   std::map<std::string, NodeState> nodes_;
   std::ofstream metrics_;
+  struct MetricsRow {
+    long step;
+    double time_s;
+    std::string source;  // a node, or "lockstep" for the step's wall time and coupling overhead
+    std::string name;
+    double value;
+  };
+  std::vector<MetricsRow> unwritten_;  // rows not yet in metrics_
   double step_time_s_ = 0;
   double ordered_at_ = 0;       // wall clock when the current step was ordered
   double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time

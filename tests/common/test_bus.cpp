@@ -2,7 +2,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "test_helpers.h"
 
+#include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
+#include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
 
 #include <gtest/gtest.h>
@@ -116,4 +118,34 @@ TEST(Bus, KeptMessageIsPublishedAgainOnRequest) {
   EXPECT_EQ(got[0].envelope.step, 7);
   EXPECT_DOUBLE_EQ(got[0].as<step_order_t>().time_s, 0.5);
   EXPECT_EQ(alice.counters().resent, 1u);
+}
+
+// Each process hears only its channels: the coordinator is not woken by the large fluid state
+// (nor made to check its tag), the particle node hears it. LCM drops the datagrams of channels
+// a process does not listen to before they reach the bus, so they are not even counted.
+TEST(Bus, EachProcessHearsOnlyWhatIsMeantForIt) {
+  auto ctx = test::make_context("heard");
+  Bus fluid(ctx, "fluid", channel::heard_by_fluid());
+  Bus coordinator(ctx, "coordinator", channel::heard_by_coordinator());
+  Bus particles(ctx, "particles", channel::heard_by_particles());
+  fluid_state_t state{};
+  state.n_cells = 2000;  // a few datagrams, as at the paper's mesh
+  state.velocity.assign(2000, {0.1, 0.2, 0.3});
+  state.velocity_gradient.assign(2000, std::vector<double>(9, 0.0));
+  fluid.publish(channel::fluid_state, state, 1);
+  step_done_t done{};
+  done.node = "fluid";
+  done.ok = true;
+  fluid.publish(channel::step_done, done, 1);
+
+  const auto heard_by_particles = collect(particles, 3, 1);
+  ASSERT_EQ(heard_by_particles.size(), 1u);
+  EXPECT_EQ(heard_by_particles[0].kind, channel::fluid_state);
+  EXPECT_EQ(heard_by_particles[0].as<fluid_state_t>().velocity[1999][2], 0.3);
+
+  const auto heard_by_coordinator = collect(coordinator, 3, 2);
+  ASSERT_EQ(heard_by_coordinator.size(), 1u);
+  EXPECT_EQ(heard_by_coordinator[0].kind, channel::step_done);
+  EXPECT_EQ(coordinator.counters().accepted, 1u);
+  EXPECT_EQ(particles.counters().accepted, 1u);
 }

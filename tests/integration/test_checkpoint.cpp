@@ -38,14 +38,16 @@ std::vector<std::string> checkpoint_folders(const std::string& dir) {
 }
 
 // metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those) and
-// the timings, sorted: the two nodes' rows of a step come in the order their reports arrived.
+// the timings (the nodes' and the lockstep's), sorted: the two nodes' rows of a step come in the
+// order their reports arrived.
 // With `values` false, only which step, node and name (each once).
 std::vector<std::string> metric_rows(const std::string& dir, bool values) {
   std::ifstream in(dir + "/metrics.csv");
   std::vector<std::string> rows;
   for (std::string line; std::getline(in, line);)
     if (line.find(",checkpoint_step,") == std::string::npos && line.find(",compute_s,") == std::string::npos &&
-        line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos)
+        line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos &&
+        line.find(",lockstep,") == std::string::npos)
       rows.push_back(values ? line : line.substr(0, line.rfind(',')));
   std::sort(rows.begin(), rows.end());
   return rows;
