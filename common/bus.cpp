@@ -143,7 +143,7 @@ static void warn_if_small_receive_buffer(const std::string& url) {
 
 namespace channel {
 std::vector<std::string> all() {
-  return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend};
+  return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
 }
 std::vector<std::string> heard_by_coordinator() { return {hello, heartbeat, step_done, resend}; }
 std::vector<std::string> heard_by_fluid() { return {step, particle_feedback, heartbeat, resend}; }

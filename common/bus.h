@@ -49,6 +49,7 @@ inline constexpr const char* fluid_state = "FLUID_STATE";
 inline constexpr const char* particle_feedback = "PARTICLE_FEEDBACK";
 inline constexpr const char* step_done = "STEP_DONE";
 inline constexpr const char* resend = "RESEND";
+inline constexpr const char* control = "CONTROL";  // restart / swap requests and answers
 
 // Every kind: what the monitor and the tests listen to.
 std::vector<std::string> all();
@@ -56,7 +57,7 @@ std::vector<std::string> all();
 // receive thread, so a process is neither woken nor made to check a tag for the large
 // messages meant for another; at the calibration size those wake-ups, at the moment the
 // receiving node should start, were most of the coupling overhead (docs/performance.md).
-std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend
+std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend (control: its own bus)
 std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend
 std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend
 }  // namespace channel

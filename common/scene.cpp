@@ -214,6 +214,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("run.startup_timeout_s", s.run.startup_timeout);
   r.read("run.step_timeout_s", s.run.step_timeout);
   r.read("run.drop_every", s.run.drop_every);
+  r.read("run.max_restarts", s.run.max_restarts);
+  r.check(s.run.max_restarts >= 0, "run.max_restarts", "must not be negative (0: a dead node stops the run)");
   r.read("run.fluid_ranks", s.run.fluid_ranks);
   r.read("run.particle_ranks", s.run.particle_ranks);
   r.check(s.run.fluid_ranks >= 1, "run.fluid_ranks", "must be at least 1");

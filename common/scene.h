@@ -147,6 +147,7 @@ struct RunSettings {
   double node_timeout = 30;         // s without a heartbeat before a node is declared dead
   double startup_timeout = 120;     // s for both nodes to finish step 0
   double step_timeout = 3600;       // s for both nodes to finish any later step
+  int max_restarts = 3;             // times a dead or silent node is restarted from the last checkpoint
   int fluid_ranks = 1;              // MPI ranks of the fluid node
   int particle_ranks = 1;           // MPI ranks of the particle node
   int drop_every = 0;               // fault injection: every process drops every n-th message it receives

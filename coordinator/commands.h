@@ -22,6 +22,17 @@ struct ResumeOptions {
 };
 int resume_command(const ResumeOptions& opt);
 
+// Asks a running run's coordinator to restart a node, or to swap it for another program
+// (DESIGN.md "Checkpoint, restart, swap"): it checkpoints the current step and starts both
+// nodes again from there. Waits for the coordinator's answer.
+struct ControlOptions {
+  std::string run_dir;
+  std::string node;         // fluid or particles
+  std::string with;         // swap: the program (and arguments) that takes the node's place
+  double timeout_s = 300;
+};
+int control_command(const std::string& action, const ControlOptions& opt);
+
 int check_command(const std::string& scene_path);
 int list_keys_command();  // every scene key with its default, as a Markdown table
 

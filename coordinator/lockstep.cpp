@@ -141,13 +141,18 @@ long Lockstep::common_checkpoint() const {
 void Lockstep::check_health(long step) {
   for (auto& [name, node] : nodes_) {
     if (!node.process->running()) {
+      // A node that failed a step says why before it exits; that report, not the exit, is the
+      // error (and no reason to restart it: it would fail again).
+      bus_->poll(0.2, [&](const Received& msg) {
+        if (msg.kind == channel::step_done) record(msg);
+      });
       const auto last = node.process->last_log_line();
-      throw std::runtime_error(fmt::format("{} node {} at step {}{}{} (log: {})", name, node.process->how_it_ended(),
-                                           step, last.empty() ? "" : ": ", last, node.process->log_path()));
+      throw NodeLost(fmt::format("{} node {} at step {}{}{} (log: {})", name, node.process->how_it_ended(), step,
+                                 last.empty() ? "" : ": ", last, node.process->log_path()));
     }
     if (now() - node.last_heard > scene_.run.node_timeout)
-      throw std::runtime_error(fmt::format("{} node stopped answering at step {}: no heartbeat for {:.0f} s (log: {})",
-                                           name, step, scene_.run.node_timeout, node.process->log_path()));
+      throw NodeLost(fmt::format("{} node stopped answering at step {}: no heartbeat for {:.0f} s (log: {})", name,
+                                 step, scene_.run.node_timeout, node.process->log_path()));
   }
 }
 

@@ -23,6 +23,12 @@ struct UnstableRun : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A node that died or stopped answering (heartbeat timeout), rather than one that reported a
+// failed step: the coordinator may restart both nodes from their last common checkpoint.
+struct NodeLost : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 class Lockstep {
  public:
   // Launches both nodes: from scratch (first_step 0) or from the run's checkpoint of first_step.
@@ -32,7 +38,7 @@ class Lockstep {
   // Orders step k (time at its end; output, checkpoint wanted or not).
   void order(long step, double time_s, bool write_output, bool write_checkpoint = false);
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
-  // that failed, exited or stopped answering.
+  // that failed, exited or stopped answering (NodeLost for the last two).
   void await(long step, double timeout_s);
   // Orders the nodes to finish and waits for their clean exit.
   void stop(long step);

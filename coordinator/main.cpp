@@ -35,6 +35,21 @@ int main(int argc, char** argv) {
                          "Stop again after this coupling step, writing a checkpoint there")
       ->check(CLI::PositiveNumber);
 
+  hemo::ControlOptions restart;
+  auto* restart_cmd = app.add_subcommand(
+      "restart", "Restart a node of a running run: both nodes go on from a checkpoint of the current step");
+  restart_cmd->add_option("run_dir", restart.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
+  restart_cmd->add_option("node", restart.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
+  restart_cmd->add_option("--timeout", restart.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
+
+  hemo::ControlOptions swap;
+  auto* swap_cmd = app.add_subcommand(
+      "swap", "Swap a node of a running run for another program that speaks the messages; it goes on from a checkpoint of the current step");
+  swap_cmd->add_option("run_dir", swap.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
+  swap_cmd->add_option("node", swap.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
+  swap_cmd->add_option("--with", swap.with, "The program (and its arguments) that takes the node's place; it gets the node's usual options, --resume-step among them")->required();
+  swap_cmd->add_option("--timeout", swap.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
+
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
   bool list_keys = false;
@@ -87,6 +102,8 @@ int main(int argc, char** argv) {
   try {
     if (*run_cmd) return hemo::run_command(run);
     if (*resume_cmd) return hemo::resume_command(resume);
+    if (*restart_cmd) return hemo::control_command("restart", restart);
+    if (*swap_cmd) return hemo::control_command("swap", swap);
     if (*check_cmd) return list_keys ? hemo::list_keys_command() : hemo::check_command(check_scene);
     if (*mon_cmd) return hemo::monitor_command(mon);
     if (*ana_cmd) return hemo::analyze_command(ana);

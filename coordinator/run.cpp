@@ -1,6 +1,7 @@
 // hemocosim run: launch both nodes and drive the lockstep to the end.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
+#include "control_desk.h"
 #include "lockstep.h"
 #include "progress.h"
 #include "scene.h"
@@ -38,22 +39,36 @@ std::string resume_hint(const RunDirectory& dir) {
               : "; it has no checkpoint to resume from";
 }
 
-// The lockstep from start-up to the stop order, with progress and the final profile. Both nodes
-// write a checkpoint every output.checkpoint_every_steps and at an early stop (interrupt,
-// --stop-after-step); a run that fails keeps the last one both acknowledged. Returns the last
-// step done.
-long drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span) {
+// The lockstep from start-up (at span.first) to the stop order, with progress and the final
+// profile. Both nodes write a checkpoint every output.checkpoint_every_steps and at an early
+// stop (interrupt, --stop-after-step); a run that fails keeps the last one both acknowledged.
+// Returns the last step done. A restart or swap asked for (ControlDesk) is carried out at the
+// end of the step it came in: that step is checkpointed and RestartRequested thrown; the
+// request `restarted` (of the span before) is answered once the nodes run again.
+long drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span,
+                Progress& progress, ControlDesk& desk, std::optional<ControlRequest>& restarted) {
   Lockstep lockstep(scene, dir, ctx, span.first);
   lockstep.await(span.first, scene.run.startup_timeout);
+  if (restarted) {
+    desk.answer(*restarted, true,
+                fmt::format("{} node {} at step {}", restarted->node,
+                            restarted->action == "swap" ? "swapped for `" + restarted->command + "`" : "restarted",
+                            span.first));
+    restarted.reset();
+  }
 
   const long steps = scene.time.coupling_steps;
   const long every_checkpoint = scene.output.checkpoint_every_steps;
-  Progress progress(span.last, scene.time.coupling_interval, span.first);
   long k = span.first + 1;
   for (; k <= span.last; ++k) {
     const bool stopping_early = (interrupted || k == span.last) && k < steps;
     const bool output = k % scene.output.every_steps == 0 || k == steps;
-    const bool checkpoint = (every_checkpoint > 0 && k % every_checkpoint == 0) || stopping_early;
+    auto request = desk.take();
+    if (request && k == span.last) {
+      desk.answer(*request, false, "the run is at its last step");
+      request.reset();
+    }
+    const bool checkpoint = (every_checkpoint > 0 && k % every_checkpoint == 0) || stopping_early || request;
     lockstep.order(k, k * scene.time.coupling_interval, output, checkpoint);
     try {
       lockstep.await(k, scene.run.step_timeout);
@@ -65,6 +80,7 @@ long drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, c
       throw;
     }
     if (checkpoint && lockstep.common_checkpoint() == k) dir.keep_only_checkpoint(k);
+    if (request) throw RestartRequested(*request);
     progress.update(k, fmt::format("fluid {:.2f} s, particles {:.2f} s", lockstep.compute_s("fluid"),
                                    lockstep.compute_s("particles")));
     if (stopping_early) break;
@@ -72,14 +88,67 @@ long drive(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, c
   const long stopped_after = std::min(k, span.last);
   lockstep.stop(stopped_after + 1);
   fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), stopped_after - span.first));
-  fmt::print(stderr, "hemocosim: {} in {:.1f} s; results in {}\n",
-             stopped_after < steps ? fmt::format("stopped after step {} of {}", stopped_after, steps) : "done",
-             progress.seconds(), dir.path);
   return stopped_after;
 }
 
+// The whole span, restarting both nodes from their last common checkpoint when one dies or
+// stops answering (at most run.max_restarts times), or when asked to (`hemocosim restart`,
+// `hemocosim swap`; DESIGN.md "Checkpoint, restart, swap").
+long drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, Span span) {
+  Scene scene = scene_as_given;  // a swap changes a node's command
+  ControlDesk desk(ctx);
+  std::optional<ControlRequest> restarted;  // to answer once the nodes run again
+  Progress progress(span.last, scene.time.coupling_interval, span.first);
+  for (int restarts = 0;;) {
+    long from = 0;
+    try {
+      const long stopped_after = drive_span(scene, dir, ctx, span, progress, desk, restarted);
+      fmt::print(stderr, "hemocosim: {} in {:.1f} s{}; results in {}\n",
+                 stopped_after < scene.time.coupling_steps
+                     ? fmt::format("stopped after step {} of {}", stopped_after, scene.time.coupling_steps)
+                     : "done",
+                 progress.seconds(), restarts > 0 ? fmt::format(" ({} restart{})", restarts, restarts > 1 ? "s" : "") : "",
+                 dir.path);
+      return stopped_after;
+    } catch (const RestartRequested& asked) {
+      // Both nodes are stopped by now (the lockstep is gone).
+      const auto& r = asked.request;
+      if (r.action == "swap") {
+        (r.node == "fluid" ? scene.run.fluid_command : scene.run.particle_command) = r.command;
+        dir.record_command(r.node, r.command);
+      }
+      const auto checkpoint = dir.last_checkpoint();
+      if (!checkpoint) {
+        desk.answer(r, false, "no checkpoint was completed to restart from");
+        throw std::runtime_error(fmt::format("{} of the {} node asked for, but no checkpoint was completed", r.action, r.node));
+      }
+      from = *checkpoint;
+      fmt::print(stderr, "hemocosim: {} of the {} node asked for{}: restarting both nodes from the checkpoint of step {}\n",
+                 r.action, r.node, r.action == "swap" ? " (`" + r.command + "`)" : "", from);
+      restarted = r;
+    } catch (const NodeLost& e) {
+      const auto checkpoint = dir.last_checkpoint();
+      if (restarted) desk.answer(*restarted, false, e.what());
+      if (!checkpoint || restarts == scene.run.max_restarts || interrupted) {
+        if (restarts == 0 || !checkpoint) throw;
+        throw NodeLost(fmt::format("{} (after {} restart{})", e.what(), restarts, restarts > 1 ? "s" : ""));
+      }
+      ++restarts;
+      from = *checkpoint;
+      fmt::print(stderr, "hemocosim: {}; restarting both nodes from the checkpoint of step {} (restart {} of at most {})\n",
+                 e.what(), from, restarts, scene.run.max_restarts);
+      restarted.reset();
+    } catch (const std::exception& e) {
+      if (restarted) desk.answer(*restarted, false, e.what());
+      throw;
+    }
+    dir.drop_metrics_after(from);
+    span.first = from;
+  }
+}
+
 // Drives the run, then makes what the nodes wrote openable in ParaView, also after a failure.
-int drive_and_finish(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span) {
+int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& ctx, const Span span) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   long stopped_after = 0;
@@ -122,6 +191,8 @@ int resume_command(const ResumeOptions& opt) {
   Scene scene = load_scene(dir.scene_copy());
   if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
+  if (!dir.fluid_command.empty()) scene.run.fluid_command = dir.fluid_command;  // swapped in
+  if (!dir.particle_command.empty()) scene.run.particle_command = dir.particle_command;
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   const long last = last_step(scene, opt.stop_after_step);

@@ -59,6 +59,8 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
   ctx.load_secret();
   dir.fluid_ranks = info["fluid_ranks"].value_or(0);
   dir.particle_ranks = info["particle_ranks"].value_or(0);
+  dir.fluid_command = info["fluid_command"].value_or(std::string());
+  dir.particle_command = info["particle_command"].value_or(std::string());
   return {dir, ctx};
 }
 
@@ -68,6 +70,13 @@ void RunDirectory::record_ranks(int fluid, int particles) {
   toml::table info = toml::parse_file(info_file());
   info.insert_or_assign("fluid_ranks", fluid);
   info.insert_or_assign("particle_ranks", particles);
+  std::ofstream(info_file()) << info << "\n";
+}
+
+void RunDirectory::record_command(const std::string& node, const std::string& command) {
+  (node == "fluid" ? fluid_command : particle_command) = command;
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign(node == "fluid" ? "fluid_command" : "particle_command", command);
   std::ofstream(info_file()) << info << "\n";
 }
 

@@ -18,9 +18,13 @@ struct RunDirectory {
   std::string log(const std::string& node) const { return path + "/" + node + ".log"; }
   int fluid_ranks = 0;     // as run (0: unknown, a run directory older than resume)
   int particle_ranks = 0;
+  std::string fluid_command;     // a node swapped in (`hemocosim swap`); empty: the scene's
+  std::string particle_command;
 
   // Remembers the ranks the nodes run on: a resumed run must use the same decomposition.
   void record_ranks(int fluid, int particles);
+  // Remembers the program a node was swapped for: a resumed run goes on with it.
+  void record_command(const std::string& node, const std::string& command);
   // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h).
   std::optional<long> last_checkpoint() const;
   // Removes every checkpoint but that of `step` (and partial ones of later steps).

@@ -75,6 +75,8 @@ wall_shear_rate_per_s = 799
 
 TEST(Scene, ImpossibleValuesAreAllReported) {
   auto ps = problems_of(R"(
+[run]
+max_restarts = -1
 [vessel]
 diameter_um = -5
 length_um = 600
@@ -97,6 +99,7 @@ mass_scaling = 0.5
   EXPECT_TRUE(keys.count("driving"));
   EXPECT_TRUE(keys.count("rbc.hematocrit"));
   EXPECT_TRUE(keys.count("time.coupling_steps"));
+  EXPECT_TRUE(keys.count("run.max_restarts"));
 }
 
 TEST(Scene, WrongTypeAndSyntaxErrorsAreProblemsNotCrashes) {

@@ -1,6 +1,7 @@
-// Checkpoints and resume (DESIGN.md "Checkpoint, restart, swap") on the real nodes over real LCM:
-// a run stopped part-way and resumed from its checkpoint ends as the uninterrupted run does; a
-// run whose node dies keeps its last checkpoint and goes on from it.
+// Checkpoints, resume and restart (DESIGN.md "Checkpoint, restart, swap") on the real nodes over
+// real LCM: a run stopped part-way and resumed from its checkpoint ends as the uninterrupted run
+// does; a run whose node dies or freezes is restarted from its last checkpoint by the
+// coordinator and ends the same; with restarts off, it keeps that checkpoint to resume from.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_helpers.h"
 
@@ -59,10 +60,43 @@ long step_after(const std::string& text, const std::string& marker) {
   return std::stol(text.substr(at + marker.size()));
 }
 
+// Two runs of the same scene end the same: the same snapshots, the same particles and the same
+// flow (`round_off` 0: bit for bit; else the largest |dx| (m) allowed, and |dv| and the flow
+// within that relative to their scale, 1e-5 m), and each step's metrics once. `maybe_only_in_whole`:
+// a snapshot the first run has and the second need not (a stop writes its step's state).
+void expect_same_run(const std::string& whole, const std::string& parts, double round_off,
+                     const std::string& maybe_only_in_whole = "") {
+  auto names = snapshot_names(whole + "/particles.h5");
+  const auto other = snapshot_names(parts + "/particles.h5");
+  if (std::find(other.begin(), other.end(), maybe_only_in_whole) == other.end())
+    names.erase(std::remove(names.begin(), names.end(), maybe_only_in_whole), names.end());
+  ASSERT_EQ(names, other);
+  double worst_position = 0, worst_velocity = 0, speed_scale = 0;
+  for (const auto& name : names) {
+    const auto sa = read_snapshot(whole + "/particles.h5", name), sb = read_snapshot(parts + "/particles.h5", name);
+    ASSERT_EQ(sa.id, sb.id) << name;
+    EXPECT_DOUBLE_EQ(sa.time_s, sb.time_s) << name;
+    for (std::size_t i = 0; i < sa.position.size(); ++i) {
+      worst_position = std::max(worst_position, std::abs(sa.position[i] - sb.position[i]));
+      worst_velocity = std::max(worst_velocity, std::abs(sa.velocity[i] - sb.velocity[i]));
+      speed_scale = std::max(speed_scale, std::abs(sa.velocity[i]));
+    }
+  }
+  std::printf("interrupted vs uninterrupted run, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
+              names.size(), worst_position, worst_velocity, speed_scale);
+  EXPECT_LE(worst_position, round_off);
+  EXPECT_LE(worst_velocity, round_off / 1e-5 * speed_scale);
+  EXPECT_GT(speed_scale, 1e-3) << "the cells move";
+
+  const auto ma = read_metrics(whole), mb = read_metrics(parts);
+  const auto& ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
+  ASSERT_EQ(ua.size(), ub.size());
+  for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, round_off / 1e-5 * std::abs(value)) << step;
+  EXPECT_EQ(metric_rows(whole, round_off == 0), metric_rows(parts, round_off == 0)) << "each step's metrics once";
+}
+
 // 40 steps in one go, and the same scene stopped after step 20 and resumed: the same snapshots,
-// the same particles and the same flow, bit for bit; the same metrics, each step once.
-// `round_off` 0: bit for bit; else the largest |dx| (m) allowed, and |dv| and the flow within
-// that relative to their scale (1e-5 m).
+// the same particles and the same flow (expect_same_run).
 void expect_resumed_run_equals_uninterrupted(const std::string& name, const std::string& ranks, double round_off) {
   const std::string whole = fresh_run_dir(name + "-whole"), parts = fresh_run_dir(name + "-parts");
   std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8);
@@ -83,30 +117,7 @@ void expect_resumed_run_equals_uninterrupted(const std::string& name, const std:
   EXPECT_NE(second.output.find("resumes from step 20"), std::string::npos) << second.output;
   EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-40"});
 
-  const auto names = snapshot_names(whole + "/particles.h5");
-  ASSERT_EQ(names, snapshot_names(parts + "/particles.h5"));
-  double worst_position = 0, worst_velocity = 0, speed_scale = 0;
-  for (const auto& name : names) {
-    const auto sa = read_snapshot(whole + "/particles.h5", name), sb = read_snapshot(parts + "/particles.h5", name);
-    ASSERT_EQ(sa.id, sb.id) << name;
-    EXPECT_DOUBLE_EQ(sa.time_s, sb.time_s) << name;
-    for (std::size_t i = 0; i < sa.position.size(); ++i) {
-      worst_position = std::max(worst_position, std::abs(sa.position[i] - sb.position[i]));
-      worst_velocity = std::max(worst_velocity, std::abs(sa.velocity[i] - sb.velocity[i]));
-      speed_scale = std::max(speed_scale, std::abs(sa.velocity[i]));
-    }
-  }
-  std::printf("resumed vs uninterrupted, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
-              names.size(), worst_position, worst_velocity, speed_scale);
-  EXPECT_LE(worst_position, round_off);
-  EXPECT_LE(worst_velocity, round_off / 1e-5 * speed_scale);
-  EXPECT_GT(speed_scale, 1e-3) << "the cells move";
-
-  const auto ma = read_metrics(whole), mb = read_metrics(parts);
-  const auto& ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
-  ASSERT_EQ(ua.size(), ub.size());
-  for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, round_off / 1e-5 * std::abs(value)) << step;
-  EXPECT_EQ(metric_rows(whole, round_off == 0), metric_rows(parts, round_off == 0)) << "each step's metrics once";
+  expect_same_run(whole, parts, round_off);
 }
 
 }  // namespace
@@ -128,25 +139,156 @@ TEST(Checkpoint, ResumedRunOnTwoParticleRanksEqualsTheUninterruptedRunToRoundOff
   expect_resumed_run_equals_uninterrupted("checkpoint-2-ranks", " --np-particles 2", 1e-15);
 }
 
-// A node killed mid-run: the run stops naming its last checkpoint, which is complete, and
-// `hemocosim resume` goes on from it.
-TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
-  const std::string dir = fresh_run_dir("checkpoint-killed");
-  std::ofstream(dir + ".toml") << scene_with_checkpoints(100000, 5);
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
-  // Until a checkpoint of both nodes is complete (the second: the run has gone past the first).
+namespace {
+
+// Waits until the run in `dir` has a checkpoint of both nodes other than `but`, then sends
+// `signal` to `node`'s process (group: an MPI node's ranks too).
+void signal_node_after_a_checkpoint(const std::string& dir, const std::string& but, const std::string& node,
+                                    int signal) {
   auto complete = [&] {
     int n = 0;
     for (const auto& name : checkpoint_folders(dir))
       n += fs::is_directory(dir + "/checkpoints/" + name + "/fluid") &&
-           fs::is_directory(dir + "/checkpoints/" + name + "/particles") && name != "step-5";
+           fs::is_directory(dir + "/checkpoints/" + name + "/particles") && name != but;
     return n > 0;
   };
   for (int i = 0; i < 600 && !complete(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   long pid = 0;
-  std::ifstream(dir + "/particles.pid") >> pid;
+  std::ifstream(dir + "/" + node + ".pid") >> pid;
   ASSERT_GT(pid, 0);
-  kill(static_cast<pid_t>(pid), SIGKILL);
+  kill(-static_cast<pid_t>(pid), signal);
+}
+
+// A node that dies mid-run is restarted by the coordinator from the last checkpoint both nodes
+// wrote, the other node rolled back to it (DESIGN.md "Checkpoint, restart, swap"): the run
+// completes, and ends bit for bit as the same scene run without the death.
+// `node_timeout`: the scene's node_timeout_s (s) instead of its own.
+void expect_restart_after(const std::string& name, const std::string& node, int signal, const std::string& cause,
+                          const std::string& node_timeout = "") {
+  const std::string whole = fresh_run_dir(name + "-whole"), hurt = fresh_run_dir(name + "-hurt");
+  std::string text = scene_with_checkpoints(300, 8);
+  const std::string own_timeout = "node_timeout_s = 10";
+  ASSERT_NE(text.find(own_timeout), std::string::npos) << "coupled_small.toml lost its node_timeout_s";
+  if (!node_timeout.empty()) text.replace(text.find(own_timeout), own_timeout.size(), "node_timeout_s = " + node_timeout);
+  std::ofstream(whole + ".toml") << text;
+  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + whole + ".toml --out " + hurt); });
+  signal_node_after_a_checkpoint(hurt, "", node, signal);
+  const auto r = result.get();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find(node + " node " + cause), std::string::npos) << r.output;
+  const long from = step_after(r.output, "restarting both nodes from the checkpoint of step ");
+  EXPECT_GE(from, 8) << r.output;
+  EXPECT_EQ(from % 8, 0) << r.output;
+  EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(1 restart)"), std::string::npos) << r.output;
+  expect_same_run(whole, hurt, 0.0);
+}
+
+}  // namespace
+
+TEST(Checkpoint, KilledNodeIsRestartedAndTheRunEndsAsIfUninterrupted) {
+  expect_restart_after("restart-killed", "particles", SIGKILL, "was killed by signal 9");
+}
+
+// A frozen node (SIGSTOP) stops answering: after run.node_timeout_s it is declared lost, both
+// nodes are stopped and restarted the same way.
+TEST(Checkpoint, FrozenNodeIsRestartedAndTheRunEndsAsIfUninterrupted) {
+  expect_restart_after("restart-frozen", "fluid", SIGSTOP, "stopped answering", "3");
+}
+
+namespace {
+
+// Waits until the run in `dir` has reported `step` in metrics.csv.
+void wait_for_step(const std::string& dir, long step) {
+  const std::string marker = std::to_string(step) + ",";
+  for (int i = 0; i < 600; ++i) {
+    std::ifstream in(dir + "/metrics.csv");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind(marker, 0) == 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
+// `hemocosim restart` or `hemocosim swap` while a run goes: the coordinator checkpoints the step
+// the request came in, stops both nodes and starts them again from it (the swapped node as the
+// new program), and answers once they run. The run ends bit for bit as the same scene stopped
+// after that step and resumed.
+// `ask`: the command after `hemocosim`, with {} for the run directory. Returns the run directory.
+std::string expect_asked_restart(const std::string& name, std::string ask) {
+  const std::string asked = fresh_run_dir(name + "-asked"), resumed = fresh_run_dir(name + "-resumed");
+  std::ofstream(asked + ".toml") << scene_with_checkpoints(600, 0);
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + asked + ".toml --out " + asked); });
+  wait_for_step(asked, 30);
+  ask.replace(ask.find("{}"), 2, asked);
+  const auto answer = run(bin("hemocosim") + " " + ask + " --timeout 120");
+  const auto r = result.get();
+  EXPECT_EQ(answer.exit_code, 0) << answer.output << r.output;
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const long k = step_after(r.output, "restarting both nodes from the checkpoint of step ");
+  EXPECT_GE(k, 30) << r.output;
+  if (k < 30 || r.exit_code != 0) return asked;
+  EXPECT_NE(answer.output.find(" at step " + std::to_string(k)), std::string::npos) << answer.output;
+  EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
+
+  const auto first = run(bin("hemocosim") + " run " + asked + ".toml --out " + resumed + " --stop-after-step " +
+                         std::to_string(k));
+  EXPECT_EQ(first.exit_code, 0) << first.output;
+  const auto second = run(bin("hemocosim") + " resume " + resumed);
+  EXPECT_EQ(second.exit_code, 0) << second.output;
+  char stop_snapshot[16];
+  std::snprintf(stop_snapshot, sizeof stop_snapshot, "%08ld", k);
+  expect_same_run(resumed, asked, 0.0, stop_snapshot);
+  // And as the run without the restart, to round-off: the checkpoint written at k rebuilds the
+  // neighbour lists, which reorders force sums (measured 3.8e-19 m after 600 steps).
+  const std::string whole = fresh_run_dir(name + "-whole");
+  EXPECT_EQ(run(bin("hemocosim") + " run " + asked + ".toml --out " + whole).exit_code, 0);
+  expect_same_run(whole, asked, 1e-15);
+  return asked;
+}
+
+}  // namespace
+
+TEST(Checkpoint, RestartAskedForGoesOnFromACheckpointOfTheCurrentStep) {
+  expect_asked_restart("restart-asked", "restart {} particles");
+}
+
+// The swapped-in program here is the particle node behind a script that leaves a mark: the run
+// goes on with it (and a resumed run would too: run.toml names it).
+TEST(Checkpoint, SwapAskedForGoesOnWithTheOtherProgram) {
+  const std::string wrapper = fresh_run_dir("swap-wrapper") + ".sh", mark = wrapper + ".ran";
+  std::ofstream(wrapper) << "#!/bin/sh\ntouch " << mark << "\nexec " << bin("hemocosim-particles") << " \"$@\"\n";
+  fs::permissions(wrapper, fs::perms::owner_all);
+  fs::remove(mark);
+  const std::string dir = expect_asked_restart("swap-asked", "swap {} particles --with " + wrapper);
+  EXPECT_TRUE(fs::exists(mark)) << "the swapped-in program ran";
+  std::ifstream in(dir + "/run.toml");
+  const std::string info((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(info.find("particle_command"), std::string::npos) << info;
+  EXPECT_NE(info.find(wrapper), std::string::npos) << info;
+}
+
+// Nobody drives the run (it has ended): the request is not answered, and says so in one line.
+TEST(Checkpoint, RestartOfARunThatIsNotGoingFailsInOneLine) {
+  const std::string dir = fresh_run_dir("restart-ended");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(4, 0);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + dir + ".toml --out " + dir).exit_code, 0);
+  const auto r = run(bin("hemocosim") + " restart " + dir + " fluid --timeout 2");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("no answer from the run's coordinator"), std::string::npos) << r.output;
+}
+
+// With run.max_restarts = 0, a node killed mid-run stops the run naming its last checkpoint,
+// which is complete, and `hemocosim resume` goes on from it.
+TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
+  const std::string dir = fresh_run_dir("checkpoint-killed");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(100000, 5, "max_restarts = 0\n");
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  // Until a checkpoint of both nodes is complete (the second: the run has gone past the first).
+  signal_node_after_a_checkpoint(dir, "step-5", "particles", SIGKILL);
   const auto r = result.get();
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("particles node"), std::string::npos) << r.output;

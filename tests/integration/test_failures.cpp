@@ -108,6 +108,7 @@ TEST(Failures, HelpWorksForEveryCommand) {
   for (const std::string cmd : {"hemocosim --help", "hemocosim run --help", "hemocosim check --help",
                                 "hemocosim monitor --help", "hemocosim resume --help", "hemocosim analyze --help",
                                 "hemocosim plot --help", "hemocosim study --help", "hemocosim bench --help",
+                                "hemocosim restart --help", "hemocosim swap --help",
                                 "hemocosim-fluid --help", "hemocosim-particles --help"}) {
     const auto r = run(bin("") + cmd);
     EXPECT_EQ(r.exit_code, 0) << cmd << "\n" << r.output;
