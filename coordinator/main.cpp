@@ -35,20 +35,20 @@ int main(int argc, char** argv) {
                          "Stop again after this coupling step, writing a checkpoint there")
       ->check(CLI::PositiveNumber);
 
-  hemo::ControlOptions restart;
-  auto* restart_cmd = app.add_subcommand(
-      "restart", "Restart a node of a running run: both nodes go on from a checkpoint of the current step");
-  restart_cmd->add_option("run_dir", restart.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
-  restart_cmd->add_option("node", restart.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
-  restart_cmd->add_option("--timeout", restart.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
-
-  hemo::ControlOptions swap;
-  auto* swap_cmd = app.add_subcommand(
-      "swap", "Swap a node of a running run for another program that speaks the messages; it goes on from a checkpoint of the current step");
-  swap_cmd->add_option("run_dir", swap.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
-  swap_cmd->add_option("node", swap.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
+  // restart and swap: a request to the coordinator of a running run.
+  auto add_node_request = [&app](const char* name, const char* what, hemo::ControlOptions& opt) {
+    auto* cmd = app.add_subcommand(name, what);
+    cmd->add_option("run_dir", opt.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
+    cmd->add_option("node", opt.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
+    cmd->add_option("--timeout", opt.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
+    return cmd;
+  };
+  hemo::ControlOptions restart, swap;
+  auto* restart_cmd = add_node_request(
+      "restart", "Restart a node of a running run: both nodes go on from a checkpoint of the current step", restart);
+  auto* swap_cmd = add_node_request(
+      "swap", "Swap a node of a running run for another program that speaks the messages; it goes on from a checkpoint of the current step", swap);
   swap_cmd->add_option("--with", swap.with, "The program (and its arguments) that takes the node's place; it gets the node's usual options, --resume-step among them")->required();
-  swap_cmd->add_option("--timeout", swap.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
 
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
