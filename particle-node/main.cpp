@@ -18,6 +18,7 @@
 #include <mpi.h>
 #include <node_port.h>
 #include <scene.h>
+#include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
@@ -93,6 +94,9 @@ int main(int argc, char** argv) {
                 << "\n";
     return 2;
   }
+  // Plain text: under mpirun the output is a pseudo-terminal, and the log file would get colour
+  // codes (which the coordinator's one-line errors quote).
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("", std::make_shared<spdlog::sinks::stdout_sink_mt>()));
   if (mpi.rank() != 0) spdlog::set_level(spdlog::level::warn);  // rank 0 speaks for the node
 
   hemo::Scene scene;
