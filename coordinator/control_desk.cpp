@@ -1,13 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "control_desk.h"
 
-#include "commands.h"
-#include "run_directory.h"
 
 #include <fmt/format.h>
 
 #include <chrono>
-#include <random>
 #include <unistd.h>
 
 namespace hemo {
@@ -77,17 +74,6 @@ control_t ask_coordinator(const RunContext& ctx, const ControlRequest& request, 
     throw std::runtime_error(fmt::format("no answer from the run's coordinator within {:.0f} s: is the run going?",
                                          timeout_s));
   return *answer;
-}
-
-int control_command(const std::string& action, const ControlOptions& opt) {
-  auto [dir, ctx] = RunDirectory::open(opt.run_dir);
-  std::random_device rd;
-  const ControlRequest request{static_cast<std::int64_t>((std::uint64_t(rd()) << 31) ^ rd()), action, opt.node,
-                               opt.with};
-  const auto answer = ask_coordinator(ctx, request, opt.timeout_s);
-  if (answer.action != "done") throw std::runtime_error(fmt::format("the coordinator refused: {}", answer.detail));
-  fmt::print(stderr, "hemocosim: {}\n", answer.detail);
-  return 0;
 }
 
 }  // namespace hemo
