@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "control_desk.h"
 
-
 #include <fmt/format.h>
 
 #include <chrono>
@@ -11,6 +10,14 @@ namespace hemo {
 
 namespace {
 bool is_node(const std::string& node) { return node == "fluid" || node == "particles"; }
+
+// A control message; nothing for bytes that are not one (they carry the run's tag, but must not
+// stop a run or a requester by failing to decode).
+std::optional<control_t> as_control(const Received& msg) {
+  control_t m;
+  if (m.decode(msg.bytes.data(), 0, static_cast<int>(msg.bytes.size())) < 0) return std::nullopt;
+  return m;
+}
 }  // namespace
 
 ControlDesk::ControlDesk(const RunContext& ctx) : bus_(ctx, "coordinator", {channel::control}) {}
@@ -18,7 +25,9 @@ ControlDesk::ControlDesk(const RunContext& ctx) : bus_(ctx, "coordinator", {chan
 std::optional<ControlRequest> ControlDesk::take() {
   std::optional<ControlRequest> fresh;
   bus_.poll(0, [&](const Received& msg) {
-    const auto m = msg.as<control_t>();
+    const auto decoded = as_control(msg);
+    if (!decoded) return;
+    const auto& m = *decoded;
     if (m.action != "restart" && m.action != "swap") return;  // an answer, ours or another coordinator's
     if (auto it = answers_.find(m.request_id); it != answers_.end()) {
       bus_.publish(channel::control, it->second, msg.envelope.step);  // the answer was lost: again
@@ -66,8 +75,8 @@ control_t ask_coordinator(const RunContext& ctx, const ControlRequest& request, 
       last_sent = Clock::now();
     }
     bus.poll(0.1, [&](const Received& msg) {
-      const auto m = msg.as<control_t>();
-      if (m.request_id == request.id && (m.action == "done" || m.action == "refused")) answer = m;
+      const auto m = as_control(msg);
+      if (m && m->request_id == request.id && (m->action == "done" || m->action == "refused")) answer = *m;
     });
   }
   if (!answer)

@@ -39,6 +39,12 @@ std::string resume_hint(const RunDirectory& dir) {
               : "; it has no checkpoint to resume from";
 }
 
+// A node swapped for another program (`hemocosim swap`, kept in run.toml) runs as that one.
+void use_swapped_programs(const RunDirectory& dir, Scene& scene) {
+  if (!dir.fluid_command.empty()) scene.run.fluid_command = dir.fluid_command;
+  if (!dir.particle_command.empty()) scene.run.particle_command = dir.particle_command;
+}
+
 // The lockstep from start-up (at span.first) to the stop order, with progress and the final
 // profile. Both nodes write a checkpoint every output.checkpoint_every_steps and at an early
 // stop (interrupt, --stop-after-step); a run that fails keeps the last one both acknowledged.
@@ -114,8 +120,8 @@ long drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx
       // Both nodes are stopped by now (the lockstep is gone).
       const auto& r = asked.request;
       if (r.action == "swap") {
-        (r.node == "fluid" ? scene.run.fluid_command : scene.run.particle_command) = r.command;
         dir.record_command(r.node, r.command);
+        use_swapped_programs(dir, scene);
       }
       const auto checkpoint = dir.last_checkpoint();
       if (!checkpoint) {
@@ -191,8 +197,7 @@ int resume_command(const ResumeOptions& opt) {
   Scene scene = load_scene(dir.scene_copy());
   if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
-  if (!dir.fluid_command.empty()) scene.run.fluid_command = dir.fluid_command;  // swapped in
-  if (!dir.particle_command.empty()) scene.run.particle_command = dir.particle_command;
+  use_swapped_programs(dir, scene);
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   const long last = last_step(scene, opt.stop_after_step);

@@ -5,6 +5,8 @@
 #include "control_desk.h"
 #include "test_helpers.h"
 
+#include <hemo/step_order_t.hpp>
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -64,4 +66,18 @@ TEST(ControlDesk, NobodyAnsweringIsAnErrorAfterTheTimeout) {
   const auto start = std::chrono::steady_clock::now();
   EXPECT_THROW(ask_coordinator(ctx, {3, "restart", "fluid", ""}, 1.5), std::runtime_error);
   EXPECT_GE(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.5);
+}
+
+// Bytes with the run's tag on the CONTROL channel that are not a control message (here a step
+// order) are ignored: they neither stop the coordinator nor count as a request.
+TEST(ControlDesk, SignedBytesThatAreNoRequestAreIgnored) {
+  auto ctx = test::make_context("desk-junk");
+  ControlDesk desk(ctx);
+  Bus other(ctx, "other", {channel::control});
+  step_order_t junk{};
+  junk.time_s = 1;
+  other.publish(channel::control, junk, 0);
+  std::vector<ControlRequest> taken;
+  EXPECT_NO_THROW(taken = take_for(desk, 1.0));
+  EXPECT_TRUE(taken.empty());
 }
