@@ -181,6 +181,15 @@ struct Scene {
   // (Gauss-Seidel: the fluid solves step k, then the particles move in it) or "parallel"
   // (Jacobi: both compute step k at once, the particles in the fluid of step k - 1).
   std::string coupling_scheme = "serial";
+  // The coefficient K with which the fluid treats the particles' drag implicitly (-K U, its
+  // explicit part adjusted so that at the velocity the particles saw the fluid gets back exactly
+  // their forces): "interval_response" (the derivative of the interval's drag on the cell's
+  // particles with respect to that velocity, sum m (1 - exp(-B/m)) / (V dt), B the interval's
+  // integral of beta dt: particles that follow the flow resist its change with their mass, not
+  // with beta dt) or "instantaneous" (sum of beta / V: the particles' velocities held; for a
+  // coupling interval much longer than their relaxation time it adds beta dt / V of inertia to
+  // the fluid, ~27 times the plasma's in the calibration case).
+  std::string implicit_drag = "interval_response";
 };
 
 // One problem found in a scene, with where it is.

@@ -533,9 +533,11 @@ void DemEngine::deposit(Deposition& deposition) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     const int cell = cell_of(tag[i], xi);
     const int sp = species_of_type_[type[i]];
-    if (cell >= 0)
-      deposition.add_particle(cell, locator_->wrap(xi), 0.5 * diameter_[sp], volume_[sp],
-                              Vec3(acc[i][0], acc[i][1], acc[i][2]), acc[i][3]);
+    if (cell < 0) continue;
+    const double beta_time = acc[i][3];
+    const double drag_response = held_velocity_drag_ ? beta_time : interval_drag_response(mass_[sp], beta_time);
+    deposition.add_particle(cell, locator_->wrap(xi), 0.5 * diameter_[sp], volume_[sp],
+                            Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);
   }
   int size = 1;
   MPI_Comm_size(comm_, &size);

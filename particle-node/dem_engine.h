@@ -236,6 +236,8 @@ class DemEngine {
   LAMMPS_NS::FixPropertyAtom* wall_history_fix_ = nullptr;  // LIGGGHTS's: the wall contacts' history
   bool rebuilding_ = false;                // rebuild_neighbours in progress: the callback does nothing
   const int closure_every_ = scene_.time.closure_every_dem_steps;
+  // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
+  const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
   std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
   double rotation_dt_ = 0;                 // the step length of that kick
   long n_particles_ = 0;

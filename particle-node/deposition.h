@@ -1,16 +1,18 @@
 // From particles to per-cell feedback for the fluid (particle_feedback_t):
 //
 //   solid fraction   phi_c = (particle volume deposited in c) / V_c
-//   drag coefficient K_c   = <sum of beta>_c / V_c                   (interval mean)
+//   drag coefficient K_c   = (sum of dJ/du)_c / (V_c dt)               (dt the interval)
 //   explicit source  S_c   = -<sum of F>_c / V_c + K_c u_c             (interval mean)
 //
-// where <.> is the mean over the coupling interval of what was applied at each DEM step and
-// u_c the cell velocity of the fluid state the particles saw. The fluid uses
-// S - K u = source_explicit - drag_coefficient u, which at u = u_c is exactly
+// where <.> is the mean over the coupling interval of what was applied at each DEM step, u_c the
+// cell velocity of the fluid state the particles saw and dJ/du a particle's drag response, how
+// its interval impulse changes with that velocity (scene coupling.implicit_drag: the exact
+// m (1 - exp(-B/m)) of closures/exponential_drag.h, or B, B the interval's integral of beta dt).
+// The fluid uses S - K u = source_explicit - drag_coefficient u, which at u = u_c is exactly
 // -<sum F>_c / V_c: the fluid gets back every newton the particles got, cell by cell.
 //
 // How a particle is shared among cells is a SolidFractionModel (scene coupling.solid_fraction).
-// Its volume, its interval impulse (the integral of F dt) and its integral of beta dt are all
+// Its volume, its interval impulse (the integral of F dt) and its drag response are all
 // shared with the same fractions, so the identity above holds cell by cell whatever the model,
 // and sum_c phi_c V_c = sum_p V_p exactly.
 //
@@ -95,9 +97,9 @@ class Deposition {
   void clear_volume();
 
   // One particle of radius r (m) centred at x (wrapped) in `cell`: its volume (m^3), and over
-  // the interval the integral of its fluid force (N s) and of its drag coefficient (N s^2/m),
-  // shared among cells with the model's fractions.
-  void add_particle(int cell, const Vec3& x, double radius, double volume, const Vec3& impulse, double beta_time) {
+  // the interval the integral of its fluid force (N s) and its drag response dJ/du (kg), shared
+  // among cells with the model's fractions.
+  void add_particle(int cell, const Vec3& x, double radius, double volume, const Vec3& impulse, double drag_response) {
     CellShare shares[SolidFractionModel::kMaxShares];
     const int n = model_->share(cell, x, radius, shares);
     for (int k = 0; k < n; ++k) {
@@ -106,11 +108,12 @@ class Deposition {
       a[0] += w * impulse.x();
       a[1] += w * impulse.y();
       a[2] += w * impulse.z();
-      a[3] += w * beta_time;
+      a[3] += w * drag_response;
       a[kVolume] += w * volume;
     }
   }
-  // A force F (N, on the particle) with coefficient beta (N s/m) for `duration` s, all in `cell`.
+  // A force F (N, on the particle) with coefficient beta (N s/m) held for `duration` s (drag
+  // response beta duration), all in `cell`.
   void add_drag(int cell, const Vec3& force, double beta, double duration) {
     add_particle(cell, locator_->centre(cell), 0.0, 0.0, force * duration, beta * duration);
   }
@@ -132,7 +135,7 @@ class Deposition {
 
   const SolidFractionModel& model() const { return *model_; }
 
-  static constexpr int kStride = 5;  // F dt (3), beta dt, solid volume
+  static constexpr int kStride = 5;  // F dt (3), drag response, solid volume
   static constexpr int kVolume = 4;
 
  private:

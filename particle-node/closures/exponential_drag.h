@@ -9,6 +9,15 @@
 // lands on its terminal slip F_o/beta in one step without overshooting. The fluid receives the
 // same F_d with the opposite sign, so momentum is conserved exactly whatever dt is.
 // (Without F_o this is F_d = beta_eff (u - v0), beta_eff = m (1 - exp(-dt beta/m)) / dt.)
+//
+// Over a coupling interval of such steps, with the fluid velocity u held, the velocity's
+// sensitivity s = dv/du obeys 1 - s' = exp(-x) (1 - s) from s = 0, so the interval's drag impulse
+// J = sum F_d dt changes with u as
+//   dJ/du = m (1 - exp(-B/m)),   B = sum beta dt  (the interval's integral of beta)
+// (the other forces do not depend on u). It is what the fluid needs to treat the particles' drag
+// implicitly: for B << m it is B (the particle barely moves: beta for the whole interval); for
+// B >> m it is m (a particle that follows the flow takes from it no more than its own change of
+// momentum, however stiff its drag).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -42,6 +51,12 @@ inline Vec3 exponential_drag_force(double ratio, double beta, const Vec3& slip, 
 
 inline Vec3 exponential_drag_force(double mass, double beta, const Vec3& slip, const Vec3& other, double dt) {
   return exponential_drag_force(exponential_drag_ratio(mass, beta, dt), beta, slip, other);
+}
+
+// dJ/du = m (1 - exp(-B/m)) (kg) for B = the interval's integral of beta dt (kg), see above.
+inline double interval_drag_response(double mass, double beta_time) {
+  if (!(beta_time > 0)) return 0.0;
+  return -mass * std::expm1(-beta_time / mass);
 }
 
 }  // namespace hemo::particles

@@ -123,6 +123,7 @@ TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
   EXPECT_NEAR(s.platelet.semi_axis_c, 0.52e-6, 1e-18);
   EXPECT_EQ(s.platelet.orientation_integrator, "splitting");
   EXPECT_EQ(s.solid_fraction, "sphere_overlap");
+  EXPECT_EQ(s.implicit_drag, "interval_response");
   EXPECT_EQ(s.time.steps_per_contact, 10);
   EXPECT_EQ(s.time.relaxation_factor, 0);
   EXPECT_EQ(s.gravity.z, 0);
@@ -139,6 +140,7 @@ mass_scaling = 60
 [coupling]
 solid_fraction = "centre_cell"
 scheme = "parallel"
+implicit_drag = "instantaneous"
 [gravity]
 z_m_s2 = -9.81
 [time]
@@ -157,6 +159,7 @@ mass_scaling = 10
   EXPECT_EQ(t.solid_fraction, "centre_cell");
   EXPECT_EQ(s.coupling_scheme, "serial");
   EXPECT_EQ(t.coupling_scheme, "parallel");
+  EXPECT_EQ(t.implicit_drag, "instantaneous");
   EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
   EXPECT_EQ(t.time.steps_per_contact, 20);
   EXPECT_EQ(t.time.relaxation_factor, 2);
@@ -172,6 +175,7 @@ drag = "saffman"
 semi_axis_c_um = 3
 [coupling]
 solid_fraction = "kernel"
+implicit_drag = "explicit"
 )");
   std::map<std::string, std::string> by_key;
   for (auto& p : ps) by_key[p.key] = p.message;
@@ -179,6 +183,7 @@ solid_fraction = "kernel"
   EXPECT_NE(by_key["platelet.drag"].find("known: stokes, rbc_fit"), std::string::npos) << by_key["platelet.drag"];
   EXPECT_TRUE(by_key.count("platelet.semi_axis_c_um"));
   EXPECT_TRUE(by_key.count("coupling.solid_fraction"));
+  EXPECT_NE(by_key["coupling.implicit_drag"].find("interval_response"), std::string::npos);
 }
 
 TEST(Scene, ShippedScenesAreValid) {

@@ -116,3 +116,37 @@ TEST(ExponentialDrag, WithOtherForcesReachesTheExactTerminalSlipAtAnyStep) {
     EXPECT_LT((v - (u + other / beta)).norm(), 1e-9 * u.norm()) << "dt/tau " << ratio;
   }
 }
+
+TEST(ExponentialDrag, IntervalResponseIsTheDerivativeOfTheIntervalImpulse) {
+  // A coupling interval of DEM steps in a held fluid velocity u, with other forces and a beta
+  // that changes every few steps (closures refreshed every k steps): the interval's drag
+  // impulse J(u) is linear in u, and its slope must be m (1 - exp(-B/m)), B = sum beta dt,
+  // whatever the interval is against tau = m / beta (0.01 to 100 relaxation times).
+  const double m = 9.9e-14, beta0 = 1.9e-7, tau = m / beta0;
+  const Vec3 other(1e-12, 0, -3e-12), u(0, 0, 0.01), du(0, 0, 1e-3);
+  for (double interval_over_tau : {0.01, 0.3, 1.0, 5.0, 100.0}) {
+    const int steps = 40;
+    const double dt = interval_over_tau * tau / steps;
+    double beta_time = 0;
+    const auto impulse = [&](const Vec3& fluid) {
+      Vec3 v(0, 0, 0.004), j = Vec3::Zero();
+      beta_time = 0;
+      for (int n = 0; n < steps; ++n) {
+        const double beta = beta0 * (1.0 + 0.5 * ((n / 7) % 3));
+        const Vec3 f = exponential_drag_force(m, beta, fluid - v, other, dt);
+        v += (f + other) / m * dt;
+        j += f * dt;
+        beta_time += beta * dt;
+      }
+      return j;
+    };
+    const Vec3 slope = (impulse(u + du) - impulse(u)) / du.z();
+    const double response = interval_drag_response(m, beta_time);
+    EXPECT_NEAR(slope.z(), response, 1e-9 * response) << "interval/tau " << interval_over_tau;
+    EXPECT_NEAR(slope.x(), 0.0, 1e-9 * response);
+  }
+  // Limits: a particle that barely moves resists with beta dt; one that follows with its mass.
+  EXPECT_NEAR(interval_drag_response(m, 1e-6 * m), 1e-6 * m, 1e-12 * m);
+  EXPECT_NEAR(interval_drag_response(m, 50 * m), m, 1e-15 * m);
+  EXPECT_EQ(interval_drag_response(m, 0.0), 0.0);
+}
