@@ -190,6 +190,13 @@ struct Scene {
   // coupling interval much longer than their relaxation time it adds beta dt / V of inertia to
   // the fluid, ~27 times the plasma's in the calibration case).
   std::string implicit_drag = "interval_response";
+  // The implicit drag keeps back from the plasma K (U - U_seen) V of what the particles
+  // exchanged in a step (U_seen the velocity their feedback was computed in); the particles only
+  // take it up as they follow the flow in the next interval. true: the fluid hands it back in
+  // its next step, so momentum is conserved over two steps and the particles resist the flow's
+  // changes with their own mass, once; false: it is never handed back, and acts as inertia the
+  // coupling adds to the plasma (the particles' mass again with "interval_response").
+  bool return_held_back_momentum = true;
 };
 
 // One problem found in a scene, with where it is.

@@ -83,6 +83,7 @@ int main(int argc, char* argv[])
                 #include "momentumBudget.H"
                 #include "diagnostics.H"
                 #include "steadyCheck.H"
+                #include "holdBack.H"
                 const double diagnosticsSeconds = hemo::seconds_since(phaseStart);
                 phaseStart = std::chrono::steady_clock::now();
                 #include "publishState.H"

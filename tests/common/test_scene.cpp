@@ -124,6 +124,7 @@ TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
   EXPECT_EQ(s.platelet.orientation_integrator, "splitting");
   EXPECT_EQ(s.solid_fraction, "sphere_overlap");
   EXPECT_EQ(s.implicit_drag, "interval_response");
+  EXPECT_TRUE(s.return_held_back_momentum);
   EXPECT_EQ(s.time.steps_per_contact, 10);
   EXPECT_EQ(s.time.relaxation_factor, 0);
   EXPECT_EQ(s.gravity.z, 0);
@@ -141,6 +142,7 @@ mass_scaling = 60
 solid_fraction = "centre_cell"
 scheme = "parallel"
 implicit_drag = "instantaneous"
+return_held_back_momentum = false
 [gravity]
 z_m_s2 = -9.81
 [time]
@@ -160,6 +162,7 @@ mass_scaling = 10
   EXPECT_EQ(s.coupling_scheme, "serial");
   EXPECT_EQ(t.coupling_scheme, "parallel");
   EXPECT_EQ(t.implicit_drag, "instantaneous");
+  EXPECT_FALSE(t.return_held_back_momentum);
   EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
   EXPECT_EQ(t.time.steps_per_contact, 20);
   EXPECT_EQ(t.time.relaxation_factor, 2);
