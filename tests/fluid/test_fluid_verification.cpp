@@ -271,7 +271,9 @@ TEST(FluidContinuity, MovingSolidFractionBlobKeepsFluidMassToSolverTolerance) {
 // fixed phi = 0.2) in an undriven vessel starting at rest: the total fluid momentum
 // P = sum rho alpha u V, computed by the prescribed node from the velocities it received,
 // changes per unit time by F - sum K u V plus the wall's viscous force, which the fluid reports
-// (wall_force_z_N). The balance closes to solver tolerance at every step.
+// (wall_force_z_N), plus what the implicit drag kept back in the step before and hands back in
+// this one (returned_force_z_N, coupling.return_held_back_momentum). The balance closes to
+// solver tolerance at every step.
 TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   const double F = 1e-7;  // N
   SceneSpec s;
@@ -288,15 +290,16 @@ TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   const auto& drag = m.at({"particles", "fluid_drag_z_N"});
   const auto& sent = m.at({"particles", "source_total_z_N"});
   const auto& wall = m.at({"fluid", "wall_force_z_N"});
+  const auto& returned = m.at({"fluid", "returned_force_z_N"});
   const auto& own = m.at({"fluid", "momentum_budget_residual_z_N"});
   double worst = 0, worst_own = 0;
   std::printf("momentum source F = %g N (phi = 0.2, K = 1e6 N s/m^4, at rest, no driving):\n"
-              "  step  dP/dt N         F - drag + wall N  wall/F     residual/F\n", F);
+              "  step  dP/dt N         F - drag + ret + wall N  wall/F  residual/F\n", F);
   for (long k = 1; k <= s.steps; ++k) {
     EXPECT_NEAR(sent.at(k - 1), F, 1e-12 * F);
     const double before = k == 1 ? 0.0 : P.at(k - 1);  // the fluid starts at rest
     const double rate = (P.at(k) - before) / s.dt;
-    const double expected = sent.at(k - 1) - drag.at(k) + wall.at(k);
+    const double expected = sent.at(k - 1) - drag.at(k) + returned.at(k) + wall.at(k);
     const double residual = (rate - expected) / F;
     std::printf("  %4ld  %.9e  %.9e    %+.3e  %+.2e\n", k, rate, expected, wall.at(k) / F, residual);
     worst = std::max(worst, std::abs(residual));
@@ -307,6 +310,7 @@ TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   EXPECT_LT(worst_own, 1e-9);
   EXPECT_LT(std::abs(wall.at(1)), std::abs(wall.at(s.steps))) << "wall friction grows as the flow develops";
   EXPECT_GT(std::abs(wall.at(s.steps)) / F, 0.1) << "the test must see the wall";
+  EXPECT_GT(std::abs(returned.at(s.steps)) / F, 1e-3) << "the test must see the returned momentum";
 }
 
 // --- bad input: refused with one line naming the cause; the run stops keeping what it wrote ---
