@@ -181,14 +181,14 @@ TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
 TEST(CoupledRun, MixtureMomentumIsConservedOverTheExchange) {
   const auto not_received_over_particles = [](const std::string& dir) {
     const auto m = read_metrics(dir);
-    const double interval = 2e-5;
+    const hemo::Scene scene = hemo::load_scene(dir + "/scene.toml");
+    const double interval = scene.time.coupling_interval;
     double missing = 0;
     for (const auto& [k, received] : m.at({"fluid", "received_source_z_N"})) {
       const double applied = m.at({"fluid", "source_force_z_N"}).at(k) - m.at({"fluid", "drag_force_z_N"}).at(k) +
                              m.at({"fluid", "returned_force_z_N"}).at(k);
       missing += (received - applied) * interval;
     }
-    const hemo::Scene scene = hemo::load_scene(dir + "/scene.toml");
     const auto last = read_snapshot(dir + "/particles.h5", snapshot_names(dir + "/particles.h5").back());
     double particles = 0;
     for (std::size_t i = 0; i < last.id.size(); ++i)
