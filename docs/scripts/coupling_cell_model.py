@@ -14,7 +14,13 @@ given; the fluid then takes minus their impulse J, with the implicit drag K (U' 
 K dt = M dt / tau ("instantaneous", sum of beta) or M (1 - e) ("interval_response").
 Prints the largest decaying eigenvalue and the steady mixture acceleration against the exact
 f / (rho + M) (docs/performance.md, "the implicit drag's added inertia").
+
+With --forced: the coupled relaxation mode against the exact exp(-(dt/tau)(1 + M/rho)), and the
+long-time diffusivity of particles driven by a random force (correlation time tc, held over
+each DEM step of at most 2.5 tau, as contacts are), the fluid damped at rate gamma (its viscous
+time), against the same at dt = 0.05 tau (docs/performance.md, "what moves D at short intervals").
 """
+import sys
 import numpy as np
 
 
@@ -39,7 +45,47 @@ def mixture_acceleration(rho, M, tau, dt, k_dt, returned, steps=4000, f=1.0):
     return (U - U_prev) / dt * (rho + M) / f
 
 
-if __name__ == "__main__":
+def forced_diffusivity(M, tau, dt, gamma, tc, t_end=4000.0, realisations=64, fine=0.01):
+    """Slope of the particles' mean squared displacement / 2 under a random force (rho = 1)."""
+    rng = np.random.default_rng(1)  # the same force history for every dt: paired differences
+    substeps = max(1, int(np.ceil(dt / 2.5)))
+    h = dt / substeps
+    decay, draws = np.exp(-fine / tc), max(1, int(round(h / fine)))
+    U, v, x, R = (np.zeros(realisations) for _ in range(4))
+    force = rng.normal(size=realisations)
+    k_dt = M * (1 - np.exp(-dt / tau))
+    steps = int(t_end / dt)
+    msd = np.empty(steps)
+    for n in range(steps):
+        v0, impulse = v.copy(), np.zeros(realisations)
+        for _ in range(substeps):
+            terminal, e = U + force * tau / M, np.exp(-h / tau)
+            x += terminal * h + (v - terminal) * tau * (1 - e)
+            v = terminal + (v - terminal) * e
+            impulse += force * h
+            for _ in range(draws):
+                force = decay * force + np.sqrt(1 - decay**2) * rng.normal(size=realisations)
+        J = M * (v - v0) - impulse  # the drag impulse on the particles
+        U_new = (U - J + k_dt * U + R * dt) / (1 + k_dt + gamma * dt)
+        R, U = k_dt / dt * (U_new - U), U_new
+        msd[n] = np.mean(x**2)
+    t = dt * np.arange(1, steps + 1)
+    return np.polyfit(t[steps // 2:], msd[steps // 2:], 1)[0] / 2
+
+
+def print_forced(M=1.6, gamma=0.04, tc=10.0):
+    print(f"M/rho = {M}, fluid damping {gamma}/tau, force correlation {tc} tau")
+    print("dt/tau  relaxation |z|  exact    D / D(dt = 0.05 tau)")
+    reference = forced_diffusivity(M, 1.0, 0.05, gamma, tc)
+    for dt in (0.1, 0.5, 1.25, 2.5, 5.0, 20.0):
+        z = sorted(abs(np.linalg.eigvals(step_matrix(1.0, M, 1.0, dt, M * (1 - np.exp(-dt)), 1))))[-2]
+        d = forced_diffusivity(M, 1.0, dt, gamma, tc)
+        print(f"{dt:6.2f}  {z:14.4f}  {np.exp(-dt * (1 + M)):.4f}   {d / reference:.3f}")
+
+
+if __name__ == "__main__" and "--forced" in sys.argv:
+    print_forced()
+elif __name__ == "__main__":
     print("K              returned  M/rho  dt/tau  slow |z|  acceleration x (rho+M)/f")
     for name, returned in (("instantaneous", 0), ("interval_resp.", 0), ("interval_resp.", 1)):
         for m in (0.1, 1.6, 10.0):
