@@ -2,8 +2,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analytic_flow.h"
 
-#include <hemo/fluid_state_t.hpp>
+#include "cell_fields.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hemo {
@@ -49,14 +50,12 @@ void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const st
   const auto n = geometry.cell_centres.size();
   state.mesh_hash = mesh_hash;
   state.time_s = time_s;
-  state.n_cells = static_cast<int32_t>(n);
-  state.velocity.resize(n);
-  state.velocity_gradient.resize(n);
+  resize_cells(state, static_cast<int>(n));
   for (std::size_t c = 0; c < n; ++c) {
     const Vec3 u = flow.velocity(geometry.cell_centres[c]);
-    state.velocity[c].assign(u.begin(), u.end());
+    std::copy(u.begin(), u.end(), velocity_of(state, c));
     const auto g = flow.gradient(geometry.cell_centres[c]);
-    state.velocity_gradient[c].assign(g.begin(), g.end());
+    std::copy(g.begin(), g.end(), gradient_of(state, c));
   }
 }
 

@@ -14,6 +14,7 @@
 // (mesh, sizes, finite values) and its momentum source reported, but the flow never changes.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analytic_flow.h"
+#include "cell_fields.h"
 #include "feedback_check.h"
 #include "fluid_case.h"
 #include "vessel_mesh.h"
@@ -106,7 +107,7 @@ int main(int argc, char** argv) {
       double source[3] = {0, 0, 0};
       for (int c = 0; c < mesh.n_cells; ++c)
         for (int k = 0; k < 3; ++k)
-          source[k] += (fb.source_explicit[c][k] - fb.drag_coefficient[c] * state.velocity[c][k]) *
+          source[k] += (hemo::source_of(fb, c)[k] - fb.drag_coefficient[c] * hemo::velocity_of(state, c)[k]) *
                        geometry.cell_volumes[c];
       hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, step->order.time_s, state);
       diag = {{"time_s", step->order.time_s},

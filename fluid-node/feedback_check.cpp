@@ -2,6 +2,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "feedback_check.h"
 
+#include "cell_fields.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -22,10 +24,13 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
   if (fb.mesh_hash != mesh_hash)
     return "particle feedback is for mesh '" + fb.mesh_hash + "', the fluid mesh is '" + mesh_hash + "'" + step;
   const auto n = static_cast<std::size_t>(n_cells);
-  if (fb.n_cells != n_cells || fb.solid_fraction.size() != n || fb.source_explicit.size() != n ||
-      fb.drag_coefficient.size() != n)
+  if (fb.n_cells != n_cells || fb.solid_fraction.size() != n || fb.drag_coefficient.size() != n)
     return "particle feedback has " + std::to_string(fb.n_cells) + " cells, the fluid mesh " +
            std::to_string(n_cells) + step;
+  if (std::string why = flat_size_problem("explicit source", fb.n_source_values, fb.source_explicit,
+                                          kVectorValues, n_cells);
+      !why.empty())
+    return "particle feedback: " + why + step;
 
   long bad = 0, first = -1;
   double first_value = 0;
@@ -58,10 +63,10 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
     return format("particle feedback: cell %ld has drag coefficient %g N s/m^4 (must be finite, >= 0); "
                   "%ld cells bad", first, first_value, bad) + step;
   for (std::size_t i = 0; i < n; ++i) {
-    if (fb.source_explicit[i].size() != 3) return "particle feedback: explicit source is not 3 components per cell" + step;
-    for (double s : fb.source_explicit[i])
-      if (!std::isfinite(s)) {
-        flag(i, s);
+    const double* s = source_of(fb, i);
+    for (int k = 0; k < kVectorValues; ++k)
+      if (!std::isfinite(s[k])) {
+        flag(i, s[k]);
         break;
       }
   }

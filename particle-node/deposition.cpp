@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "deposition.h"
 
+#include "cell_fields.h"
+
 #include <algorithm>
 
 #include <stdexcept>
@@ -112,10 +114,7 @@ void Deposition::finish(double interval, const FluidSampler* fluid, particle_fee
   const int n = locator_->n_cells();
   const double inv_t = interval > 0 ? 1.0 / interval : 0.0;
   const bool have_u = fluid != nullptr && fluid->has_state();
-  out.n_cells = n;
-  out.solid_fraction.assign(n, 0.0);
-  out.source_explicit.assign(n, std::vector<double>(3, 0.0));
-  out.drag_coefficient.assign(n, 0.0);
+  resize_cells(out, n);
   Vec3 total = Vec3::Zero();
   for (int c = 0; c < n; ++c) {
     const double* a = &acc_[static_cast<std::size_t>(c) * kStride];
@@ -126,7 +125,7 @@ void Deposition::finish(double interval, const FluidSampler* fluid, particle_fee
     const Vec3 s = -force / v + k * u;
     out.solid_fraction[c] = a[kVolume] / v;
     out.drag_coefficient[c] = k;
-    for (int d = 0; d < 3; ++d) out.source_explicit[c][d] = s[d];
+    Eigen::Map<Vec3>(source_of(out, c)) = s;
     total += force;
   }
   for (int d = 0; d < 3; ++d) out.total_particle_force[d] = total[d];

@@ -1,46 +1,58 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "fluid_sampler.h"
 
+#include "cell_fields.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 namespace hemo::particles {
+namespace {
+
+// The length fields and arrays against n_cells: empty when they fit, else one line.
+std::string sizes_problem(const fluid_state_t& s) {
+  std::string why = flat_size_problem("velocity", s.n_velocity_values, s.velocity, kVectorValues, s.n_cells);
+  if (why.empty())
+    why = flat_size_problem("velocity gradient", s.n_gradient_values, s.velocity_gradient, kTensorValues, s.n_cells);
+  return why.empty() ? why : "fluid state: " + why;
+}
+
+}  // namespace
 
 std::string FluidSampler::check(const fluid_state_t& s, int n_cells, const std::string& mesh_hash) {
   if (s.mesh_hash != mesh_hash)
     return "fluid state is for mesh '" + s.mesh_hash + "', not the mesh received ('" + mesh_hash + "')";
-  if (s.n_cells != n_cells || static_cast<int>(s.velocity.size()) != n_cells ||
-      static_cast<int>(s.velocity_gradient.size()) != n_cells)
+  if (s.n_cells != n_cells)
     return "fluid state has " + std::to_string(s.n_cells) + " cells, the mesh has " + std::to_string(n_cells);
+  if (std::string why = sizes_problem(s); !why.empty()) return why;
   if (!std::isfinite(s.time_s)) return "fluid state time is not finite";
   for (int c = 0; c < n_cells; ++c) {
-    if (s.velocity[c].size() != 3 || s.velocity_gradient[c].size() != 9)
-      return "fluid state cell " + std::to_string(c) + " has malformed vectors";
-    for (double v : s.velocity[c])
-      if (!std::isfinite(v)) return "fluid velocity is not finite in cell " + std::to_string(c);
-    for (double v : s.velocity_gradient[c])
-      if (!std::isfinite(v)) return "fluid velocity gradient is not finite in cell " + std::to_string(c);
+    for (int k = 0; k < kVectorValues; ++k)
+      if (!std::isfinite(velocity_of(s, c)[k])) return "fluid velocity is not finite in cell " + std::to_string(c);
+    for (int k = 0; k < kTensorValues; ++k)
+      if (!std::isfinite(gradient_of(s, c)[k]))
+        return "fluid velocity gradient is not finite in cell " + std::to_string(c);
   }
   return {};
 }
 
 void FluidSampler::set_state(const fluid_state_t& s) {
   const int n = locator_->n_cells();
-  if (s.n_cells != n || static_cast<int>(s.velocity.size()) != n ||
-      static_cast<int>(s.velocity_gradient.size()) != n)
+  if (s.n_cells != n)
     throw std::invalid_argument("fluid state has " + std::to_string(s.n_cells) + " cells, the mesh has " +
                                 std::to_string(n));
+  if (std::string why = sizes_problem(s); !why.empty()) throw std::invalid_argument(why);
   velocity_.resize(n);
   gradient_.resize(n);
   shear_rate_.resize(n);
   max_speed_ = 0;
   for (int c = 0; c < n; ++c) {
-    if (s.velocity[c].size() != 3 || s.velocity_gradient[c].size() != 9)
-      throw std::invalid_argument("fluid state cell " + std::to_string(c) + " has malformed vectors");
-    velocity_[c] = Vec3(s.velocity[c][0], s.velocity[c][1], s.velocity[c][2]);
+    const double* u = velocity_of(s, c);
+    const double* g = gradient_of(s, c);  // row-major G[i][j]
+    velocity_[c] = Vec3(u[0], u[1], u[2]);
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) gradient_[c](i, j) = s.velocity_gradient[c][3 * i + j];
+      for (int j = 0; j < 3; ++j) gradient_[c](i, j) = g[3 * i + j];
     if (!velocity_[c].allFinite() || !gradient_[c].allFinite())
       throw std::invalid_argument("fluid state is not finite in cell " + std::to_string(c));
     const Mat3 strain = 0.5 * (gradient_[c] + gradient_[c].transpose());
@@ -73,10 +85,10 @@ void FluidSampler::set_state(const std::vector<double>& velocities, const std::v
                                 std::to_string(n));
   fluid_state_t s;
   s.n_cells = static_cast<int>(n);
-  for (std::size_t c = 0; c < n; ++c) {
-    s.velocity.emplace_back(&velocities[3 * c], &velocities[3 * c] + 3);
-    s.velocity_gradient.emplace_back(&gradients[9 * c], &gradients[9 * c] + 9);
-  }
+  s.n_velocity_values = static_cast<int>(velocities.size());
+  s.n_gradient_values = static_cast<int>(gradients.size());
+  s.velocity = velocities;
+  s.velocity_gradient = gradients;
   set_state(s);
 }
 

@@ -28,7 +28,7 @@ class FluidSampler {
   void set_state(const std::vector<double>& velocities, const std::vector<double>& gradients);
 
   // Checks a fluid state against the mesh without keeping it: empty string when fine, else a
-  // one-line reason (wrong size, wrong mesh hash, non-finite value in cell i).
+  // one-line reason (wrong mesh hash, wrong cell count or array length, non-finite value in cell i).
   static std::string check(const fluid_state_t& state, int n_cells, const std::string& mesh_hash);
 
   // u(x) = u_c + G^T (x - x_c), with G[i][j] = d u_j / d x_i; x already wrapped into the

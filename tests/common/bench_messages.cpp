@@ -6,11 +6,11 @@
 #include "bus.h"
 #include "test_helpers.h"
 
-#include <hemo/fluid_state_t.hpp>
-#include <hemo/particle_feedback_t.hpp>
+#include "cell_fields.h"
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <atomic>
 #include <thread>
 
@@ -22,19 +22,19 @@ constexpr int kPaperCells = 1536;
 fluid_state_t make_state(int cells) {
   fluid_state_t s{};
   s.mesh_hash = "0123456789abcdef";
-  s.n_cells = cells;
-  s.velocity.assign(cells, std::vector<double>(3, 1e-3));
-  s.velocity_gradient.assign(cells, std::vector<double>(9, 10.0));
+  resize_cells(s, cells);
+  std::fill(s.velocity.begin(), s.velocity.end(), 1e-3);
+  std::fill(s.velocity_gradient.begin(), s.velocity_gradient.end(), 10.0);
   return s;
 }
 
 particle_feedback_t make_feedback(int cells) {
   particle_feedback_t f{};
   f.mesh_hash = "0123456789abcdef";
-  f.n_cells = cells;
-  f.solid_fraction.assign(cells, 0.15);
-  f.source_explicit.assign(cells, std::vector<double>(3, 1.0));
-  f.drag_coefficient.assign(cells, 1e6);
+  resize_cells(f, cells);
+  std::fill(f.solid_fraction.begin(), f.solid_fraction.end(), 0.15);
+  std::fill(f.source_explicit.begin(), f.source_explicit.end(), 1.0);
+  std::fill(f.drag_coefficient.begin(), f.drag_coefficient.end(), 1e6);
   return f;
 }
 

@@ -1,8 +1,8 @@
 // The bus: signed messages arrive; tampered, foreign, replayed and corrupt ones are counted and dropped.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "cell_fields.h"
 #include "test_helpers.h"
 
-#include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
@@ -129,9 +129,11 @@ TEST(Bus, EachProcessHearsOnlyWhatIsMeantForIt) {
   Bus coordinator(ctx, "coordinator", channel::heard_by_coordinator());
   Bus particles(ctx, "particles", channel::heard_by_particles());
   fluid_state_t state{};
-  state.n_cells = 2000;  // a few datagrams, as at the paper's mesh
-  state.velocity.assign(2000, {0.1, 0.2, 0.3});
-  state.velocity_gradient.assign(2000, std::vector<double>(9, 0.0));
+  resize_cells(state, 2000);  // a few datagrams, as at the paper's mesh
+  for (int c = 0; c < 2000; ++c) {
+    double* u = velocity_of(state, c);
+    u[0] = 0.1, u[1] = 0.2, u[2] = 0.3;
+  }
   fluid.publish(channel::fluid_state, state, 1);
   step_done_t done{};
   done.node = "fluid";
@@ -141,7 +143,7 @@ TEST(Bus, EachProcessHearsOnlyWhatIsMeantForIt) {
   const auto heard_by_particles = collect(particles, 3, 1);
   ASSERT_EQ(heard_by_particles.size(), 1u);
   EXPECT_EQ(heard_by_particles[0].kind, channel::fluid_state);
-  EXPECT_EQ(heard_by_particles[0].as<fluid_state_t>().velocity[1999][2], 0.3);
+  EXPECT_EQ(velocity_of(heard_by_particles[0].as<fluid_state_t>(), 1999)[2], 0.3);
 
   const auto heard_by_coordinator = collect(coordinator, 3, 2);
   ASSERT_EQ(heard_by_coordinator.size(), 1u);

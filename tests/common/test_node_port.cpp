@@ -1,6 +1,7 @@
 // The node-port protocol over real LCM: lockstep order of data, and recovery from lost datagrams.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "node_port.h"
+#include "cell_fields.h"
 #include "test_helpers.h"
 
 #include <hemo/step_done_t.hpp>
@@ -28,13 +29,12 @@ void run_fluid(const RunContext& ctx, Trace& trace) {
   port.initialize(mesh);
   fluid_state_t state{};
   state.mesh_hash = "m1";
-  state.n_cells = 1;
-  state.velocity = {{1.0, 0, 0}};
-  state.velocity_gradient.assign(1, std::vector<double>(9, 0.0));
+  resize_cells(state, 1);
+  velocity_of(state, 0)[0] = 1.0;
   while (auto step = port.advance(state, {{"courant_max", 0.1}})) {
     const double seen = step->feedback.solid_fraction.at(0);
     trace.fluid_saw.push_back(seen);
-    state.velocity[0][0] = 10 * seen + 1;
+    velocity_of(state, 0)[0] = 10 * seen + 1;
   }
   trace.resend_requests += port.bus().counters().resend_requests;
   port.finalize();
@@ -46,12 +46,9 @@ void run_particles(const RunContext& ctx, Trace& trace, bool parallel) {
   ASSERT_EQ(mesh.mesh_hash, "m1");
   particle_feedback_t fb{};
   fb.mesh_hash = "m1";
-  fb.n_cells = 1;
-  fb.solid_fraction = {0.0};
-  fb.source_explicit = {{0, 0, 0}};
-  fb.drag_coefficient = {0};
+  resize_cells(fb, 1);
   while (auto step = port.advance(fb)) {
-    const double seen = step->fluid.velocity.at(0).at(0);
+    const double seen = velocity_of(step->fluid, 0)[0];
     trace.particles_saw.push_back(seen);
     fb.solid_fraction[0] = seen;
   }

@@ -31,6 +31,7 @@
 //   [run] particle_command = "/path/to/hemocosim-prescribed-particles --mode blob --blob-phi 0.3"
 // The coordinator appends --scene, --run-dir and the bus options.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <cell_fields.h>
 #include <checkpoint.h>
 #include <node_port.h>
 #include <scene.h>
@@ -89,10 +90,7 @@ class Prescription {
     const int n = mesh_.n_cells;
     hemo::particle_feedback_t fb;
     fb.mesh_hash = mesh_.mesh_hash;
-    fb.n_cells = n;
-    fb.solid_fraction.assign(n, 0.0);
-    fb.source_explicit.assign(n, std::vector<double>(3, 0.0));
-    fb.drag_coefficient.assign(n, 0.0);
+    hemo::resize_cells(fb, n);
     for (double& f : fb.total_particle_force) f = 0;
 
     if (opt_.mode == Mode::uniform || opt_.mode == Mode::blob || opt_.mode == Mode::source)
@@ -106,7 +104,7 @@ class Prescription {
     }
     if (opt_.mode == Mode::source) {
       for (int c = 0; c < n; ++c) {
-        for (int d = 0; d < 3; ++d) fb.source_explicit[c][d] = opt_.force[d] / total_volume_;
+        for (int d = 0; d < 3; ++d) hemo::source_of(fb, c)[d] = opt_.force[d] / total_volume_;
         fb.drag_coefficient[c] = opt_.drag_coefficient;
       }
       // The particles would feel minus what the fluid receives (at zero fluid velocity).
@@ -117,8 +115,9 @@ class Prescription {
       if (opt_.mode == Mode::nan) fb.solid_fraction[n / 2] = std::numeric_limits<double>::quiet_NaN();
       if (opt_.mode == Mode::wrong_size) {
         fb.n_cells = n - 1;
+        fb.n_source_values = 3 * (n - 1);
         fb.solid_fraction.pop_back();
-        fb.source_explicit.pop_back();
+        fb.source_explicit.resize(static_cast<std::size_t>(fb.n_source_values));
         fb.drag_coefficient.pop_back();
       }
       if (opt_.mode == Mode::wrong_mesh) fb.mesh_hash = "0123456789abcdef";
@@ -168,7 +167,7 @@ hemo::Diagnostics diagnostics(const hemo::mesh_t& mesh, const hemo::particle_fee
       // clean (the coordinator's guards would otherwise stop the run on the report first), so
       // that the fluid node itself must refuse the NaN it receives.
       if (std::isfinite(sent.solid_fraction[c])) solid += sent.solid_fraction[c] * mesh.cell_volumes[c];
-      for (int k = 0; k < 3; ++k) source[k] += sent.source_explicit[c][k] * mesh.cell_volumes[c];
+      for (int k = 0; k < 3; ++k) source[k] += hemo::source_of(sent, c)[k] * mesh.cell_volumes[c];
     }
   }
   d.push_back({"solid_volume_m3", solid});
@@ -183,8 +182,8 @@ hemo::Diagnostics diagnostics(const hemo::mesh_t& mesh, const hemo::particle_fee
       const double V = mesh.cell_volumes[c];
       const double m = density * (1 - sent_before.solid_fraction[c]) * V;
       for (int k = 0; k < 3; ++k) {
-        p[k] += m * fluid->velocity[c][k];
-        drag[k] += sent_before.drag_coefficient[c] * fluid->velocity[c][k] * V;
+        p[k] += m * hemo::velocity_of(*fluid, c)[k];
+        drag[k] += sent_before.drag_coefficient[c] * hemo::velocity_of(*fluid, c)[k] * V;
       }
     }
     d.push_back({"fluid_momentum_x_kg_m_s", p[0]});
@@ -207,8 +206,8 @@ void record_state(const std::string& path, const hemo::mesh_t& mesh, const hemo:
     const auto& x = mesh.cell_centres[c];
     const double phi = phi_source.n_cells == mesh.n_cells ? phi_source.solid_fraction[c] : 0.0;
     out << c << ',' << x[0] << ',' << x[1] << ',' << x[2] << ',' << mesh.cell_volumes[c] << ',' << phi;
-    for (double v : fluid.velocity[c]) out << ',' << v;
-    for (double g : fluid.velocity_gradient[c]) out << ',' << g;
+    for (int k = 0; k < hemo::kVectorValues; ++k) out << ',' << hemo::velocity_of(fluid, c)[k];
+    for (int k = 0; k < hemo::kTensorValues; ++k) out << ',' << hemo::gradient_of(fluid, c)[k];
     out << '\n';
   }
   out.close();

@@ -3,8 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "analytic_flow.h"
-
-#include <hemo/fluid_state_t.hpp>
+#include "cell_fields.h"
 
 #include <cmath>
 
@@ -62,8 +61,8 @@ TEST(AnalyticFlow, FillsTheStateAtCellCentres) {
   EXPECT_EQ(state.mesh_hash, "hash");
   EXPECT_DOUBLE_EQ(state.time_s, 0.25);
   for (int c = 0; c < mesh.n_cells; c += 97) {
-    EXPECT_DOUBLE_EQ(state.velocity[c][2], flow.velocity(geo.cell_centres[c])[2]);
-    EXPECT_DOUBLE_EQ(state.velocity_gradient[c][1 * 3 + 2], flow.gradient(geo.cell_centres[c])[1 * 3 + 2]);
+    EXPECT_DOUBLE_EQ(hemo::velocity_of(state, c)[2], flow.velocity(geo.cell_centres[c])[2]);
+    EXPECT_DOUBLE_EQ(hemo::gradient_of(state, c)[1 * 3 + 2], flow.gradient(geo.cell_centres[c])[1 * 3 + 2]);
   }
 }
 

@@ -2,9 +2,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 
+#include "cell_fields.h"
 #include "feedback_check.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 namespace {
 
@@ -12,10 +16,13 @@ hemo::particle_feedback_t good(int n) {
   hemo::particle_feedback_t fb;
   fb.envelope.step = 7;
   fb.mesh_hash = "abc";
-  fb.n_cells = n;
-  fb.solid_fraction.assign(n, 0.2);
-  fb.source_explicit.assign(n, std::vector<double>{1, 2, 3});
-  fb.drag_coefficient.assign(n, 1e3);
+  hemo::resize_cells(fb, n);
+  std::fill(fb.solid_fraction.begin(), fb.solid_fraction.end(), 0.2);
+  for (int c = 0; c < n; ++c) {
+    double* s = hemo::source_of(fb, c);
+    s[0] = 1, s[1] = 2, s[2] = 3;
+  }
+  std::fill(fb.drag_coefficient.begin(), fb.drag_coefficient.end(), 1e3);
   return fb;
 }
 
@@ -50,8 +57,38 @@ TEST(FeedbackCheck, NamesEachCauseOnOneLine) {
   fb.drag_coefficient[4] = -1;
   expect(fb, 5, "cell 4 has drag coefficient -1");
   fb = good(5);
-  fb.source_explicit[0][2] = std::numeric_limits<double>::infinity();
+  hemo::source_of(fb, 0)[2] = std::numeric_limits<double>::infinity();
   expect(fb, 5, "cell 0 has a non-finite explicit source");
+}
+
+// The feedback as the fluid node receives it: encoded by the sender, decoded from the bytes.
+hemo::particle_feedback_t over_the_wire(const hemo::particle_feedback_t& fb) {
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(fb.getEncodedSize()));
+  EXPECT_EQ(fb.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  hemo::particle_feedback_t out;
+  EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  return out;
+}
+
+TEST(FeedbackCheck, RejectsAForgedSourceLength) {
+  EXPECT_EQ(hemo::feedback_problem(over_the_wire(good(5)), "abc", 5), "");
+  // n_cells fits the mesh but the explicit source holds one value too few or a cell too many:
+  // it decodes fine and must not reach the solver.
+  auto fb = good(5);
+  fb.n_source_values = 14;
+  fb.source_explicit.resize(14);
+  EXPECT_EQ(hemo::feedback_problem(over_the_wire(fb), "abc", 5),
+            "particle feedback: explicit source has 14 values, not 3 per cell of 5 cells (step 7)");
+  fb = good(5);
+  fb.n_source_values = 18;
+  fb.source_explicit.resize(18);
+  EXPECT_EQ(hemo::feedback_problem(over_the_wire(fb), "abc", 5),
+            "particle feedback: explicit source has 18 values, not 3 per cell of 5 cells (step 7)");
+  // A length field that disagrees with its own array (built in process, never encoded).
+  fb = good(5);
+  fb.n_source_values = 5;
+  EXPECT_EQ(hemo::feedback_problem(fb, "abc", 5),
+            "particle feedback: explicit source has 5 values, not 3 per cell of 5 cells (step 7)");
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "fluid_run.h"
 
 #include <bus.h>
+#include <cell_fields.h>
 #include <checkpoint.h>
 #include <node_port.h>
 
@@ -55,10 +56,7 @@ hemo::particle_feedback_t moving_blob(const hemo::mesh_t& mesh, long /*step*/, d
   const double zb = std::fmod(0.5 * L + 0.05 * time_s, L);
   hemo::particle_feedback_t fb;
   fb.mesh_hash = mesh.mesh_hash;
-  fb.n_cells = n;
-  fb.solid_fraction.resize(static_cast<std::size_t>(n));
-  fb.drag_coefficient.resize(static_cast<std::size_t>(n));
-  fb.source_explicit.resize(static_cast<std::size_t>(n));
+  hemo::resize_cells(fb, n);
   for (int c = 0; c < n; ++c) {
     const auto& x = mesh.cell_centres[static_cast<std::size_t>(c)];
     double dz = x[2] - zb;
@@ -66,7 +64,8 @@ hemo::particle_feedback_t moving_blob(const hemo::mesh_t& mesh, long /*step*/, d
     const double blob = std::exp(-((x[0] - 15e-6) * (x[0] - 15e-6) + x[1] * x[1] + dz * dz) / (2 * sigma * sigma));
     fb.solid_fraction[static_cast<std::size_t>(c)] = 0.1 + 0.25 * blob;
     fb.drag_coefficient[static_cast<std::size_t>(c)] = 1e6 * blob;
-    fb.source_explicit[static_cast<std::size_t>(c)] = {2e3 * blob, 0.0, 1e4 * blob};
+    double* s = hemo::source_of(fb, static_cast<std::size_t>(c));
+    s[0] = 2e3 * blob, s[1] = 0.0, s[2] = 1e4 * blob;
   }
   for (double& f : fb.total_particle_force) f = 0;
   return fb;
@@ -219,14 +218,12 @@ Difference compare_states(const Published& a, const Published& b, long from) {
     if (sa.n_cells != sb.n_cells) continue;
     ++d.steps;
     d.time = std::max(d.time, std::abs(sa.time_s - sb.time_s));
-    for (int c = 0; c < sa.n_cells; ++c) {
-      for (int j = 0; j < 3; ++j) {
-        d.velocity = std::max(d.velocity, std::abs(sa.velocity[c][j] - sb.velocity[c][j]));
-        d.velocity_scale = std::max(d.velocity_scale, std::abs(sa.velocity[c][j]));
-      }
-      for (int j = 0; j < 9; ++j)
-        d.gradient = std::max(d.gradient, std::abs(sa.velocity_gradient[c][j] - sb.velocity_gradient[c][j]));
+    for (std::size_t i = 0; i < sa.velocity.size(); ++i) {
+      d.velocity = std::max(d.velocity, std::abs(sa.velocity[i] - sb.velocity.at(i)));
+      d.velocity_scale = std::max(d.velocity_scale, std::abs(sa.velocity[i]));
     }
+    for (std::size_t i = 0; i < sa.velocity_gradient.size(); ++i)
+      d.gradient = std::max(d.gradient, std::abs(sa.velocity_gradient[i] - sb.velocity_gradient.at(i)));
   }
   return d;
 }

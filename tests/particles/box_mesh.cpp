@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "box_mesh.h"
 
+#include "cell_fields.h"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -146,14 +148,14 @@ fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time)
   fluid_state_t s;
   s.mesh_hash = mesh.mesh_hash;
   s.time_s = time;
-  s.n_cells = mesh.n_cells;
+  resize_cells(s, mesh.n_cells);
   for (int c = 0; c < mesh.n_cells; ++c) {
     std::array<double, 3> x{mesh.cell_centres[c][0], mesh.cell_centres[c][1], mesh.cell_centres[c][2]};
     std::array<double, 3> u{};
     std::array<double, 9> g{};
     field(x, u, g);
-    s.velocity.emplace_back(u.begin(), u.end());
-    s.velocity_gradient.emplace_back(g.begin(), g.end());
+    std::copy(u.begin(), u.end(), velocity_of(s, c));
+    std::copy(g.begin(), g.end(), gradient_of(s, c));
   }
   return s;
 }

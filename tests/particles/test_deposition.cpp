@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "box_mesh.h"
+#include "cell_fields.h"
 #include "deposition.h"
 
 #include <gtest/gtest.h>
@@ -51,7 +52,7 @@ TEST(Deposition, ConservesVolumeAndMomentumToRoundOff) {
   for (int c = 0; c < fb.n_cells; ++c) {
     EXPECT_GE(fb.drag_coefficient[c], 0.0);
     phi_v += fb.solid_fraction[c] * loc.volume(c);
-    const Vec3 s(fb.source_explicit[c][0], fb.source_explicit[c][1], fb.source_explicit[c][2]);
+    const Vec3 s = Eigen::Map<const Vec3>(hemo::source_of(fb, c));
     fluid_gets += (s - fb.drag_coefficient[c] * fluid.cell_velocity(c)) * loc.volume(c);
   }
   EXPECT_NEAR(phi_v, volume_sum, 1e-13 * volume_sum);
@@ -154,7 +155,7 @@ TEST(SphereOverlap, ConservesVolumeAndMomentumCellByCellAndIsContinuous) {
   Vec3 fluid_gets = Vec3::Zero();
   for (int c = 0; c < fb.n_cells; ++c) {
     phi_v += fb.solid_fraction[c] * loc.volume(c);
-    const Vec3 s(fb.source_explicit[c][0], fb.source_explicit[c][1], fb.source_explicit[c][2]);
+    const Vec3 s = Eigen::Map<const Vec3>(hemo::source_of(fb, c));
     // Cell by cell: (S - K u_c) V = -(the share of the force deposited in c).
     const double* a = dep.data() + c * Deposition::kStride;
     const Vec3 share_force = Vec3(a[0], a[1], a[2]) / interval;

@@ -6,6 +6,7 @@
 // deposited solid volume the particles' volume, and the particles' momentum must change by
 // exactly the fluid's impulse (nothing touches the wall in this short run).
 #include "box_mesh.h"
+#include "cell_fields.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
 
@@ -62,7 +63,7 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
     // small difference of large terms: particles move nearly with the plasma)
     double solid = 0, scale = 0;
     for (int c = 0; c < fb.n_cells; ++c) {
-      const Vec3 s(fb.source_explicit[c][0], fb.source_explicit[c][1], fb.source_explicit[c][2]);
+      const Vec3 s = Eigen::Map<const Vec3>(hemo::source_of(fb, c));
       const Vec3 cell_back = (s - fb.drag_coefficient[c] * fluid.cell_velocity(c)) * locator.volume(c);
       back += cell_back;
       scale += (s.norm() + fb.drag_coefficient[c] * fluid.cell_velocity(c).norm()) * locator.volume(c);

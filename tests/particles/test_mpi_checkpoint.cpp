@@ -63,7 +63,8 @@ TEST(NodeCheckpointMpi, ResumedOnAsManyRanksGoesOnBitForBit) {
     for (long k = 1; k <= K + N; ++k) {
       const auto fb = take_step(node, k, fluid);
       if (k <= K) continue;
-      const auto a = flat(written[k].source_explicit), c = flat(fb.source_explicit);
+      const std::vector<double>& a = written[k].source_explicit;
+      const std::vector<double>& c = fb.source_explicit;
       double worst = 0, largest = 0;
       for (std::size_t i = 0; i < c.size(); ++i) {
         worst = std::max(worst, std::abs(a[i] - c[i]));

@@ -109,7 +109,8 @@ TEST(NodeCheckpoint, WritingACheckpointChangesTheRunOnlyByRoundOff) {
     ASSERT_EQ(a.position.size(), c.position.size());
     worst_x = std::max(worst_x, max_difference(a.position, c.position) / kL);
     worst_v = std::max(worst_v, max_difference(a.velocity, c.velocity) / largest(c.velocity));
-    const auto sa = flat(with[k].source_explicit), sc = flat(without[k].source_explicit);
+    const std::vector<double>& sa = with[k].source_explicit;
+    const std::vector<double>& sc = without[k].source_explicit;
     worst_s = std::max(worst_s, max_difference(sa, sc) / largest(sc));
   }
   std::printf("[ info ] with a checkpoint at step %ld against without, over steps %ld..%ld: positions %.2e L, "

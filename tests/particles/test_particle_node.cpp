@@ -2,6 +2,7 @@
 // The node's steps without the bus: set-up, step-0 feedback, a few coupled steps in a synthetic
 // Poiseuille flow on a polygonal vessel mesh, output, diagnostics, fluid-state checks.
 #include "box_mesh.h"
+#include "cell_fields.h"
 #include "h5_output.h"
 #include "particle_node.h"
 
@@ -57,7 +58,8 @@ TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   // The fluid gets back minus the particle force: sum over cells of (S - K u_c) V = -F.
   double back = 0;
   for (int c = 0; c < fb.n_cells; ++c)
-    back += (fb.source_explicit[c][2] - fb.drag_coefficient[c] * fluid.velocity[c][2]) * mesh.cell_volumes[c];
+    back += (hemo::source_of(fb, c)[2] - fb.drag_coefficient[c] * hemo::velocity_of(fluid, c)[2]) *
+            mesh.cell_volumes[c];
   EXPECT_NEAR(back, -fb.total_particle_force[2], 1e-12 * std::abs(diag["core_fluid_axial_velocity_m_s"] * 1e-6));
 
   EXPECT_EQ(list_snapshots((dir / "particles.h5").string()), (std::vector<long>{0, 5}));
@@ -70,7 +72,7 @@ TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   other.mesh_hash = "other";
   EXPECT_NE(node.check(other).find("mesh"), std::string::npos);
   auto nan = fluid;
-  nan.velocity_gradient[3][4] = std::nan("");
+  hemo::gradient_of(nan, 3)[4] = std::nan("");
   EXPECT_NE(node.check(nan).find("cell 3"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
