@@ -4,9 +4,16 @@
 
     /usr/bin/python3 docs/scripts/plasma_transverse_rms.py RUN_DIR...
 
-For every time directory of RUN_DIR/fluid (after t = 0) prints sqrt(<U_x^2 + U_y^2>) over the
-cells (mm/s; the vessel's axis is z, so this is the cross-flow stirring the particles' feedback
-drives), then its mean from t = 0.02 s (docs/performance.md, "what moves D at short intervals").
+The vessel's axis is z, so U_x, U_y are the cross-flow the particles' feedback stirs. For each
+run, over the fluid snapshots from t = 0.02 s (docs/performance.md, "what moves D at short
+intervals"), in mm/s:
+  rms            sqrt<U_x^2 + U_y^2> over the cells (and per snapshot)
+  grid-scale     rms of U - (mean of the cell's face neighbours), transverse part; for a field
+                 uncorrelated between cells it is about the rms itself, for a smooth one small
+  neighbour mean rms of that mean
+  face flux      on the faces across the flow (normal within 60 deg of the section): rms of
+                 phi_f/|S_f|, of the interpolated cell velocity (U_o + U_n)/2 . n, and of
+                 their difference
 """
 import os
 import re
@@ -14,15 +21,45 @@ import sys
 
 import numpy as np
 
-VECTOR_FIELD = re.compile(r"internalField\s+nonuniform\s+List<vector>\s*\n(\d+)\s*\n\(")
+
+def _list_body(path, kind):
+    text = open(path).read()
+    if kind is None:
+        header = re.search(r"\n(\d+)\s*\n\(", text)
+    else:
+        header = re.search(r"internalField\s+nonuniform\s+List<" + kind + r">\s*\n(\d+)\s*\n\(", text)
+    return int(header.group(1)), text[header.end():]
 
 
 def cell_vectors(path):
-    text = open(path).read()
-    header = VECTOR_FIELD.search(text)
-    count = int(header.group(1))
-    rows = re.findall(r"\(([^()]+)\)", text[header.end():])[:count]
+    count, body = _list_body(path, "vector")
+    rows = re.findall(r"\(([^()]+)\)", body)[:count]
     return np.array([[float(x) for x in row.split()] for row in rows])
+
+
+def cell_scalars(path):
+    count, body = _list_body(path, "scalar")
+    return np.array(body.split(")")[0].split()[:count], dtype=float)
+
+
+def mesh_labels(path):
+    count, body = _list_body(path, None)
+    return np.array(body.split(")")[0].split()[:count], dtype=int)
+
+
+def internal_faces(run):
+    """Owner, neighbour, unit normal and area of every internal face."""
+    mesh = f"{run}/fluid/constant/polyMesh"
+    count, body = _list_body(f"{mesh}/points", None)
+    points = np.array([[float(x) for x in row.split()] for row in re.findall(r"\(([^()]+)\)", body)[:count]])
+    count, body = _list_body(f"{mesh}/faces", None)
+    faces = [list(map(int, row.split())) for row in re.findall(r"\d+\(([^()]+)\)", body)[:count]]
+    neighbour = mesh_labels(f"{mesh}/neighbour")
+    owner = mesh_labels(f"{mesh}/owner")[: len(neighbour)]
+    area_vectors = np.array([0.5 * sum(np.cross(points[f[i]], points[f[(i + 1) % len(f)]]) for i in range(len(f)))
+                             for f in faces[: len(neighbour)]])
+    areas = np.linalg.norm(area_vectors, axis=1)
+    return owner, neighbour, area_vectors / areas[:, None], areas
 
 
 def snapshot_times(run):
@@ -30,11 +67,36 @@ def snapshot_times(run):
     return sorted((d for d in names if float(d) > 0), key=float)
 
 
+def transverse_measures(run, U, phi, faces):
+    owner, neighbour, normals, areas = faces
+    T = U[:, :2]
+    total, count = np.zeros_like(T), np.zeros(len(T))
+    np.add.at(total, owner, T[neighbour])
+    np.add.at(total, neighbour, T[owner])
+    np.add.at(count, owner, 1)
+    np.add.at(count, neighbour, 1)
+    neighbour_mean = total / count[:, None]
+    across = np.abs(normals[:, 2]) < 0.5
+    flux_velocity = (phi[: len(neighbour)] / areas)[across]
+    cell_velocity = (0.5 * (U[owner] + U[neighbour]) * normals).sum(axis=1)[across]
+
+    def rms(x):
+        return np.sqrt(np.mean(x**2) * (x.shape[1] if x.ndim == 2 else 1))
+
+    return [rms(T), rms(T - neighbour_mean), rms(neighbour_mean),
+            rms(flux_velocity), rms(cell_velocity), rms(flux_velocity - cell_velocity)]
+
+
 if __name__ == "__main__":
     for run in sys.argv[1:]:
-        series = []
+        faces = internal_faces(run)
+        per_snapshot, late = [], []
         for t in snapshot_times(run):
-            U = cell_vectors(f"{run}/fluid/{t}/U")
-            series.append((float(t), np.sqrt(np.mean(U[:, 0] ** 2 + U[:, 1] ** 2)) * 1e3))
-        late = [rms for t, rms in series if t >= 0.02]
-        print(f"{run}: {' '.join(f'{rms:.3f}' for _, rms in series)}  mean from 0.02 s: {np.mean(late):.3f} mm/s")
+            m = transverse_measures(run, cell_vectors(f"{run}/fluid/{t}/U"), cell_scalars(f"{run}/fluid/{t}/phi"), faces)
+            per_snapshot.append(m[0] * 1e3)
+            if float(t) >= 0.02:
+                late.append(m)
+        r = np.mean(late, axis=0) * 1e3
+        print(f"{run}: rms per snapshot {' '.join(f'{x:.3f}' for x in per_snapshot)}")
+        print(f"  from 0.02 s: rms {r[0]:.3f}, grid-scale {r[1]:.3f}, neighbour mean {r[2]:.3f}; "
+              f"face flux {r[3]:.3f}, interpolated cells {r[4]:.3f}, difference {r[5]:.3f} mm/s")
