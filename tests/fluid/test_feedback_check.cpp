@@ -4,6 +4,7 @@
 
 #include "cell_fields.h"
 #include "feedback_check.h"
+#include "over_the_wire.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -61,28 +62,19 @@ TEST(FeedbackCheck, NamesEachCauseOnOneLine) {
   expect(fb, 5, "cell 0 has a non-finite explicit source");
 }
 
-// The feedback as the fluid node receives it: encoded by the sender, decoded from the bytes.
-hemo::particle_feedback_t over_the_wire(const hemo::particle_feedback_t& fb) {
-  std::vector<std::uint8_t> buf(static_cast<std::size_t>(fb.getEncodedSize()));
-  EXPECT_EQ(fb.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  hemo::particle_feedback_t out;
-  EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  return out;
-}
-
 TEST(FeedbackCheck, RejectsAForgedSourceLength) {
-  EXPECT_EQ(hemo::feedback_problem(over_the_wire(good(5)), "abc", 5), "");
+  EXPECT_EQ(hemo::feedback_problem(hemo::test::over_the_wire(good(5)), "abc", 5), "");
   // n_cells fits the mesh but the explicit source holds one value too few or a cell too many:
   // it decodes fine and must not reach the solver.
   auto fb = good(5);
   fb.n_source_values = 14;
   fb.source_explicit.resize(14);
-  EXPECT_EQ(hemo::feedback_problem(over_the_wire(fb), "abc", 5),
+  EXPECT_EQ(hemo::feedback_problem(hemo::test::over_the_wire(fb), "abc", 5),
             "particle feedback: explicit source has 14 values, not 3 per cell of 5 cells (step 7)");
   fb = good(5);
   fb.n_source_values = 18;
   fb.source_explicit.resize(18);
-  EXPECT_EQ(hemo::feedback_problem(over_the_wire(fb), "abc", 5),
+  EXPECT_EQ(hemo::feedback_problem(hemo::test::over_the_wire(fb), "abc", 5),
             "particle feedback: explicit source has 18 values, not 3 per cell of 5 cells (step 7)");
   // A length field that disagrees with its own array (built in process, never encoded).
   fb = good(5);

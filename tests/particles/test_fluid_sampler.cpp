@@ -2,6 +2,7 @@
 #include "box_mesh.h"
 #include "cell_fields.h"
 #include "fluid_sampler.h"
+#include "over_the_wire.h"
 
 #include <gtest/gtest.h>
 
@@ -77,29 +78,19 @@ TEST(FluidSampler, CheckNamesTheCause) {
   EXPECT_THROW(fs.set_state(s), std::invalid_argument);
 }
 
-namespace {
-// The state as the particle node receives it: encoded by the sender, decoded from the bytes.
-hemo::fluid_state_t over_the_wire(const hemo::fluid_state_t& s) {
-  std::vector<std::uint8_t> buf(static_cast<std::size_t>(s.getEncodedSize()));
-  EXPECT_EQ(s.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  hemo::fluid_state_t out;
-  EXPECT_EQ(out.decode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  return out;
-}
-}  // namespace
 
 TEST(FluidSampler, ForgedLengthIsRejected) {
   const auto mesh = box_mesh(2, 2, 2, 0, 1, 0, 1, 1, 1, "abc");  // 8 cells
   const CellLocator loc(mesh);
   FluidSampler fs(loc);
   const auto good = fluid_state(mesh, linear);
-  EXPECT_EQ(FluidSampler::check(over_the_wire(good), mesh.n_cells, "abc"), "");
+  EXPECT_EQ(FluidSampler::check(hemo::test::over_the_wire(good), mesh.n_cells, "abc"), "");
 
   // A sender that keeps n_cells but sends one cell's velocity too few: decodes fine, must not pass.
   auto short_velocity = good;
   short_velocity.n_velocity_values -= 3;
   short_velocity.velocity.resize(static_cast<std::size_t>(short_velocity.n_velocity_values));
-  const auto received = over_the_wire(short_velocity);
+  const auto received = hemo::test::over_the_wire(short_velocity);
   EXPECT_EQ(FluidSampler::check(received, mesh.n_cells, "abc"),
             "fluid state: velocity has 21 values, not 3 per cell of 8 cells");
   EXPECT_THROW(fs.set_state(received), std::invalid_argument);
@@ -107,7 +98,7 @@ TEST(FluidSampler, ForgedLengthIsRejected) {
   auto long_gradient = good;
   long_gradient.n_gradient_values += 9;
   long_gradient.velocity_gradient.resize(static_cast<std::size_t>(long_gradient.n_gradient_values));
-  EXPECT_EQ(FluidSampler::check(over_the_wire(long_gradient), mesh.n_cells, "abc"),
+  EXPECT_EQ(FluidSampler::check(hemo::test::over_the_wire(long_gradient), mesh.n_cells, "abc"),
             "fluid state: velocity gradient has 81 values, not 9 per cell of 8 cells");
 
   // A length field that disagrees with its own array (built in process, never encoded).
