@@ -79,6 +79,16 @@ class CellLocator {
     for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k)
       f(signed_distance(planes_[k], x), planes_[k].beyond, planes_[k].normal);
   }
+  // The same, also telling whether the face is a wall (beyond = -1) or cyclic (beyond is the
+  // periodic partner, one vessel length away along the normal's z): f(d, beyond, normal, wall,
+  // cyclic).
+  template <class F>
+  void for_each_face_kind(int cell, const Vec3& x, F&& f) const {
+    for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k) {
+      const Plane& p = planes_[k];
+      f(signed_distance(p, x), p.beyond, p.normal, p.wall, p.across < 0 && !p.wall);
+    }
+  }
   // The cell beyond the face of `cell` whose outward normal is closest to `direction` (unit), if
   // that face turns toward it by less than ~45 degrees; else -1 (also beyond a wall).
   int cell_toward(int cell, const Vec3& direction) const {

@@ -9,85 +9,57 @@
 
 namespace hemo::particles {
 
+namespace {
+// The fraction of a sphere of radius r beyond a plane at signed distance d of its centre
+// (d < 0: the centre on the near side): the cap h^2 (3r - h) / (4 r^3), h = r + d.
+double cap_beyond(double d, double r) {
+  if (d <= -r) return 0.0;
+  if (d >= r) return 1.0;
+  const double h = r + d;
+  return h * h * (3 * r - h) / (4 * r * r * r);
+}
+}  // namespace
+
 int SphereOverlapFraction::share(int cell, const Vec3& x, double radius, CellShare* out) const {
   out[0] = {cell, 1.0};
   if (!(radius > 0)) return 1;
-  // The faces whose plane cuts the sphere, grouped into directions.
-  struct Cut {
-    double fraction;
-    int beyond;
-    Vec3 normal;
-  };
-  struct Direction {
-    Cut side[2];
-    int n = 0;
-  };
-  constexpr int kMaxDirections = 6;
-  Direction dirs[kMaxDirections];
-  int n_dirs = 0;
-  const double inv_r3 = 1 / (4 * radius * radius * radius);
-  locator_->for_each_face(cell, x, [&](double signed_distance, int beyond, const Vec3& normal) {
-    const double inside = std::max(0.0, -signed_distance);
-    if (inside >= radius) return;
-    const double h = radius - inside;  // cap height beyond the plane
-    const Cut cut{h * h * (3 * radius - h) * inv_r3, beyond, normal};
-    for (int k = 0; k < n_dirs; ++k)
-      if (dirs[k].n == 1 && dirs[k].side[0].normal.dot(normal) < -0.5) {
-        dirs[k].side[dirs[k].n++] = cut;
-        return;
-      }
-    if (n_dirs == kMaxDirections) return;  // more cut faces than a cell of ours has: keep them
-    Direction& d = dirs[n_dirs++];
-    d.side[0] = cut;
-    d.n = 1;
-  });
-  if (n_dirs == 0) return 1;
-  // Opposite caps cannot overlap, but keep each direction's split a distribution.
-  for (int k = 0; k < n_dirs; ++k) {
-    const double total = dirs[k].side[0].fraction + (dirs[k].n > 1 ? dirs[k].side[1].fraction : 0);
-    if (total > 1)
-      for (int j = 0; j < dirs[k].n; ++j) dirs[k].side[j].fraction /= total;
-  }
-  // Every combination of (stay, cross side 0, cross side 1) over the directions.
-  int n = 0;
-  int choice[kMaxDirections] = {0};
-  while (true) {
+  // The cells the sphere reaches: from the centre's cell across every face whose plane cuts
+  // the sphere, and on from there (across a cyclic face with the centre moved by the period).
+  // Each gets the product over its own non-wall faces of the part of the sphere on its side,
+  // and the products are normalised. A cell's product depends only on the position and that
+  // cell, and is 0 when it enters or leaves the set (the sphere then touches their shared
+  // plane from outside), so the shares are continuous whichever cell holds the centre.
+  Vec3 seen_from[kMaxShares];
+  double weight[kMaxShares];
+  seen_from[0] = x;
+  int n = 1;
+  double total = 0;
+  for (int k = 0; k < n; ++k) {
+    const int c = out[k].cell;
+    const Vec3 xc = seen_from[k];
     double w = 1;
-    int target = cell;
-    for (int k = 0; k < n_dirs && w > 0; ++k) {
-      const Direction& d = dirs[k];
-      if (choice[k] == 0) {
-        w *= 1 - d.side[0].fraction - (d.n > 1 ? d.side[1].fraction : 0);
-        continue;
+    locator_->for_each_face_kind(c, xc, [&](double d, int beyond, const Vec3& normal, bool wall, bool cyclic) {
+      if (wall) return;  // what is behind a wall stays with the cells along it
+      w *= 1 - cap_beyond(d, radius);
+      if (d <= -radius || beyond < 0) return;
+      Vec3 xb = xc;
+      if (cyclic) xb.z() -= std::copysign(locator_->length(), normal.z());
+      for (int j = 0; j < n; ++j)
+        if (out[j].cell == beyond) return;
+      if (n < kMaxShares) {
+        seen_from[n] = xb;
+        out[n++] = {beyond, 0.0};
       }
-      const Cut& c = d.side[choice[k] - 1];
-      w *= c.fraction;
-      // From the centre's cell straight across the face; from a neighbour, across its face
-      // that looks the same way. Behind a wall: stay.
-      const int next = target == cell ? c.beyond : locator_->cell_toward(target, c.normal);
-      if (next >= 0) target = next;
-    }
-    if (w > 0) {
-      int k = 0;
-      while (k < n && out[k].cell != target) ++k;
-      if (k < n)
-        out[k].fraction += w;
-      else if (n < kMaxShares)
-        out[n++] = {target, w};
-      else
-        out[0].fraction += w;  // no room: the centre's cell keeps it
-    }
-    int k = 0;  // next combination
-    while (k < n_dirs && ++choice[k] > dirs[k].n) choice[k++] = 0;
-    if (k == n_dirs) break;
+    });
+    weight[k] = w;
+    total += w;
   }
-  if (n == 0 || out[0].cell != cell) {  // keep the documented order: the centre's cell first
-    int k = 0;
-    while (k < n && out[k].cell != cell) ++k;
-    if (k == n && n < kMaxShares) out[n++] = {cell, 0.0};
-    if (k < n) std::swap(out[0], out[k]);
-  }
-  return n;
+  for (int k = 0; k < n; ++k) out[k].fraction = total > 0 ? weight[k] / total : (k == 0 ? 1.0 : 0.0);
+  // Cells that get nothing (reached across a plane the sphere only touches) are dropped.
+  int kept = 1;
+  for (int k = 1; k < n; ++k)
+    if (out[k].fraction > 0) out[kept++] = out[k];
+  return kept;
 }
 
 std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator) {

@@ -18,20 +18,22 @@
 //
 //   "centre_cell"     everything to the cell holding the centre. phi jumps by V_p / V_c when
 //                     the centre crosses a face.
-//   "sphere_overlap"  (default) the sphere is shared with the cells its sphere overlaps. For each
-//                     face of the centre's cell whose plane cuts the sphere, the fraction beyond
-//                     it is the spherical cap h^2 (3r - h) / (4 r^3) (h the cap height). Faces
-//                     are grouped into directions (a face and the opposite face, anti-parallel
-//                     normals); the shares are the tensor product over directions of the 1-D
-//                     splits (below / inside / above): the cell beyond two crossed faces of
-//                     different directions (the diagonal cell) gets the product of their caps,
-//                     reached by walking across the first face and then across the face of that
-//                     neighbour facing the same way as the second. Nothing goes behind a wall
-//                     (that part stays in the last cell reached); across a cyclic face the cap
-//                     goes to the periodic partner. Exact for a sphere cutting one face, a
-//                     product approximation near edges and corners, continuous in the particle
-//                     position on hexahedral meshes (a centre on a face shares 1/2 - 1/2), and
-//                     the fractions sum to 1.
+//   "sphere_overlap"  (default) the sphere is shared with the cells it reaches: from the centre's
+//                     cell across every face whose plane cuts the sphere, and on from those
+//                     (across a cyclic face to the periodic partner). Each such cell gets the
+//                     product, over its own faces that are not walls, of the part of the sphere
+//                     on its side of the face's plane (1 minus the spherical cap h^2 (3r - h) /
+//                     (4 r^3) beyond it, h the cap height), and the products are normalised to
+//                     sum to 1. Exact for a sphere cutting one face, the tensor product of the 1-D
+//                     splits near edges and corners of a box mesh, and continuous in the particle
+//                     position on any mesh of convex cells: a cell's product depends on the
+//                     position and that cell's own planes only, whichever cell holds the centre,
+//                     and is 0 where the cell enters or leaves the set (a centre on a face shares
+//                     1/2 - 1/2). Nothing goes behind a wall: that part stays with the cells along it.
+//                     (Sharing by the centre cell's planes alone jumped by up to a quarter of a
+//                     particle when its centre crossed a face of the O-grid, whose neighbouring
+//                     cells' planes are not parallel; d(alpha)/dt turned each jump into a kick
+//                     of the plasma of jump / interval: tests/particles/test_deposition_vessel.cpp.)
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 

@@ -2,10 +2,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The plasma's transverse velocity in a run's fluid snapshots.
 
-    /usr/bin/python3 docs/scripts/plasma_transverse_rms.py RUN_DIR...
+    /usr/bin/python3 docs/scripts/plasma_transverse_rms.py [--from T] RUN_DIR...
 
 The vessel's axis is z, so U_x, U_y are the cross-flow the particles' feedback stirs. For each
-run, over the fluid snapshots from t = 0.02 s (docs/performance.md, "what moves D at short
+run, over the fluid snapshots from t = T s (default 0.02; docs/performance.md, "what moves D at short
 intervals"), in mm/s:
   rms            sqrt<U_x^2 + U_y^2> over the cells (and per snapshot)
   grid-scale     rms of U - (mean of the cell's face neighbours), transverse part; for a field
@@ -88,15 +88,19 @@ def transverse_measures(run, U, phi, faces):
 
 
 if __name__ == "__main__":
-    for run in sys.argv[1:]:
+    args = sys.argv[1:]
+    start = 0.02
+    if args[:1] == ["--from"]:
+        start, args = float(args[1]), args[2:]
+    for run in args:
         faces = internal_faces(run)
         per_snapshot, late = [], []
         for t in snapshot_times(run):
             m = transverse_measures(run, cell_vectors(f"{run}/fluid/{t}/U"), cell_scalars(f"{run}/fluid/{t}/phi"), faces)
             per_snapshot.append(m[0] * 1e3)
-            if float(t) >= 0.02:
+            if float(t) >= start - 1e-12:
                 late.append(m)
         r = np.mean(late, axis=0) * 1e3
         print(f"{run}: rms per snapshot {' '.join(f'{x:.3f}' for x in per_snapshot)}")
-        print(f"  from 0.02 s: rms {r[0]:.3f}, grid-scale {r[1]:.3f}, neighbour mean {r[2]:.3f}; "
+        print(f"  from {start:g} s: rms {r[0]:.3f}, grid-scale {r[1]:.3f}, neighbour mean {r[2]:.3f}; "
               f"face flux {r[3]:.3f}, interpolated cells {r[4]:.3f}, difference {r[5]:.3f} mm/s")
