@@ -19,6 +19,13 @@ With --forced: the coupled relaxation mode against the exact exp(-(dt/tau)(1 + M
 long-time diffusivity of particles driven by a random force (correlation time tc, held over
 each DEM step of at most 2.5 tau, as contacts are), the fluid damped at rate gamma (its viscous
 time), against the same at dt = 0.05 tau (docs/performance.md, "what moves D at short intervals").
+
+With --contact: the particles held by a spring k (a contact lasting about half its period, as
+the DEM's Hertz contacts do), the plasma damped at rate gamma; the particles move by velocity
+Verlet with the exponential drag in DEM steps of at most 2.8 tau, as the DEM does, the fluid as
+above. Prints the decay rate of the oscillation's energy against a reference at dt = 0.005 tau:
+below 1 the exchange damps the contact less than it should, negative means it feeds it (the
+dense-suspension instability of docs/performance.md section 3 is the candidate).
 """
 import sys
 import numpy as np
@@ -83,8 +90,52 @@ def print_forced(M=1.6, gamma=0.04, tc=10.0):
         print(f"{dt:6.2f}  {z:14.4f}  {np.exp(-dt * (1 + M)):.4f}   {d / reference:.3f}")
 
 
+def contact_energy_decay(M, k, gamma, dt, k_dt_of, returned=1.0, t_end=80.0, dem_step_max=2.8):
+    """Decay rate of the energy of particles on a spring k in one fluid cell (rho = tau = 1)."""
+    substeps = max(1, int(np.ceil(dt / dem_step_max - 1e-9)))
+    h = dt / substeps
+    r = (1 - np.exp(-h)) / h  # the exponential drag's ratio over one DEM step (beta = M)
+    k_dt = k_dt_of(M, dt)
+    U = x = R = 0.0
+    w, f_last = 1.0, None  # w: the particles' half-step velocity; f_last: the last drag force
+    energy = []
+    for _ in range(int(t_end / dt)):
+        J = 0.0  # the drag impulse on the particles over the interval (Verlet-weighted)
+        for _ in range(substeps):
+            x += h * w
+            f_other = -k * x
+            f_drag = r * M * (U - w) + (r - 1) * f_other
+            f_last = f_drag if f_last is None else f_last
+            w += h * (f_drag + f_other) / M
+            J += h / 2 * (f_last + f_drag)
+            f_last = f_drag
+        U_new = ((1 + k_dt) * U - J + returned * R * dt) / (1 + k_dt + gamma * dt)
+        R, U = k_dt / dt * (U_new - U), U_new
+        energy.append(0.5 * M * w * w + 0.5 * k * x * x + 0.5 * U * U)
+    t = dt * np.arange(1, len(energy) + 1)
+    late = t > t_end / 3
+    return -np.polyfit(t[late], np.log(np.array(energy)[late] + 1e-300), 1)[0]
+
+
+def print_contact(gamma=0.4):
+    schemes = (("interval_response, returned", lambda M, dt: M * (1 - np.exp(-dt)), 1.0),
+               ("interval_response", lambda M, dt: M * (1 - np.exp(-dt)), 0.0),
+               ("instantaneous", lambda M, dt: M * dt, 0.0))
+    ratios = (0.156, 0.3125, 0.625, 1.25, 2.5, 5.0, 20.0)
+    print(f"plasma damping {gamma}/tau, spring k = 0.14 M (half period ~ 8 tau); energy decay / reference at dt/tau:")
+    print(f"{'M/rho':>5s}  {'scheme':28s}" + "".join(f"{r:>8g}" for r in ratios))
+    for M in (1.6, 4.0, 7.0):
+        k = 0.14 * M
+        reference = contact_energy_decay(M, k, gamma, 0.005, schemes[0][1])
+        for name, k_dt_of, returned in schemes:
+            rates = [contact_energy_decay(M, k, gamma, dt, k_dt_of, returned) / reference for dt in ratios]
+            print(f"{M:5.1f}  {name:28s}" + "".join(f"{q:8.2f}" for q in rates))
+
+
 if __name__ == "__main__" and "--forced" in sys.argv:
     print_forced()
+elif __name__ == "__main__" and "--contact" in sys.argv:
+    print_contact()
 elif __name__ == "__main__":
     print("K              returned  M/rho  dt/tau  slow |z|  acceleration x (rho+M)/f")
     for name, returned in (("instantaneous", 0), ("interval_resp.", 0), ("interval_resp.", 1)):
