@@ -76,8 +76,7 @@ class CellLocator {
   // the periodic partner across a cyclic face, or -1 beyond a wall. x already wrapped.
   template <class F>
   void for_each_face(int cell, const Vec3& x, F&& f) const {
-    for (int k = plane_start_[cell]; k < plane_start_[cell + 1]; ++k)
-      f(signed_distance(planes_[k], x), planes_[k].beyond, planes_[k].normal);
+    for_each_face_kind(cell, x, [&](double d, int beyond, const Vec3& normal, bool, bool) { f(d, beyond, normal); });
   }
   // The same, also telling whether the face is a wall (beyond = -1) or cyclic (beyond is the
   // periodic partner, one vessel length away along the normal's z): f(d, beyond, normal, wall,

@@ -26,9 +26,10 @@
 //                     (4 r^3) beyond it, h the cap height), and the products are normalised to
 //                     sum to 1. Exact for a sphere cutting one face, the tensor product of the 1-D
 //                     splits near edges and corners of a box mesh, and continuous in the particle
-//                     position on any mesh of convex cells: a cell's product depends on the
-//                     position and that cell's own planes only, whichever cell holds the centre,
-//                     and is 0 where the cell enters or leaves the set (a centre on a face shares
+//                     position (on the calibration O-grid at most 0.0033 per 0.01 um of travel):
+//                     a cell's product depends on the position and that cell's own planes only,
+//                     whichever cell holds the centre, and is 0 where the cell enters the set
+//                     across a shared plane (a centre on a face shares
 //                     1/2 - 1/2). Nothing goes behind a wall: that part stays with the cells along it.
 //                     (Sharing by the centre cell's planes alone jumped by up to a quarter of a
 //                     particle when its centre crossed a face of the O-grid, whose neighbouring
