@@ -330,7 +330,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("coupling.two_way", s.two_way);
   read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
   read_name(r, "coupling.scheme", s.coupling_scheme, {"serial", "parallel"});
-  read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous"});
+  read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
 
   r.report_unknown();

@@ -188,7 +188,9 @@ struct Scene {
   // integral of beta dt: particles that follow the flow resist its change with their mass, not
   // with beta dt) or "instantaneous" (sum of beta / V: the particles' velocities held; for a
   // coupling interval much longer than their relaxation time it adds beta dt / V of inertia to
-  // the fluid, ~27 times the plasma's in the calibration case).
+  // the fluid, ~27 times the plasma's in the calibration case), or "co_relaxed" (K = 0: the
+  // particle node lets each cell's plasma answer its particles' drag at every DEM step,
+  // particle-node/cell_plasma.h, and the fluid takes the interval's impulse explicitly).
   std::string implicit_drag = "interval_response";
   // The implicit drag keeps back from the plasma K (U - U_seen) V of what the particles
   // exchanged in a step (U_seen the velocity their feedback was computed in); the particles only

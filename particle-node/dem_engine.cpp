@@ -113,6 +113,11 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
   if (append_log && log_path != "none") command("log " + log_path + " append");  // a resumed run keeps the log
   for (const auto& line : setup) command(line);
   d_max_ = d_max;
+  if (scene_.implicit_drag == "co_relaxed") {
+    std::vector<double> plasma_mass(locator.n_cells());
+    for (int c = 0; c < locator.n_cells(); ++c) plasma_mass[c] = scene_.plasma.density * locator.volume(c);
+    cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(std::move(plasma_mass));
+  }
 }
 DemEngine::~DemEngine() { delete lmp_; }
 
@@ -276,6 +281,8 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   double** held = per_atom(closure_fix_);
   // The closures at the run's first evaluation (a new flow) and every closure_every_ after.
   const bool evaluate = held == nullptr || (callbacks_ - 1) % closure_every_ == 0;
+  step_forces_.resize(nlocal);
+  step_cells_.assign(nlocal, -1);  // -1: no fluid force this step (problem noted)
   for (int i = 0; i < nlocal; ++i) {
     const int t = tag[i];
     const int sp = species_of_type_[type[i]];
@@ -301,7 +308,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     }
     const Vec3& weight = weight_[sp];
     const Vec3 other = Vec3(contact[i][0], contact[i][1], contact[i][2]) + weight;
-    FluidForce ff;
+    FluidForce& ff = step_forces_[i];
     if (evaluate) {
       const Particle particle{t, sp, xi, vi, rotation ? symmetry_axis(q) : Vec3::UnitZ()};
       Vec3 plasma_velocity;
@@ -310,12 +317,8 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     } else {
       ff = held_fluid_force(held[i], vi, other);
     }
-    const Vec3 fluid_force = ff.total();
-    const Vec3 applied = fluid_force + weight;
-    f[i][0] = applied.x();
-    f[i][1] = applied.y();
-    f[i][2] = applied.z();
-    accumulate_impulse(impulse[i], fluid_force, ff.beta, duration, last);
+    step_cells_[i] = tracked_[t].where.cell;
+    if (cell_plasma_) cell_plasma_->add(step_cells_[i], duration * ff.drag, duration * ff.ratio * ff.beta);
     if (rotation) {
       const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
       if (advance) rotation->kick(q, l, torque, dt_);
@@ -336,6 +339,22 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     rotation_dt_ = dt_;
   }
   pending_orientation_.clear();
+
+  // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' drag at this
+  // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
+  if (cell_plasma_) cell_plasma_->relax(comm_);
+  for (int i = 0; i < nlocal; ++i) {
+    const int cell = step_cells_[i];
+    if (cell < 0) continue;
+    FluidForce& ff = step_forces_[i];
+    if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
+    const Vec3 fluid_force = ff.total();
+    const Vec3 applied = fluid_force + weight_[species_of_type_[type[i]]];
+    f[i][0] = applied.x();
+    f[i][1] = applied.y();
+    f[i][2] = applied.z();
+    accumulate_impulse(impulse[i], fluid_force, ff.beta, duration, last);
+  }
 }
 
 bool DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
@@ -466,6 +485,7 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   // factors), which recomputes the forces instead.
   const bool pre = first_run_ || new_dt;
   start_accumulators(!pre);
+  if (cell_plasma_) cell_plasma_->start_interval();
   if (new_dt) command(fmt::format("timestep {:.17g}", dt));
   if (log_path_ != "none" && coupling_step % kLogRotateSteps == 1)
     command("log " + log_path_ + ".steps");  // restarts the run log: bounded size, recent errors kept
@@ -535,13 +555,20 @@ void DemEngine::deposit(Deposition& deposition) {
     const int sp = species_of_type_[type[i]];
     if (cell < 0) continue;
     const double beta_time = acc[i][3];
-    const double drag_response = held_velocity_drag_ ? beta_time : interval_drag_response(mass_[sp], beta_time);
+    // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly.
+    const double drag_response = cell_plasma_        ? 0.0
+                                 : held_velocity_drag_ ? beta_time
+                                                       : interval_drag_response(mass_[sp], beta_time);
     deposition.add_particle(cell, locator_->wrap(xi), 0.5 * diameter_[sp], volume_[sp],
                             Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);
   }
   int size = 1;
   MPI_Comm_size(comm_, &size);
   if (size > 1) MPI_Allreduce(MPI_IN_PLACE, deposition.data(), deposition.size(), MPI_DOUBLE, MPI_SUM, comm_);
+  if (cell_plasma_)
+    for (int c = 0; c < locator_->n_cells(); ++c)
+      cell_plasma_->set_plasma_mass(
+          c, scene_.plasma.density * std::max(0.0, locator_->volume(c) - deposition.solid_volume(c)));
 }
 
 EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {

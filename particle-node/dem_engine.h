@@ -49,6 +49,7 @@
 #pragma once
 
 #include "cell_locator.h"
+#include "cell_plasma.h"
 #include "dem_timing.h"
 #include "deposition.h"
 #include "engine_state.h"
@@ -146,6 +147,9 @@ class DemEngine {
   const SpeciesForces& forces(int species) const { return *forces_[species]; }
 
   long dem_timestep() const;
+  // Each cell's plasma as it relaxed with its particles in the last run (coupling.implicit_drag
+  // = "co_relaxed"; else null).
+  const CellPlasmaRelaxation* cell_plasma() const { return cell_plasma_.get(); }
 
   // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.
   void liggghts(const std::string& line) { command(line); }
@@ -238,6 +242,12 @@ class DemEngine {
   const int closure_every_ = scene_.time.closure_every_dem_steps;
   // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
   const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
+  // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).
+  std::unique_ptr<CellPlasmaRelaxation> cell_plasma_;
+  // This step's fluid force per local atom, and the cell it acts in (-1: none), between the
+  // callback's evaluation and its application (the co-relaxation comes in between).
+  std::vector<FluidForce> step_forces_;
+  std::vector<int> step_cells_;
   std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
   double rotation_dt_ = 0;                 // the step length of that kick
   long n_particles_ = 0;

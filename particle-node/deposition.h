@@ -135,6 +135,8 @@ class Deposition {
 
   // Sum over cells of the deposited solid volume (m^3).
   double total_volume() const;
+  // The solid volume deposited in one cell (m^3).
+  double solid_volume(int cell) const { return acc_[static_cast<std::size_t>(cell) * kStride + kVolume]; }
 
   const SolidFractionModel& model() const { return *model_; }
 

@@ -187,6 +187,8 @@ implicit_drag = "explicit"
   EXPECT_TRUE(by_key.count("platelet.semi_axis_c_um"));
   EXPECT_TRUE(by_key.count("coupling.solid_fraction"));
   EXPECT_NE(by_key["coupling.implicit_drag"].find("interval_response"), std::string::npos);
+  EXPECT_NE(by_key["coupling.implicit_drag"].find("co_relaxed"), std::string::npos);
+  EXPECT_TRUE(problems_of(std::string(kMinimal) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
 }
 
 TEST(Scene, ShippedScenesAreValid) {

@@ -485,3 +485,68 @@ int main(int argc, char** argv) {
   MPI_Finalize();
   return result;
 }
+
+// coupling.implicit_drag = "co_relaxed": one red cell from rest in a uniform plasma flow u, its
+// cell's plasma answering at every DEM step (cell_plasma.h). Momentum: the plasma of its cell
+// loses exactly what the cell gains (to round-off), no other cell's plasma moves, and the fluid
+// is handed no implicit coefficient. Motion: the pair relaxes to M u / (M + m) at the rate
+// beta (1/m + 1/M), M the cell's plasma, m the DEM mass (red cell masses x 10, about M); run in
+// LIGGGHTS's leapfrog, the error against that must fall with the DEM step at first order (observed
+// order 0.7-1.3) and be below 2 % at the finest. With the plasma held ("interval_response") the
+// cell would go on towards u itself: over 20 % further in this time.
+TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
+  Fixture fx(0.15, false);
+  fx.scene.time.mass_scaling = 10;
+  fx.scene.implicit_drag = "co_relaxed";
+  const double u = 1e-3;
+  fx.fluid.set_state(fluid_state(fx.mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel,
+                                              std::array<double, 9>& g) {
+    vel = {0.0, 0.0, u};
+    g.fill(0.0);
+  }));
+  const Vec3 where(4e-6, 4e-6, 56e-6);  // inside one box cell, its sphere too
+  const int cell = fx.locator.locate(where);
+  ASSERT_GE(cell, 0);
+  const double M = fx.scene.plasma.density * fx.locator.volume(cell);
+  const double m = 10 * fx.scene.rbc.mass;
+  const double beta = 3 * hemo::units::pi * fx.scene.plasma.viscosity * fx.scene.rbc.diameter;
+  const double rate = beta * (1 / m + 1 / M), time = 1 / rate;
+  const double exact = M * u / (M + m) * (1 - std::exp(-rate * time));
+  std::printf("[ info ] plasma %.3g kg, red cell (DEM) %.3g kg, relaxation time %.3g s\n", M, m, time);
+
+  const auto run = [&](int substeps, const std::string& implicit_drag) {
+    hemo::Scene scene = fx.scene;
+    scene.implicit_drag = implicit_drag;
+    DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
+    engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, where}});
+    EXPECT_EQ(engine.run(1, substeps, time / substeps, fx.fluid), "");
+    const double v = engine.snapshot(0, 0).velocity[2];
+    if (const CellPlasmaRelaxation* plasma = engine.cell_plasma()) {
+      for (int c = 0; c < fx.locator.n_cells(); ++c) {
+        if (c == cell) continue;
+        EXPECT_EQ(plasma->shift(c), Vec3::Zero()) << "cell " << c;
+      }
+      EXPECT_NEAR(M * plasma->shift(cell).z() + m * v, 0.0, 1e-12 * m * v);
+      EXPECT_NEAR(plasma->plasma_mass(cell), M, 1e-12 * M);
+      engine.deposit(fx.deposition);
+      hemo::particle_feedback_t fb;
+      fx.deposition.finish(time, &fx.fluid, fb);
+      for (int c = 0; c < fx.locator.n_cells(); ++c) EXPECT_EQ(fb.drag_coefficient[c], 0.0);
+    }
+    return v;
+  };
+  double previous = 0;
+  for (int substeps : {8, 16, 32}) {
+    const double error = std::abs(run(substeps, "co_relaxed") - exact) / exact;
+    std::printf("[ info ] %d DEM steps per relaxation time: error %.3g\n", substeps, error);
+    if (previous > 0) {
+      EXPECT_GT(std::log2(previous / error), 0.7) << substeps;
+      EXPECT_LT(std::log2(previous / error), 1.3) << substeps;
+    }
+    previous = error;
+  }
+  EXPECT_LT(previous, 0.02);
+  const double held = run(32, "interval_response");
+  EXPECT_NEAR(held, u * (1 - std::exp(-beta / m * time)), 0.02 * held);
+  EXPECT_GT(held, 1.2 * exact);
+}

@@ -1,0 +1,74 @@
+// The plasma of each fluid cell relaxing with its particles during a coupling interval
+// (coupling.implicit_drag = "co_relaxed").
+//
+// Between two exchanges the fluid is frozen: every particle sees the plasma velocity U_seen of
+// the last fluid step, and the fluid learns of their drag only when the interval is over. Where
+// the cells' (DEM) mass in a fluid cell is comparable to its plasma's, that lag lets them exchange
+// momentum with a plasma that never answers within the interval: the exchange then under-damps,
+// and can feed, the contacts' oscillations (docs/scripts/coupling_cell_model.py --contact), and
+// how much depends on the interval. Here each cell's plasma answers at every DEM step instead:
+// its velocity is U_seen + shift_c, the shift moved by the reaction of its particles' drag,
+//
+//   M_c (shift' - shift) = - sum over its particles of dt_s (F_p + r_p beta_p shift'),
+//
+// M_c = rho (V_c - solid volume) the cell's plasma, F_p the step's drag at U_seen (exponential
+// update, closures/exponential_drag.h), r_p beta_p its slope in the plasma velocity, dt_s the
+// step's share of the interval. Implicit in the new shift, so a cell's plasma and particles move
+// towards their common velocity without overshooting whatever the step and the mass ratio, and
+// what the particles gain the plasma loses, exactly. The fluid then takes the interval's impulse
+// as an explicit source (the particle node hands it K = 0): the exchange has already been
+// integrated with the plasma's inertia in it. The shift starts at 0 each interval: the fluid's
+// new state already holds what the last interval's shifts held.
+//
+// Each particle reacts on the cell holding its centre (the deposition, which the fluid gets, may
+// share it among cells: the shift is the interval's model of the plasma's answer, not its state).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "vec.h"
+
+#include <mpi.h>
+
+#include <vector>
+
+namespace hemo::particles {
+
+class CellPlasmaRelaxation {
+ public:
+  // Plasma masses (kg) per cell; every shift 0.
+  explicit CellPlasmaRelaxation(std::vector<double> plasma_mass);
+
+  // A new interval: the fluid's velocity already holds the last shifts.
+  void start_interval();
+  void set_plasma_mass(int cell, double kg) { mass_[cell] = kg; }
+
+  // One particle's step: its drag impulse at U_seen (N s, on the particle) and that impulse's
+  // slope in the plasma velocity (kg: dt_s r beta).
+  void add(int cell, const Vec3& impulse_at_seen_velocity, double slope) {
+    double* s = &sums_[4 * static_cast<std::size_t>(cell)];
+    s[0] += impulse_at_seen_velocity.x();
+    s[1] += impulse_at_seen_velocity.y();
+    s[2] += impulse_at_seen_velocity.z();
+    s[3] += slope;
+    touched_ = true;
+  }
+  // Ends the step: sums what every rank added (collective on `comm`; MPI_COMM_NULL: this
+  // process alone) and moves each cell's shift implicitly.
+  void relax(MPI_Comm comm);
+
+  // The plasma velocity of `cell` is U_seen + shift(cell) (m/s).
+  Vec3 shift(int cell) const {
+    const double* d = &shift_[3 * static_cast<std::size_t>(cell)];
+    return {d[0], d[1], d[2]};
+  }
+  double plasma_mass(int cell) const { return mass_[cell]; }
+  int n_cells() const { return static_cast<int>(mass_.size()); }
+
+ private:
+  std::vector<double> mass_;   // kg per cell
+  std::vector<double> shift_;  // m/s, 3 per cell
+  std::vector<double> sums_;   // this step's impulse (3) and slope per cell
+  bool touched_ = false;
+};
+
+}  // namespace hemo::particles
