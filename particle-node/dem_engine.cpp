@@ -42,7 +42,9 @@ constexpr const char* kWallFix = "hemo_wall";
 // history per atom (checkpoints save it).
 constexpr const char* kWallHistoryFix = "history_hemo_wall";
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1).
-enum ClosureSlot { kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kClosureSlots = 11 };
+// kCell: the fluid cell they were evaluated in (where the co-relaxed plasma answers), which
+// moves with the atom to another rank as the per-tag locate cache does not.
+enum ClosureSlot { kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kCell = 11, kClosureSlots = 12 };
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
@@ -312,12 +314,14 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     if (evaluate) {
       const Particle particle{t, sp, xi, vi, rotation ? symmetry_axis(q) : Vec3::UnitZ()};
       Vec3 plasma_velocity;
-      if (!evaluate_fluid_force(particle, other, ntimestep, ff, plasma_velocity)) continue;
-      if (held) hold(ff, plasma_velocity, held[i]);
+      const int cell = evaluate_fluid_force(particle, other, ntimestep, ff, plasma_velocity);
+      if (cell < 0) continue;
+      if (held) hold(ff, plasma_velocity, cell, held[i]);
+      step_cells_[i] = cell;
     } else {
       ff = held_fluid_force(held[i], vi, other);
+      step_cells_[i] = static_cast<int>(held[i][kCell]);
     }
-    step_cells_[i] = tracked_[t].where.cell;
     if (cell_plasma_) cell_plasma_->add(step_cells_[i], duration * ff.drag, duration * ff.ratio * ff.beta);
     if (rotation) {
       const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
@@ -357,8 +361,8 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   }
 }
 
-bool DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
-                                     Vec3& plasma_velocity) {
+int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+                                    Vec3& plasma_velocity) {
   unwrap_z(p.tag, p.x.z());
   const int cell = cell_of(p.tag, p.x);
   if (cell < 0) {
@@ -369,7 +373,7 @@ bool DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::
                                     "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
                                     p.tag, coupling_step_, ntimestep, p.x.x(), p.x.y(), p.x.z(),
                                     std::hypot(p.x.x(), p.x.y()), dt_));
-    return false;
+    return -1;
   }
   const SpeciesForces& forces = *forces_[p.species];
   ParticleFlow flow;
@@ -388,15 +392,16 @@ bool DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::
                                     "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
                                     p.tag, coupling_step_, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(),
                                     ff.lift.x(), ff.lift.y(), ff.lift.z(), flow.slip.norm()));
-    return false;
+    return -1;
   }
   max_slip_squared_[p.species] = std::max(max_slip_squared_[p.species], flow.slip.squaredNorm());
   plasma_velocity = flow.velocity;
-  return true;
+  return cell;
 }
 
-void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, double* h) {
+void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* h) {
   h[kBeta] = ff.beta;
+  h[kCell] = cell;
   h[kRatio] = ff.ratio;
   for (int d = 0; d < 3; ++d) {
     h[kVelocity + d] = plasma_velocity[d];
@@ -565,10 +570,13 @@ void DemEngine::deposit(Deposition& deposition) {
   int size = 1;
   MPI_Comm_size(comm_, &size);
   if (size > 1) MPI_Allreduce(MPI_IN_PLACE, deposition.data(), deposition.size(), MPI_DOUBLE, MPI_SUM, comm_);
-  if (cell_plasma_)
-    for (int c = 0; c < locator_->n_cells(); ++c)
-      cell_plasma_->set_plasma_mass(
-          c, scene_.plasma.density * std::max(0.0, locator_->volume(c) - deposition.solid_volume(c)));
+  take_plasma_mass(deposition);
+}
+
+void DemEngine::take_plasma_mass(const Deposition& deposition) {
+  if (!cell_plasma_) return;
+  for (int c = 0; c < locator_->n_cells(); ++c)
+    cell_plasma_->set_plasma_mass(c, scene_.plasma.density * std::max(0.0, locator_->volume(c) - deposition.solid_volume(c)));
 }
 
 EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {

@@ -128,6 +128,9 @@ class DemEngine {
   // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
   // its current position, and sums the per-cell accumulators over ranks. Collective.
   void deposit(Deposition& deposition);
+  // The plasma mass of each cell, rho (V - solid volume), from a deposition (deposit does this;
+  // a resumed node from the checkpoint's): what a co-relaxed cell's plasma weighs.
+  void take_plasma_mass(const Deposition& deposition);
 
   // Largest particle Reynolds number per species in the last run, and whether it exceeded the
   // drag law's range for the first time (the node warns once per run).
@@ -163,12 +166,12 @@ class DemEngine {
     Vec3 x, v;
     Vec3 axis;  // symmetry axis (platelets with orientation; +z otherwise)
   };
-  // Locates the particle, samples the plasma there and evaluates its species' closures; false
-  // (problem noted) when it is outside the mesh or the force is not finite.
-  bool evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+  // Locates the particle, samples the plasma there and evaluates its species' closures; returns
+  // its cell, or -1 (problem noted) when it is outside the mesh or the force is not finite.
+  int evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
                             Vec3& plasma_velocity);
   // Keeps the closures per atom for the steps until the next evaluation (closure_every_ > 1),
-  static void hold(const FluidForce& ff, const Vec3& plasma_velocity, double* held);
+  static void hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* held);
   // and applies them there: the drag on the current velocity, with this step's other forces.
   static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other);
   // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.

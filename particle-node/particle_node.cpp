@@ -119,6 +119,7 @@ void ParticleNode::resume(long step) {
   if (interval_ > 0) set_interval(interval_);
   for (int sp = 0; sp < kSpeciesCount; ++sp) warned_re_[sp] = saved.warned_re[sp] != 0;
   std::copy(saved.deposition.begin(), saved.deposition.end(), deposition_.data());
+  engine_->take_plasma_mass(deposition_);
   if (!saved.fluid_velocity.empty()) fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient);
   if (rank_ == 0) {
     std::vector<long> dropped;

@@ -26,8 +26,14 @@ using namespace hemo::particles::testing;
 using namespace hemo::particles::testing::checkpoint_case;
 namespace fs = std::filesystem;
 
-TEST(NodeCheckpoint, ResumedNodeGoesOnBitForBitAsTheNodeThatWroteIt) {
-  const auto scene = contact_scene();
+// Also with coupling.implicit_drag = "co_relaxed", whose cells' plasma masses come from the
+// last deposition (the checkpoint's, on resume).
+class NodeCheckpointDrag : public ::testing::TestWithParam<const char*> {};
+INSTANTIATE_TEST_SUITE_P(ImplicitDrag, NodeCheckpointDrag, ::testing::Values("interval_response", "co_relaxed"));
+
+TEST_P(NodeCheckpointDrag, ResumedNodeGoesOnBitForBitAsTheNodeThatWroteIt) {
+  auto scene = contact_scene();
+  scene.implicit_drag = GetParam();
   const auto mesh = wedge_mesh(16, 8, kR, kL, "wedge16");
   const auto fluid = fluid_state(mesh, pressing_flow());
   const long K = 4, N = 4;
