@@ -11,9 +11,9 @@
 //
 //   M_c (shift' - shift) = - sum over its particles of dt_s (F_p + r_p beta_p shift'),
 //
-// M_c = rho (V_c - solid volume) the cell's plasma, F_p the step's drag at U_seen (exponential
-// update, closures/exponential_drag.h), r_p beta_p its slope in the plasma velocity, dt_s the
-// step's share of the interval. Implicit in the new shift, so a cell's plasma and particles move
+// M_c = rho (V_c - solid volume) the cell's plasma, F_p the step's fluid force on the particle
+// (drag at U_seen with the exponential update of closures/exponential_drag.h, and lift),
+// r_p beta_p the drag's slope in the plasma velocity, dt_s the step's share of the interval. Implicit in the new shift, so a cell's plasma and particles move
 // towards their common velocity without overshooting whatever the step and the mass ratio, and
 // what the particles gain the plasma loses, exactly. The fluid then takes the interval's impulse
 // as an explicit source (the particle node hands it K = 0): the exchange has already been
@@ -42,7 +42,7 @@ class CellPlasmaRelaxation {
   void start_interval();
   void set_plasma_mass(int cell, double kg) { mass_[cell] = kg; }
 
-  // One particle's step: its drag impulse at U_seen (N s, on the particle) and that impulse's
+  // One particle's step: its fluid impulse at U_seen (N s, on the particle) and that impulse's
   // slope in the plasma velocity (kg: dt_s r beta).
   void add(int cell, const Vec3& impulse_at_seen_velocity, double slope) {
     double* s = &sums_[4 * static_cast<std::size_t>(cell)];

@@ -322,7 +322,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
       ff = held_fluid_force(held[i], vi, other);
       step_cells_[i] = static_cast<int>(held[i][kCell]);
     }
-    if (cell_plasma_) cell_plasma_->add(step_cells_[i], duration * ff.drag, duration * ff.ratio * ff.beta);
+    if (cell_plasma_) cell_plasma_->add(step_cells_[i], duration * ff.total(), duration * ff.ratio * ff.beta);
     if (rotation) {
       const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
       if (advance) rotation->kick(q, l, torque, dt_);

@@ -98,6 +98,44 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
   }
 }
 
+// coupling.implicit_drag = "co_relaxed" across ranks: every rank must see the same plasma
+// answer in every cell (its particles' drag summed over the ranks at each DEM step), and the
+// plasma must lose exactly what the particles gained from it over the run: the sum over cells of
+// M_c shift_c equals minus the interval's deposited impulse, to round-off.
+TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum) {
+  const double R = 25e-6, L = 100e-6, interval = 1e-5;
+  auto scene = blood_scene(2 * R, L, 0.08);
+  use_paper_closures(scene);
+  scene.implicit_drag = "co_relaxed";
+  scene.time.mass_scaling = 10;  // the cells' mass near their cells' plasma: a large answer
+  const auto mesh = wedge_mesh(16, 10, R, L, "mpi-wedge");
+  const CellLocator locator(mesh);
+  FluidSampler fluid(locator);
+  fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
+  Deposition deposition(locator, make_solid_fraction_model("sphere_overlap", locator));
+  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+  engine.create_particles(place_particles(0.7 * R, L, 0, placement_requests(scene), 5));
+  const auto timing = derive_dem_timing(scene, interval);
+  ASSERT_EQ(engine.run(1, timing.substeps, timing.dt, fluid), "");
+  const CellPlasmaRelaxation* plasma = engine.cell_plasma();
+  ASSERT_NE(plasma, nullptr);
+  Vec3 answer = Vec3::Zero();
+  double scale = 0;
+  for (int c = 0; c < locator.n_cells(); ++c) {
+    answer += plasma->plasma_mass(c) * plasma->shift(c);
+    scale += plasma->plasma_mass(c) * plasma->shift(c).norm();
+  }
+  engine.deposit(deposition);
+  const Vec3 impulse = deposition.total_force(interval) * interval;
+  EXPECT_GT(scale, 0);
+  EXPECT_LT((answer + impulse).norm(), 1e-12 * scale) << "plasma " << answer.transpose() << ", particles "
+                                                      << impulse.transpose();
+  double lo[3] = {answer.x(), answer.y(), answer.z()}, hi[3] = {answer.x(), answer.y(), answer.z()};
+  MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(lo[k], hi[k]) << "component " << k;
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);
