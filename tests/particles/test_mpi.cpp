@@ -16,30 +16,58 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <utility>
+#include <vector>
 
 using namespace hemo::particles;
 using namespace hemo::particles::testing;
+
+namespace {
+
+// A few hundred cells with the paper's closures in Poiseuille flow, within 0.7 R (local Ht 16 %):
+// no wall contact in 0.2 ms; cell-cell contacts do happen.
+struct PoiseuilleCase {
+  static constexpr double R = 25e-6, L = 100e-6, interval = 1e-5;
+  hemo::Scene scene;
+  hemo::mesh_t mesh = wedge_mesh(16, 10, R, L, "mpi-wedge");
+  CellLocator locator{mesh};
+  FluidSampler fluid{locator};
+  Deposition deposition{locator, make_solid_fraction_model("sphere_overlap", locator)};
+  DemEngine engine;
+  std::vector<PlacedParticle> placed;
+  DemTiming timing;
+
+  explicit PoiseuilleCase(hemo::Scene s)
+      : scene(std::move(s)), engine(scene, locator, "none", MPI_COMM_WORLD), timing(derive_dem_timing(scene, interval)) {
+    fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
+    placed = place_particles(0.7 * R, L, 0, placement_requests(scene), 5);
+    engine.create_particles(placed);
+  }
+  static hemo::Scene paper_scene() {
+    auto s = blood_scene(2 * R, L, 0.08);
+    use_paper_closures(s);
+    return s;
+  }
+};
+
+}  // namespace
 
 TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserved) {
   int size = 1, rank = 0;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const double R = 25e-6, L = 100e-6, interval = 1e-5;
-  auto scene = blood_scene(2 * R, L, 0.08);
-  use_paper_closures(scene);
-  const auto mesh = wedge_mesh(16, 10, R, L, "mpi-wedge");
-  const CellLocator locator(mesh);
-  FluidSampler fluid(locator);
-  fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
-  Deposition deposition(locator, make_solid_fraction_model("sphere_overlap", locator));
-  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
-  // Within 0.7 R (local Ht 16 %): no wall contact in 0.2 ms; cell-cell contacts do happen.
-  const auto placed = place_particles(0.7 * R, L, 0, placement_requests(scene), 5);
-  engine.create_particles(placed);
+  PoiseuilleCase pc(PoiseuilleCase::paper_scene());
+  const double interval = pc.interval;
+  const hemo::Scene& scene = pc.scene;
+  const CellLocator& locator = pc.locator;
+  const FluidSampler& fluid = pc.fluid;
+  Deposition& deposition = pc.deposition;
+  DemEngine& engine = pc.engine;
+  const auto& placed = pc.placed;
   ASSERT_GT(placed.size(), 200u);
   double expected_volume = 0;
   for (const auto& p : placed) expected_volume += p.species == kRbc ? scene.rbc.volume : scene.platelet.volume;
-  const auto timing = derive_dem_timing(scene, interval);
+  const DemTiming& timing = pc.timing;
 
   auto momentum = [&] {
     const auto s = engine.snapshot(0, 0);
@@ -103,21 +131,13 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
 // plasma must lose exactly what the particles gained from it over the run: the sum over cells of
 // M_c shift_c equals minus the interval's deposited impulse, to round-off.
 TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum) {
-  const double R = 25e-6, L = 100e-6, interval = 1e-5;
-  auto scene = blood_scene(2 * R, L, 0.08);
-  use_paper_closures(scene);
+  auto scene = PoiseuilleCase::paper_scene();
   scene.implicit_drag = "co_relaxed";
   scene.time.mass_scaling = 10;  // the cells' mass near their cells' plasma: a large answer
-  const auto mesh = wedge_mesh(16, 10, R, L, "mpi-wedge");
-  const CellLocator locator(mesh);
-  FluidSampler fluid(locator);
-  fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
-  Deposition deposition(locator, make_solid_fraction_model("sphere_overlap", locator));
-  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
-  engine.create_particles(place_particles(0.7 * R, L, 0, placement_requests(scene), 5));
-  const auto timing = derive_dem_timing(scene, interval);
-  ASSERT_EQ(engine.run(1, timing.substeps, timing.dt, fluid), "");
-  const CellPlasmaRelaxation* plasma = engine.cell_plasma();
+  PoiseuilleCase pc(scene);
+  const CellLocator& locator = pc.locator;
+  ASSERT_EQ(pc.engine.run(1, pc.timing.substeps, pc.timing.dt, pc.fluid), "");
+  const CellPlasmaRelaxation* plasma = pc.engine.cell_plasma();
   ASSERT_NE(plasma, nullptr);
   Vec3 answer = Vec3::Zero();
   double scale = 0;
@@ -125,8 +145,8 @@ TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum)
     answer += plasma->plasma_mass(c) * plasma->shift(c);
     scale += plasma->plasma_mass(c) * plasma->shift(c).norm();
   }
-  engine.deposit(deposition);
-  const Vec3 impulse = deposition.total_force(interval) * interval;
+  pc.engine.deposit(pc.deposition);
+  const Vec3 impulse = pc.deposition.total_force(pc.interval) * pc.interval;
   EXPECT_GT(scale, 0);
   EXPECT_LT((answer + impulse).norm(), 1e-12 * scale) << "plasma " << answer.transpose() << ", particles "
                                                       << impulse.transpose();
