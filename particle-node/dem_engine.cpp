@@ -344,7 +344,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   }
   pending_orientation_.clear();
 
-  // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' drag at this
+  // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' fluid force at this
   // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
   if (cell_plasma_) cell_plasma_->relax(comm_);
   for (int i = 0; i < nlocal; ++i) {
