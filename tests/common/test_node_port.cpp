@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <condition_variable>
+#include <mutex>
 #include <thread>
 
 using namespace hemo;
@@ -17,13 +19,33 @@ namespace {
 
 // Stand-ins for the engines: the fluid's velocity is 10 x (feedback it saw) + 1; the particles'
 // feedback is what they saw. Any break of the Gauss-Seidel order changes the recorded numbers.
+// Both node threads open their ports (and so listen) before either speaks: without it the
+// fluid's mesh could go out before the particle port had subscribed, and the particle port would
+// ask for it again after retry_s (1 run in 8 on an idle machine) -- a start-up race, not a loss
+// (LostDatagramsDoNotChangeTheResult covers recovering what was missed).
+class StartLine {
+ public:
+  explicit StartLine(int parties) : waiting_(parties) {}
+  void arrive_and_wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (--waiting_ == 0) all_here_.notify_all();
+    all_here_.wait(lock, [&] { return waiting_ == 0; });
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable all_here_;
+  int waiting_;
+};
+
 struct Trace {
   std::vector<double> fluid_saw, particles_saw;
   std::uint64_t resend_requests = 0;  // by both nodes
 };
 
-void run_fluid(const RunContext& ctx, Trace& trace) {
+void run_fluid(const RunContext& ctx, Trace& trace, StartLine& start) {
   FluidPort port(ctx, "fluid", "test fluid");
+  start.arrive_and_wait();
   mesh_t mesh{};
   mesh.mesh_hash = "m1";
   port.initialize(mesh);
@@ -40,8 +62,9 @@ void run_fluid(const RunContext& ctx, Trace& trace) {
   port.finalize();
 }
 
-void run_particles(const RunContext& ctx, Trace& trace, bool parallel) {
+void run_particles(const RunContext& ctx, Trace& trace, bool parallel, StartLine& start) {
   ParticlePort port(ctx, "particles", "test particles", 1, parallel);
+  start.arrive_and_wait();
   const mesh_t mesh = port.initialize();
   ASSERT_EQ(mesh.mesh_hash, "m1");
   particle_feedback_t fb{};
@@ -89,8 +112,9 @@ Trace run_protocol(RunContext ctx, int steps, bool parallel = false) {
   // The coordinator listens before the nodes start (as hemocosim does): their first step-done
   // reports must not go out before anyone hears them.
   Bus bus(ctx, "coordinator");
-  std::thread fluid([&] { run_fluid(ctx, trace); });
-  std::thread particles([&] { run_particles(ctx, trace, parallel); });
+  StartLine start(2);
+  std::thread fluid([&] { run_fluid(ctx, trace, start); });
+  std::thread particles([&] { run_particles(ctx, trace, parallel, start); });
   coordinate(bus, ctx, steps);
   fluid.join();
   particles.join();
