@@ -3,27 +3,19 @@
 
 #include <algorithm>
 #include <stdexcept>
-#include <utility>
 
 namespace hemo::particles {
 
-CellPlasmaRelaxation::CellPlasmaRelaxation(std::vector<double> plasma_mass)
-    : mass_(std::move(plasma_mass)), shift_(3 * mass_.size(), 0.0), sums_(4 * mass_.size(), 0.0) {}
+CellPlasmaRelaxation::CellPlasmaRelaxation(int n_cells)
+    : mass_(n_cells, 0.0), shift_(3 * mass_.size(), 0.0), sums_(4 * mass_.size(), 0.0) {}
 
 void CellPlasmaRelaxation::start_interval() { std::fill(shift_.begin(), shift_.end(), 0.0); }
 
 void CellPlasmaRelaxation::relax(MPI_Comm comm) {
   int ranks = 1;
   if (comm != MPI_COMM_NULL) MPI_Comm_size(comm, &ranks);
-  if (ranks > 1) {
-    // Every rank must take part, whether or not it has particles; the flag saves the loop below.
-    int any = touched_ ? 1 : 0;
-    MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_LOR, comm);
-    if (!any) return;
+  if (ranks > 1)  // every rank takes part, whether or not it has particles
     MPI_Allreduce(MPI_IN_PLACE, sums_.data(), static_cast<int>(sums_.size()), MPI_DOUBLE, MPI_SUM, comm);
-  } else if (!touched_) {
-    return;
-  }
   for (std::size_t c = 0; c < mass_.size(); ++c) {
     double* s = &sums_[4 * c];
     if (s[3] == 0 && s[0] == 0 && s[1] == 0 && s[2] == 0) continue;
@@ -35,7 +27,6 @@ void CellPlasmaRelaxation::relax(MPI_Comm comm) {
     for (int k = 0; k < 3; ++k) d[k] = (m * d[k] - s[k]) / denominator;
     std::fill(s, s + 4, 0.0);
   }
-  touched_ = false;
 }
 
 }  // namespace hemo::particles

@@ -13,15 +13,22 @@
 //
 // M_c = rho (V_c - solid volume) the cell's plasma, F_p the step's fluid force on the particle
 // (drag at U_seen with the exponential update of closures/exponential_drag.h, and lift),
-// r_p beta_p the drag's slope in the plasma velocity, dt_s the step's share of the interval. Implicit in the new shift, so a cell's plasma and particles move
-// towards their common velocity without overshooting whatever the step and the mass ratio, and
-// what the particles gain the plasma loses, exactly. The fluid then takes the interval's impulse
+// r_p beta_p the drag's slope in the plasma velocity, dt_s the step's share of the interval.
+// Implicit in the new shift, so a cell's plasma and particles move towards their common
+// velocity without overshooting whatever the step and the mass ratio, and what the particles
+// gain the plasma loses, exactly. The fluid then takes the interval's impulse
 // as an explicit source (the particle node hands it K = 0): the exchange has already been
 // integrated with the plasma's inertia in it. The shift starts at 0 each interval: the fluid's
 // new state already holds what the last interval's shifts held.
 //
 // Each particle reacts on the cell holding its centre (the deposition, which the fluid gets, may
 // share it among cells: the shift is the interval's model of the plasma's answer, not its state).
+//
+// What it gets wrong: a cell's plasma answers as a free body, while the real plasma is
+// incompressible and held by its neighbours. Over a long interval the particles drag their
+// cell's plasma along and lose most of the resistance to moving relative to the rest of it: on
+// the calibration scene at 1e-4 s the platelets' D comes out 7.6 times too large. It does remove
+// the contact-exchange instability of dense suspensions (docs/performance.md §1, 2026-12-03).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -35,8 +42,8 @@ namespace hemo::particles {
 
 class CellPlasmaRelaxation {
  public:
-  // Plasma masses (kg) per cell; every shift 0.
-  explicit CellPlasmaRelaxation(std::vector<double> plasma_mass);
+  // n_cells cells, every plasma mass 0 until set, every shift 0.
+  explicit CellPlasmaRelaxation(int n_cells);
 
   // A new interval: the fluid's velocity already holds the last shifts.
   void start_interval();
@@ -50,7 +57,6 @@ class CellPlasmaRelaxation {
     s[1] += impulse_at_seen_velocity.y();
     s[2] += impulse_at_seen_velocity.z();
     s[3] += slope;
-    touched_ = true;
   }
   // Ends the step: sums what every rank added (collective on `comm`; MPI_COMM_NULL: this
   // process alone) and moves each cell's shift implicitly.
@@ -68,7 +74,6 @@ class CellPlasmaRelaxation {
   std::vector<double> mass_;   // kg per cell
   std::vector<double> shift_;  // m/s, 3 per cell
   std::vector<double> sums_;   // this step's impulse (3) and slope per cell
-  bool touched_ = false;
 };
 
 }  // namespace hemo::particles

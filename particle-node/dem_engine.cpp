@@ -116,9 +116,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
   for (const auto& line : setup) command(line);
   d_max_ = d_max;
   if (scene_.implicit_drag == "co_relaxed") {
-    std::vector<double> plasma_mass(locator.n_cells());
-    for (int c = 0; c < locator.n_cells(); ++c) plasma_mass[c] = scene_.plasma.density * locator.volume(c);
-    cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(std::move(plasma_mass));
+    cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
+    take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
   }
 }
 DemEngine::~DemEngine() { delete lmp_; }

@@ -22,7 +22,9 @@ struct Body {
 // Steps `bodies` (all in cell 0, plasma of mass `plasma` at U_seen = u_seen + shift) over `time`
 // in `steps` steps; returns the plasma's velocity at the end.
 Vec3 relax(std::vector<Body>& bodies, double plasma, const Vec3& u_seen, double time, int steps) {
-  CellPlasmaRelaxation cell({plasma, 1.0});
+  CellPlasmaRelaxation cell(2);
+  cell.set_plasma_mass(0, plasma);
+  cell.set_plasma_mass(1, 1.0);
   const double dt = time / steps;
   std::vector<Vec3> drag(bodies.size());
   for (int s = 0; s < steps; ++s) {
@@ -91,7 +93,8 @@ TEST(CellPlasma, LongStepsNeverOvershoot) {
 
 // A new interval starts from the fluid's state: the shifts are forgotten.
 TEST(CellPlasma, StartIntervalForgetsTheShift) {
-  CellPlasmaRelaxation cell({1e-12});
+  CellPlasmaRelaxation cell(1);
+  cell.set_plasma_mass(0, 1e-12);
   cell.add(0, Vec3(0, 0, 1e-16), 1e-13);
   cell.relax(MPI_COMM_NULL);
   EXPECT_LT(cell.shift(0).z(), 0.0);
