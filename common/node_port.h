@@ -29,6 +29,12 @@ namespace hemo {
 // Named scalar diagnostics reported with each step (residuals, Courant number, counts...).
 using Diagnostics = std::vector<std::pair<std::string, double>>;
 
+// Diagnostics the coordinator's clock reads from the particle node (coordinator/coupling_clock.h):
+// the shortest drag relaxation time m / beta of its particles over the step (at start-up: at
+// rest), and the physical time it is at (a resumed run's, from its checkpoint).
+inline constexpr const char* kRelaxationDiagnostic = "min_relaxation_time_s";
+inline constexpr const char* kTimeDiagnostic = "time_s";
+
 struct StepTimes {
   double compute_s = 0;
   double wait_s = 0;

@@ -298,6 +298,9 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.time.coupling_interval > 0, "time.coupling_interval_s", "must be positive");
   r.check(s.time.coupling_steps >= 1, "time.coupling_steps", "must be at least 1");
   r.check(s.time.dem_substeps >= 0, "time.dem_substeps", "must not be negative (0 derives it)");
+  r.read("time.coupling_relaxation_times", s.time.coupling_relaxation_times);
+  r.check(s.time.coupling_relaxation_times >= 0 && std::isfinite(s.time.coupling_relaxation_times),
+          "time.coupling_relaxation_times", "must not be negative (0: fixed coupling intervals)");
 
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");

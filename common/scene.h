@@ -111,6 +111,14 @@ struct Timing {
   // like s and must stay far below the flow's time scale 1 / shear rate (docs/performance.md,
   // bench mass-scaling). 1: the physical masses.
   double mass_scaling = 1;         // every species' DEM mass factor unless the species sets its own
+  // Adaptive coupling intervals (coordinator/coupling_clock.h): each interval the longest of
+  // coupling_interval / 2^j that is at most this many times the shortest drag relaxation time
+  // m / beta the particle node reports for its particles (at their DEM masses, current slip and
+  // orientation). coupling_interval is then the longest interval, and coupling_steps x
+  // coupling_interval the physical time. 0: fixed intervals.
+  double coupling_relaxation_times = 0;
+  bool adaptive_interval() const { return coupling_relaxation_times > 0; }
+  double end_time() const { return static_cast<double>(coupling_steps) * coupling_interval; }  // s
 };
 
 // Body force on the particles (m g); MODEL.md §1: off by default.

@@ -28,8 +28,13 @@ int check_command(const std::string& scene_path) {
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
   fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
-  fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
-             s.time.coupling_interval, s.time.coupling_steps * s.time.coupling_interval);
+  if (s.time.adaptive_interval())
+    fmt::print("  time        {:.4g} s physical in coupling intervals of at most {:.3g} s, each the longest {:.3g} s / 2^j "
+               "within {:g} drag relaxation times\n",
+               s.time.end_time(), s.time.coupling_interval, s.time.coupling_interval, s.time.coupling_relaxation_times);
+  else
+    fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
+               s.time.coupling_interval, s.time.end_time());
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0

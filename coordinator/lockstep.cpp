@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <unistd.h>
 
@@ -75,10 +76,10 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   state.last_heard = now();
 }
 
-void Lockstep::order(long step, double time_s, bool write_output, bool write_checkpoint) {
+void Lockstep::order(long step, double time_s, double dt_s, bool write_output, bool write_checkpoint) {
   step_order_t o;
   o.time_s = time_s;
-  o.dt_s = scene_.time.coupling_interval;
+  o.dt_s = dt_s;
   o.write_output = write_output;
   o.write_checkpoint = write_checkpoint;
   o.stop = false;
@@ -87,6 +88,12 @@ void Lockstep::order(long step, double time_s, bool write_output, bool write_che
   bus_->publish(channel::step, o, step, /*keep=*/true);
   bus_->forget_before(step - 1);
   write_metrics();  // now that the nodes are busy
+}
+
+double Lockstep::diagnostic(const std::string& node, const std::string& name) const {
+  const auto& last = nodes_.at(node).last;
+  const auto it = last.find(name);
+  return it != last.end() ? it->second : std::numeric_limits<double>::quiet_NaN();
 }
 
 void Lockstep::write_metrics() {
@@ -107,6 +114,8 @@ void Lockstep::record(const Received& msg) {
   node.done_step = msg.envelope.step;
   node.compute = done.compute_s;
   node.wait = done.wait_s;
+  node.last.clear();
+  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i) node.last[done.names[i]] = done.values[i];
   const long k = msg.envelope.step;
   // A resumed run's start-up report is of the checkpoint's step, whose metrics the run kept.
   if (k == first_step_ && k > 0) return;

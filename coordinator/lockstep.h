@@ -35,8 +35,8 @@ class Lockstep {
   Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step = 0);
   ~Lockstep();
 
-  // Orders step k (time at its end; output, checkpoint wanted or not).
-  void order(long step, double time_s, bool write_output, bool write_checkpoint = false);
+  // Orders step k (time at its end, its interval; output, checkpoint wanted or not).
+  void order(long step, double time_s, double dt_s, bool write_output, bool write_checkpoint = false);
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
   // that failed, exited or stopped answering (NodeLost for the last two).
   void await(long step, double timeout_s);
@@ -49,6 +49,8 @@ class Lockstep {
   // Per-node seconds of the last step: computing and waiting.
   double compute_s(const std::string& node) const { return nodes_.at(node).compute; }
   double wait_s(const std::string& node) const { return nodes_.at(node).wait; }
+  // The value a node reported for the last step it finished, or at start-up (NaN: none).
+  double diagnostic(const std::string& node, const std::string& name) const;
 
   // Where the time of the coupled steps went: per node, compute and wait and the phases the
   // node reports (diagnostics named phase_*_s), and the coupling overhead of the lockstep
@@ -63,6 +65,7 @@ class Lockstep {
     long checkpoint_step = -1;  // the newest checkpoint the node acknowledged
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
+    std::map<std::string, double> last;    // the diagnostics of the last step done
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
               long first_step);

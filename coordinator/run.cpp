@@ -2,16 +2,20 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
 #include "control_desk.h"
+#include "coupling_clock.h"
 #include "lockstep.h"
+#include "node_port.h"
 #include "progress.h"
 #include "scene.h"
 #include "xdmf.h"
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <csignal>
 #include <ctime>
 #include <fstream>
+#include <limits>
 #include <unistd.h>
 
 namespace hemo {
@@ -29,8 +33,27 @@ std::string default_run_dir(const Scene& scene) {
 // Where the lockstep begins and ends, and why it stopped early.
 struct Span {
   long first = 0;  // the step the nodes start from (0, or the checkpoint resumed)
-  long last = 0;   // the step after which they stop (the scene's end, or --stop-after-step)
+  long last = 0;   // the step after which they stop at the latest (--stop-after-step; else no bound)
 };
+// Where a span of the lockstep got to.
+struct Reached {
+  long step = 0;
+  double time_s = 0;
+  bool end = false;  // the scene's end time
+};
+
+// The clock of a span: fixed intervals count from its first step; adaptive ones take the time
+// the particle node resumed at and size the first interval from its start-up report.
+CouplingClock span_clock(const Scene& scene, const Lockstep& lockstep, long first_step) {
+  if (!scene.time.adaptive_interval()) return CouplingClock(scene.time, scene.output, first_step);
+  const double resumed_at = first_step > 0 ? lockstep.diagnostic("particles", "time_s") : 0.0;
+  if (!std::isfinite(resumed_at))
+    throw std::runtime_error(fmt::format(
+        "the particle node did not report the time of its checkpoint of step {} (adaptive intervals need it)", first_step));
+  CouplingClock clock(scene.time, scene.output, first_step, resumed_at);
+  clock.observe_relaxation_time(lockstep.diagnostic("particles", kRelaxationDiagnostic));
+  return clock;
+}
 
 // Tells where to go on from after a run stopped before its end.
 std::string resume_hint(const RunDirectory& dir) {
@@ -51,10 +74,12 @@ void use_swapped_programs(const RunDirectory& dir, Scene& scene) {
 // Returns the last step done. A restart or swap asked for (ControlDesk) is carried out at the
 // end of the step it came in: that step is checkpointed and RestartRequested thrown; the
 // request `restarted` (of the span before) is answered once the nodes run again.
-long drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span,
-                Progress& progress, ControlDesk& desk, std::optional<ControlRequest>& restarted) {
+Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span,
+                   Progress& progress, ControlDesk& desk, std::optional<ControlRequest>& restarted) {
   Lockstep lockstep(scene, dir, ctx, span.first);
   lockstep.await(span.first, scene.run.startup_timeout);
+  CouplingClock clock = span_clock(scene, lockstep, span.first);
+  progress.starts_at(clock.time_s());
   if (restarted) {
     desk.answer(*restarted, true,
                 fmt::format("{} node {} at step {}", restarted->node,
@@ -63,19 +88,19 @@ long drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& c
     restarted.reset();
   }
 
-  const long steps = scene.time.coupling_steps;
   const long every_checkpoint = scene.output.checkpoint_every_steps;
-  long k = span.first + 1;
-  for (; k <= span.last; ++k) {
-    const bool stopping_early = (interrupted || k == span.last) && k < steps;
-    const bool output = k % scene.output.every_steps == 0 || k == steps;
+  while (!clock.finished() && clock.step() < span.last) {
+    const CouplingClock::Step step = clock.next();
+    const long k = step.number;
+    const bool last = k == span.last || clock.finished();
+    const bool stopping_early = (interrupted || last) && !clock.finished();
     auto request = desk.take();
-    if (request && k == span.last) {
+    if (request && last) {
       desk.answer(*request, false, "the run is at its last step");
       request.reset();
     }
     const bool checkpoint = (every_checkpoint > 0 && k % every_checkpoint == 0) || stopping_early || request;
-    lockstep.order(k, k * scene.time.coupling_interval, output, checkpoint);
+    lockstep.order(k, step.time_s, step.dt_s, step.output, checkpoint);
     try {
       lockstep.await(k, scene.run.step_timeout);
     } catch (const UnstableRun&) {
@@ -87,35 +112,41 @@ long drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& c
     }
     if (checkpoint && lockstep.common_checkpoint() == k) dir.keep_only_checkpoint(k);
     if (request) throw RestartRequested(*request);
-    progress.update(k, fmt::format("fluid {:.2f} s, particles {:.2f} s", lockstep.compute_s("fluid"),
-                                   lockstep.compute_s("particles")));
+    clock.observe_relaxation_time(lockstep.diagnostic("particles", kRelaxationDiagnostic));
+    progress.update(k, step.time_s,
+                    fmt::format("{}fluid {:.2f} s, particles {:.2f} s",
+                                clock.adaptive() ? fmt::format("dt {:.3g} s  ", step.dt_s) : "",
+                                lockstep.compute_s("fluid"), lockstep.compute_s("particles")),
+                    clock.finished() || stopping_early);
     if (stopping_early) break;
   }
-  const long stopped_after = std::min(k, span.last);
-  lockstep.stop(stopped_after + 1);
-  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), stopped_after - span.first));
-  return stopped_after;
+  lockstep.stop(clock.step() + 1);
+  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), clock.step() - span.first));
+  return {clock.step(), clock.time_s(), clock.finished()};
 }
 
 // The whole span, restarting both nodes from their last common checkpoint when one dies or
 // stops answering (at most run.max_restarts times), or when asked to (`hemocosim restart`,
 // `hemocosim swap`; DESIGN.md "Checkpoint, restart, swap").
-long drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, Span span) {
+Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, Span span) {
   Scene scene = scene_as_given;  // a swap changes a node's command
   ControlDesk desk(ctx);
   std::optional<ControlRequest> restarted;  // to answer once the nodes run again
-  Progress progress(span.last, scene.time.coupling_interval, span.first);
+  const long total = scene.time.adaptive_interval() ? 0 : span.last;
+  Progress progress(total, scene.time.end_time(), span.first);
   for (int restarts = 0;;) {
     long from = 0;
     try {
-      const long stopped_after = drive_span(scene, dir, ctx, span, progress, desk, restarted);
+      const Reached reached = drive_span(scene, dir, ctx, span, progress, desk, restarted);
       fmt::print(stderr, "hemocosim: {} in {:.1f} s{}; results in {}\n",
-                 stopped_after < scene.time.coupling_steps
-                     ? fmt::format("stopped after step {} of {}", stopped_after, scene.time.coupling_steps)
-                     : "done",
+                 reached.end ? "done"
+                 : scene.time.adaptive_interval()
+                     ? fmt::format("stopped after step {} (t = {:.6g} s of {:.6g} s)", reached.step, reached.time_s,
+                                   scene.time.end_time())
+                     : fmt::format("stopped after step {} of {}", reached.step, scene.time.coupling_steps),
                  progress.seconds(), restarts > 0 ? fmt::format(" ({} restart{})", restarts, restarts > 1 ? "s" : "") : "",
                  dir.path);
-      return stopped_after;
+      return reached;
     } catch (const RestartRequested& asked) {
       // Both nodes are stopped by now (the lockstep is gone).
       const auto& r = asked.request;
@@ -157,9 +188,9 @@ long drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx
 int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& ctx, const Span span) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  long stopped_after = 0;
+  Reached reached;
   try {
-    stopped_after = drive(scene, dir, ctx, span);
+    reached = drive(scene, dir, ctx, span);
   } catch (const std::exception& e) {
     // The nodes are stopped by now.
     try { write_paraview_sidecars(dir.path); } catch (const std::exception&) {}
@@ -168,15 +199,18 @@ int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& ct
   const int snapshots = write_paraview_sidecars(dir.path);
   fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
              snapshots, dir.path);
-  if (stopped_after < scene.time.coupling_steps) {
-    if (interrupted) throw std::runtime_error(fmt::format("interrupted after step {}", stopped_after) + resume_hint(dir));
+  if (!reached.end) {
+    if (interrupted) throw std::runtime_error(fmt::format("interrupted after step {}", reached.step) + resume_hint(dir));
     fmt::print(stderr, "hemocosim: stopped as asked{}\n", resume_hint(dir));
   }
   return 0;
 }
 
+// The step after which to stop at the latest: --stop-after-step, else the last (with adaptive
+// intervals not known in advance: no bound, the clock ends the run).
 long last_step(const Scene& scene, long stop_after_step) {
-  return stop_after_step > 0 ? std::min(stop_after_step, scene.time.coupling_steps) : scene.time.coupling_steps;
+  const long end = scene.time.adaptive_interval() ? std::numeric_limits<long>::max() : scene.time.coupling_steps;
+  return stop_after_step > 0 ? std::min(stop_after_step, end) : end;
 }
 }  // namespace
 

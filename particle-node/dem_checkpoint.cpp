@@ -141,6 +141,7 @@ void DemEngine::save_globals(EngineState& s) const {
   s.rotation_dt = rotation_dt_;
   s.neighbour_builds = lmp_->neighbor->ncalls;
   s.max_reynolds.assign(max_re_.begin(), max_re_.end());
+  s.min_relaxation_time = min_relaxation_time_;
   s.outside_total = outside_total_;
   s.lost = lost_;
   for (const auto& [tag, q] : pending_orientation_) {
@@ -338,6 +339,7 @@ void DemEngine::restore_globals(const EngineState& s) {
   last_rotation_step_ = s.last_rotation_step;
   rotation_dt_ = s.rotation_dt;
   for (int sp = 0; sp < kSpeciesCount; ++sp) max_re_[sp] = s.max_reynolds[sp];
+  min_relaxation_time_ = s.min_relaxation_time;
   outside_total_ = static_cast<long>(s.outside_total);
   lost_ = static_cast<long>(s.lost);
   pending_orientation_.clear();

@@ -394,6 +394,7 @@ int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::i
     return -1;
   }
   max_slip_squared_[p.species] = std::max(max_slip_squared_[p.species], flow.slip.squaredNorm());
+  max_beta_[p.species] = std::max(max_beta_[p.species], ff.beta);
   plasma_velocity = flow.velocity;
   return cell;
 }
@@ -481,6 +482,7 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   callbacks_ = 0;
   outside_ = 0;
   max_slip_squared_.fill(0.0);
+  max_beta_.fill(0.0);
   first_problem_.clear();
   const bool new_dt = dt != dt_;
   dt_ = dt;
@@ -506,6 +508,10 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     max_re_[sp] = forces_[sp] ? forces_[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
                               : 0.0;
+  min_relaxation_time_ = std::numeric_limits<double>::infinity();
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    if (const double beta = max_all(max_beta_[sp], comm_); beta > 0)
+      min_relaxation_time_ = std::min(min_relaxation_time_, mass_[sp] / beta);
   std::string problem = agree_on_problem();
   if (problem.empty()) problem = check_lost(coupling_step);
   return problem;

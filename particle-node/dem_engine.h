@@ -63,6 +63,8 @@
 #include <scene.h>
 
 #include <array>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <cstdint>
 #include <functional>
@@ -135,6 +137,11 @@ class DemEngine {
   // Largest particle Reynolds number per species in the last run, and whether it exceeded the
   // drag law's range for the first time (the node warns once per run).
   double max_reynolds(int species) const { return max_re_[species]; }
+  // The shortest drag relaxation time m / beta (DEM mass, beta at the particle's slip and
+  // orientation) over the particles and the closures' evaluations of the last run; infinite
+  // without drag, NaN before the first run.
+  double min_relaxation_time() const { return min_relaxation_time_; }
+  bool ran() const { return !std::isnan(min_relaxation_time_); }  // since start-up or restore
 
   // Diagnostics at the current state in `fluid` (collective).
   EngineDiagnostics diagnostics(const FluidSampler* fluid);
@@ -236,6 +243,8 @@ class DemEngine {
   std::array<Vec3, kSpeciesCount> weight_{Vec3::Zero(), Vec3::Zero()};  // N, physical mass x gravity
   std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
   std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, during the run (Re after it)
+  std::array<double, kSpeciesCount> max_beta_{};          // N s/m, during the run
+  double min_relaxation_time_ = std::numeric_limits<double>::quiet_NaN();  // s, of the last run
   bool any_orientation_ = false;
   LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
   LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)

@@ -29,6 +29,7 @@ struct EngineState {
   double rotation_dt = 0;                 // and its length
   std::int64_t neighbour_builds = 0;      // LIGGGHTS's count (0: no list to measure overlaps on yet)
   std::vector<double> max_reynolds;       // per species, of the last run
+  double min_relaxation_time = 0;         // s, of the last run (NaN: no run yet)
   std::int64_t outside_total = 0;         // particles outside the mesh in the last run
   std::int64_t lost = 0;
   std::vector<std::int64_t> pending_tags;      // set_orientation not applied yet
@@ -56,7 +57,8 @@ struct EngineState {
   void visit(F&& f) {
     f("ranks", ranks); f("particles", particles); f("type_of", type_of); f("dem_step", dem_step); f("dt", dt);
     f("last_rotation_step", last_rotation_step); f("rotation_dt", rotation_dt);
-    f("neighbour_builds", neighbour_builds); f("max_reynolds", max_reynolds); f("outside_total", outside_total);
+    f("neighbour_builds", neighbour_builds); f("max_reynolds", max_reynolds);
+    f("min_relaxation_time", min_relaxation_time); f("outside_total", outside_total);
     f("lost", lost); f("pending_tags", pending_tags); f("pending_orientations", pending_orientations);
     f("tag", tag); f("type", type); f("mask", mask); f("image", image); f("x", x); f("v", v); f("omega", omega);
     f("radius", radius); f("rmass", rmass); f("density", density); f("force", force); f("torque", torque);

@@ -303,7 +303,11 @@ Diagnostics ParticleNode::diagnostics() {
       {"max_reynolds_rbc", d.max_reynolds[kRbc]},
       {"max_reynolds_platelet", d.max_reynolds[kPlatelet]},
       {"solid_volume_m3", deposition_.total_volume()},
+      {kTimeDiagnostic, time_},
   };
+  // Before the first run: the particles at rest. None without drag (nothing bounds an interval).
+  const double tau = engine_->ran() ? engine_->min_relaxation_time() : timing_.relaxation_time;
+  if (std::isfinite(tau)) out.emplace_back(kRelaxationDiagnostic, tau);
   // The coordinator keeps a checkpoint only once both nodes have acknowledged it.
   if (const long k = std::exchange(checkpoint_written_, -1); k >= 0) out.emplace_back(kCheckpointDiagnostic, double(k));
   return out;

@@ -78,7 +78,10 @@ std::optional<long> resumable_from(const std::string& run_dir, const std::string
   ran << in.rdbuf();
   if (ran.str() != scene_text) return std::nullopt;
   const auto last = last_complete_checkpoint(run_dir);
-  if (!last || *last >= load_scene((fs::path(run_dir) / "scene.toml").string()).time.coupling_steps) return std::nullopt;
+  // With adaptive intervals the number of steps is not known in advance: a checkpoint at the
+  // end resumes into a run that is done at once.
+  const Timing time = load_scene((fs::path(run_dir) / "scene.toml").string()).time;
+  if (!last || (!time.adaptive_interval() && *last >= time.coupling_steps)) return std::nullopt;
   return last;
 }
 

@@ -22,6 +22,7 @@ std::string SceneSpec::text() const {
     << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial << "\n"
     << "\n[driving]\n" << driving << "\n"
     << "\n[time]\ncoupling_interval_s = " << dt << "\ncoupling_steps = " << steps << "\n"
+    << (relaxation_times > 0 ? "coupling_relaxation_times = " + std::to_string(relaxation_times) + "\n" : "")
     << "\n[output]\nevery_steps = " << every_steps << "\n\n"
     << extra << "\n";
   return s.str();

@@ -18,7 +18,9 @@
 // It reports, with each STEP_DONE, what it saw of the fluid (fluid_momentum_{x,y,z}_kg_m_s =
 // sum rho (1 - phi) u V with the phi the fluid was given for that step, fluid_drag_{x,y,z}_N =
 // sum K u V with the K it was given, fluid_time_s) and
-// what it sent (solid_volume_m3, source_total_{x,y,z}_N). With --record FILE it writes the
+// what it sent (solid_volume_m3, source_total_{x,y,z}_N), and with --relaxation-time-s a
+// drag relaxation time (min_relaxation_time_s, read by the coordinator's adaptive clock; from
+// --later-from-s on --relaxation-time-later-s instead). With --record FILE it writes the
 // last fluid state it received, per cell, to RUN_DIR/FILE (CSV: cell, centre, volume, phi,
 // u, grad u) for tests that need the fields.
 //
@@ -47,6 +49,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -69,6 +72,14 @@ struct Options {
   double drag_coefficient = 0;    // N s/m^4, uniform
   long bad_at_step = 1;           // first step whose feedback is bad (bad modes)
   std::string record;             // file (in the run dir) for the last fluid state received
+  double relaxation_time = 0;     // s, reported as min_relaxation_time_s (0: not reported)
+  double relaxation_time_later = 0;  // s, reported from later_from on (0: the same)
+  double later_from = 0;          // s
+  // The relaxation time to report at the end of a step ending at time_s.
+  std::optional<double> relaxation_at(double time_s) const {
+    if (relaxation_time <= 0) return std::nullopt;
+    return relaxation_time_later > 0 && time_s >= later_from ? relaxation_time_later : relaxation_time;
+  }
 };
 
 std::string one_line(std::string text) {
@@ -241,6 +252,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--bad-at-step", opt.bad_at_step, "nan, wrong-size, wrong-mesh: first bad step")
       ->capture_default_str();
+  app.add_option("--relaxation-time-s", opt.relaxation_time, "Report this drag relaxation time (0: none)")
+      ->capture_default_str();
+  app.add_option("--relaxation-time-later-s", opt.relaxation_time_later, "... and this one from --later-from-s on");
+  app.add_option("--later-from-s", opt.later_from, "When the later relaxation time starts");
   app.add_option("--record", opt.record, "Write the last fluid state received to RUN_DIR/FILE (CSV)");
   app.add_option("--scene", scene_path, "Scene file (TOML)")->required()->check(CLI::ExistingFile);
   app.add_option("--run-dir", run_dir, "Run directory")->required();
@@ -287,6 +302,7 @@ int main(int argc, char** argv) {
     // A resumed run's first report is of a step the coordinator has already recorded.
     hemo::Diagnostics diag;
     if (first == 0) diag = diagnostics(mesh, previous, feedback, nullptr, scene.plasma.density);
+    if (const auto tau = opt.relaxation_at(0.0); tau && first == 0) diag.push_back({hemo::kRelaxationDiagnostic, *tau});
 
     while (auto step = port->advance(feedback, diag)) {
       const long k = step->order.envelope.step;
@@ -295,6 +311,7 @@ int main(int argc, char** argv) {
       previous = feedback;  // what the fluid used for this step
       feedback = prescription.feedback(k, step->order.time_s);
       diag = diagnostics(mesh, previous, feedback, &last_fluid, scene.plasma.density);
+      if (const auto tau = opt.relaxation_at(step->order.time_s)) diag.push_back({hemo::kRelaxationDiagnostic, *tau});
       if (step->order.write_checkpoint) {
         hemo::begin_checkpoint(run_dir, k, "particles");
         hemo::commit_checkpoint(run_dir, k, "particles");

@@ -267,6 +267,45 @@ TEST(FluidContinuity, MovingSolidFractionBlobKeepsFluidMassToSolverTolerance) {
   EXPECT_LT(worst_removed, 1e-6);
 }
 
+// The same blob across a change of coupling interval. The fluid applies in step k + 1 the
+// particles' feedback of step k, so alpha's change it sees took the particles' interval k:
+// d(alpha)/dt must divide it by that interval, not by its own. The stand-in reports a drag
+// relaxation time of 1e-4 s, halved from 1 ms on, and the adaptive clock
+// (time.coupling_relaxation_times = 1) takes intervals of 1e-4 s and then 5e-5 s. The blob
+// moves at a constant speed, so d(alpha)/dt per unit time, alpha_ddt_norm / dt, must go on
+// smoothly through the change: within 2 % of the step before at the first short step (dividing
+// by the fluid's own interval doubles it there), as from step to step elsewhere.
+TEST(FluidContinuity, BlobsSourceGoesOnSmoothlyWhenTheIntervalHalves) {
+  SceneSpec s;
+  s.name = "blob-interval-change";
+  s.axial = 48;
+  s.dt = 1e-4;
+  s.steps = 16;
+  s.relaxation_times = 1;
+  s.particle_command = prescribed("--mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 50 --blob-x-um 15 "
+                                  "--blob-speed-m-s 0.05 --relaxation-time-s 1e-4 --relaxation-time-later-s 5e-5 "
+                                  "--later-from-s 1e-3");
+  const auto r = run_scene(s);
+  ASSERT_EQ(r.command.exit_code, 0) << r.command.output;
+  const auto m = read_metrics(r.dir);
+  const auto& time = m.at({"fluid", "time_s"});
+  const auto& ddt = m.at({"fluid", "alpha_ddt_norm"});
+  long first_short = 0;
+  for (const auto& [k, t] : time)
+    if (k >= 2 && first_short == 0 && t - time.at(k - 1) < 0.75e-4) first_short = k;
+  ASSERT_EQ(first_short, 11) << "ten intervals of 1e-4 s, then 5e-5 s";
+  ASSERT_EQ(time.rbegin()->first, 10 + 12);  // 1.6 ms
+  double worst_elsewhere = 0;
+  auto rate = [&](long k) { return ddt.at(k) / (time.at(k) - time.at(k - 1)); };
+  for (long k = 3; k <= time.rbegin()->first; ++k)  // step 1: alpha does not move yet
+    if (k != first_short) worst_elsewhere = std::max(worst_elsewhere, std::abs(rate(k) / rate(k - 1) - 1));
+  const double at_change = rate(first_short) / rate(first_short - 1) - 1;
+  std::printf("moving blob, interval 1e-4 -> 5e-5 s at step %ld: d(alpha)/dt changes by %+.2e there, at most "
+              "%.2e from step to step elsewhere\n", first_short, at_change, worst_elsewhere);
+  EXPECT_LT(std::abs(at_change), 0.02);
+  EXPECT_LT(worst_elsewhere, 0.02);
+}
+
 // A uniform explicit momentum source of known total F (and a uniform implicit drag K u, on a
 // fixed phi = 0.2) in an undriven vessel starting at rest: the total fluid momentum
 // P = sum rho alpha u V, computed by the prescribed node from the velocities it received,

@@ -129,6 +129,28 @@ TEST(Checkpoint, ResumedRunEqualsTheUninterruptedRun) {
   expect_resumed_run_equals_uninterrupted("checkpoint", "", 0.0);
 }
 
+// Adaptive intervals (time.coupling_relaxation_times): the resumed clock takes the time from
+// the particle node's checkpoint and goes on with the intervals the uninterrupted run takes. The
+// small scene at N = 30 runs 40 intervals of 5e-6 s (test_coupled_run.cpp); stopped after step
+// 21, at 1.05e-4 s, between two of the longest intervals (2e-5 s), and resumed: bit for bit.
+TEST(Checkpoint, AdaptiveRunResumedEqualsTheUninterruptedRun) {
+  std::string text = scene_with_checkpoints(10, 8);
+  text.replace(text.find("[time]"), 6, "[time]\ncoupling_relaxation_times = 30");
+  const std::string whole = fresh_run_dir("adaptive-whole"), parts = fresh_run_dir("adaptive-parts");
+  std::ofstream(whole + ".toml") << text;
+  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 21");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_NE(first.output.find("stopped after step 21 (t = 0.000105 s of 0.0002 s)"), std::string::npos) << first.output;
+  EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-21"});
+  const auto second = run(bin("hemocosim") + " resume " + parts);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_NE(second.output.find("resumes from step 21"), std::string::npos) << second.output;
+  EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-40"});
+  expect_same_run(parts, whole, 0.0, "00000021");  // the stop wrote its step's snapshot
+}
+
 // Two particle ranks, as the calibration scene (the decomposed fluid's resume is tested bit for
 // bit in FluidCheckpoint.*): to round-off only. Writing a checkpoint rebuilds the neighbour
 // lists, which on two ranks can move cells between ranks and so reorder force sums; the

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <regex>
 #include <sstream>
+#include <stdexcept>
 
 using namespace hemo::test;
 
@@ -206,6 +207,67 @@ TEST(CoupledRun, MixtureMomentumIsConservedOverTheExchange) {
   EXPECT_LT(returned, 0.01);
   EXPECT_GT(response, 0.03);
   EXPECT_GT(held, 1.0);
+}
+
+namespace {
+// `text` with `from` replaced by `to` (which must be there).
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  if (at == std::string::npos) throw std::runtime_error("the test scene has no '" + from + "'");
+  return text.replace(at, from.size(), to);
+}
+std::string adaptive_scene_text(long coupling_steps, double relaxation_times) {
+  return replaced(small_scene_text(coupling_steps), "[time]",
+                  "[time]\ncoupling_relaxation_times = " + std::to_string(relaxation_times));
+}
+void expect_same_snapshots(const std::string& a_dir, const std::string& b_dir) {
+  const auto names = snapshot_names(a_dir + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(b_dir + "/particles.h5"));
+  for (const auto& name : names) {
+    const auto a = read_snapshot(a_dir + "/particles.h5", name), b = read_snapshot(b_dir + "/particles.h5", name);
+    ASSERT_EQ(a.id, b.id) << name;
+    EXPECT_EQ(a.time_s, b.time_s) << name;
+    EXPECT_EQ(a.position, b.position) << name;  // bit for bit
+    EXPECT_EQ(a.velocity, b.velocity) << name;
+  }
+}
+}  // namespace
+
+// time.coupling_relaxation_times = N sizes each interval as the longest 2e-5 s / 2^j within N
+// times the shortest drag relaxation time the particle node reports. The small scene's, its
+// platelets broadside-on, is 2.13e-7 s at rest and ~1 % less in the flow (their Re): N = 30
+// allows 6.3e-6 s, so every interval is 2e-5 s / 4. The adaptive run must then be the fixed run
+// at 5e-6 s bit for bit: the same 40 steps at the same times, the same snapshots at the same
+// physical times (the fixed clock's output times, 0 and 2e-4 s).
+TEST(CoupledRun, AdaptiveIntervalsOnOneLevelAreTheFixedRunAtThatInterval) {
+  const std::string adaptive = run_scene_text("adaptive-quarter", adaptive_scene_text(10, 30));
+  const std::string fixed = run_scene_text(
+      "fixed-quarter", replaced(replaced(small_scene_text(40), "coupling_interval_s = 2e-5", "coupling_interval_s = 5e-6"),
+                                "every_steps = 10", "every_steps = 40"));
+  const auto m = read_metrics(adaptive);
+  const auto& tau = m.at({"particles", "min_relaxation_time_s"});
+  ASSERT_EQ(tau.size(), 41u);  // start-up and 40 steps
+  for (const auto& [k, t] : tau) {  // the premise: N tau within [dt/4, dt/2) throughout
+    EXPECT_GE(30 * t, 5e-6) << "step " << k;
+    EXPECT_LT(30 * t, 1e-5) << "step " << k;
+  }
+  const auto& time = m.at({"fluid", "time_s"});
+  ASSERT_EQ(time.rbegin()->first, 40);
+  for (const auto& [k, t] : time) EXPECT_NEAR(t, k * 5e-6, 1e-18) << "step " << k;
+  expect_same_snapshots(adaptive, fixed);
+  EXPECT_EQ(read_metrics(fixed).at({"fluid", "mean_velocity_m_s"}), m.at({"fluid", "mean_velocity_m_s"}));
+}
+
+// With N tau above the longest interval the adaptive run is the fixed one: step 10 of the
+// small scene's run, bit for bit.
+TEST(CoupledRun, AdaptiveIntervalsAboveTheLongestAreTheFixedRun) {
+  const std::string adaptive = run_scene_text("adaptive-longest", adaptive_scene_text(10, 200));
+  EXPECT_EQ(read_metrics(adaptive).at({"fluid", "time_s"}).rbegin()->first, 10);
+  const auto a = read_snapshot(small_run() + "/particles.h5", "00000010");
+  const auto b = read_snapshot(adaptive + "/particles.h5", "00000010");
+  ASSERT_EQ(a.id, b.id);
+  EXPECT_EQ(a.position, b.position);  // bit for bit
+  EXPECT_EQ(a.velocity, b.velocity);
 }
 
 // coupling.scheme = "parallel" (Jacobi): the particles move in the fluid of the step before,
