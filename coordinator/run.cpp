@@ -46,7 +46,7 @@ struct Reached {
 // the particle node resumed at and size the first interval from its start-up report.
 CouplingClock span_clock(const Scene& scene, const Lockstep& lockstep, long first_step) {
   if (!scene.time.adaptive_interval()) return CouplingClock(scene.time, scene.output, first_step);
-  const double resumed_at = first_step > 0 ? lockstep.diagnostic("particles", "time_s") : 0.0;
+  const double resumed_at = first_step > 0 ? lockstep.diagnostic("particles", kTimeDiagnostic) : 0.0;
   if (!std::isfinite(resumed_at))
     throw std::runtime_error(fmt::format(
         "the particle node did not report the time of its checkpoint of step {} (adaptive intervals need it)", first_step));
@@ -71,7 +71,7 @@ void use_swapped_programs(const RunDirectory& dir, Scene& scene) {
 // The lockstep from start-up (at span.first) to the stop order, with progress and the final
 // profile. Both nodes write a checkpoint every output.checkpoint_every_steps and at an early
 // stop (interrupt, --stop-after-step); a run that fails keeps the last one both acknowledged.
-// Returns the last step done. A restart or swap asked for (ControlDesk) is carried out at the
+// Returns where it got to. A restart or swap asked for (ControlDesk) is carried out at the
 // end of the step it came in: that step is checkpointed and RestartRequested thrown; the
 // request `restarted` (of the span before) is answered once the nodes run again.
 Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span,
