@@ -155,6 +155,8 @@ class DemEngine {
   void set_orientation(long id, const Quat& q);
   bool tracks_orientation(int species) const { return rotation_[species] != nullptr; }
   const SpeciesForces& forces(int species) const { return *forces_[species]; }
+  // A species the scene has (absent: no closures, no atom type, nothing per step).
+  bool has_species(int species) const { return forces_[species] != nullptr; }
 
   long dem_timestep() const;
   // Each cell's plasma as it relaxed with its particles in the last run (coupling.implicit_drag

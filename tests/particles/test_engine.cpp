@@ -35,7 +35,10 @@ struct Fixture {
   DemTiming timing;
 
   explicit Fixture(double hematocrit = 0.15, bool paper = true, int closure_every = 1)
-      : scene(paper_scene(blood_scene(50e-6, 100e-6, hematocrit), paper, closure_every)),
+      : Fixture(paper_scene(blood_scene(50e-6, 100e-6, hematocrit), paper, closure_every)) {}
+
+  explicit Fixture(const hemo::Scene& s)
+      : scene(s),
         mesh(box_mesh(6, 6, 8, -25e-6, 25e-6, -25e-6, 25e-6, 100e-6, 50e-6)),
         locator(mesh),
         fluid(locator),
@@ -428,6 +431,91 @@ TEST(DemEngine, PlateletOrientationTurnsBroadsideAndIsWritten) {
   const int rbc = 1 - plt;
   EXPECT_EQ(after.orientation[4 * rbc], 1.0);
   EXPECT_EQ(after.orientation[4 * rbc + 1], 0.0);
+}
+
+// Spherical platelets (schiller_naumann drag, no lift, no torque) skip the orientation path: no
+// quaternion or angular momentum per platelet, no torque closure per step. Where that path has
+// nothing to add they must move as it would move them: oblate closures on a spheroid a hair from
+// a sphere (lambda = 1 - 1e-6: K_0 and K_90 within 2e-7 of 1, so the oblate drag is
+// Schiller-Naumann's; lift and torque ~1e-5 of their platelet values) carry platelets, tilted and
+// released at rest in Poiseuille flow, away from each other and the walls, along the same paths:
+// to 1e-6 of the distance travelled, velocities to 1e-6.
+TEST(DemEngine, SphericalPlateletsSkipTheOrientationPathAndMoveAsANearSphereWithIt) {
+  auto scene_with = [](bool oblate) {
+    hemo::Scene s = blood_scene(50e-6, 100e-6, 0.02);
+    use_paper_closures(s);
+    if (oblate) {
+      s.platelet.semi_axis_c = s.platelet.semi_axis_a * (1 - 1e-6);
+    } else {
+      s.platelet.drag = "schiller_naumann";
+      s.platelet.lift = "none";
+      s.platelet.torque = "none";
+    }
+    return s;
+  };
+  Fixture path(scene_with(true)), skipped(scene_with(false));
+  const double R = 25e-6;
+  const std::vector<Vec3> at = {Vec3(5e-6, 0, 20e-6), Vec3(-8e-6, 6e-6, 50e-6), Vec3(0, -12e-6, 80e-6)};
+  const Quat tilt(Eigen::AngleAxisd(1.0, Vec3::UnitY()));
+  for (Fixture* fx : {&path, &skipped}) {
+    fx->fluid.set_state(fluid_state(fx->mesh, poiseuille(R, 799 * R / 2)));
+    std::vector<PlacedParticle> placed;
+    for (const Vec3& x : at) placed.push_back({kPlatelet, fx->scene.platelet.diameter, x});
+    fx->engine.create_particles(placed);
+  }
+  ASSERT_TRUE(path.engine.tracks_orientation(kPlatelet));
+  ASSERT_FALSE(skipped.engine.tracks_orientation(kPlatelet));
+  for (long tag = 1; tag <= 3; ++tag) path.engine.set_orientation(tag, tilt);
+  for (int k = 1; k <= 10; ++k) {
+    ASSERT_EQ(path.engine.run(k, path.timing.substeps, path.timing.dt, path.fluid), "");
+    ASSERT_EQ(skipped.engine.run(k, skipped.timing.substeps, skipped.timing.dt, skipped.fluid), "");
+  }
+  const auto a = path.engine.snapshot(10, 1e-4), b = skipped.engine.snapshot(10, 1e-4);
+  ASSERT_EQ(a.id, b.id);
+  double travelled = 0, dx = 0, dv = 0, speed = 0;
+  for (std::size_t i = 0; i < a.id.size(); ++i) {
+    const Vec3 xa(a.position[3 * i], a.position[3 * i + 1], a.position[3 * i + 2]);
+    const Vec3 xb(b.position[3 * i], b.position[3 * i + 1], b.position[3 * i + 2]);
+    const Vec3 va(a.velocity[3 * i], a.velocity[3 * i + 1], a.velocity[3 * i + 2]);
+    const Vec3 vb(b.velocity[3 * i], b.velocity[3 * i + 1], b.velocity[3 * i + 2]);
+    travelled = std::max(travelled, (xb - at[a.id[i] - 1]).norm());
+    dx = std::max(dx, (xa - xb).norm());
+    dv = std::max(dv, (va - vb).norm());
+    speed = std::max(speed, vb.norm());
+    EXPECT_EQ(b.orientation[4 * i], 1.0) << "a skipped platelet has no orientation";
+  }
+  std::printf("[ info ] near-sphere oblate vs spherical platelets after 1e-4 s: max |dx| %.2e m of %.2e m travelled, "
+              "max |dv| %.2e of %.2e m/s\n", dx, travelled, dv, speed);
+  EXPECT_GT(travelled, 0.3e-6) << "the platelets must move";
+  EXPECT_LT(dx, 1e-6 * travelled);
+  EXPECT_LT(dv, 1e-6 * speed);
+}
+
+// A scene without red cells has no red-cell closures, atom type or per-step red-cell work; its
+// platelets move bit for bit as in a scene that has red cells but none near them (here: none at
+// all), though its neighbour lists are sized by the platelets alone.
+TEST(DemEngine, SceneWithoutRedCellsSkipsTheirClosuresAndMovesItsPlateletsTheSame) {
+  hemo::Scene without_rbcs = blood_scene(50e-6, 100e-6, 0.0);
+  use_paper_closures(without_rbcs);
+  without_rbcs.rbc.present = false;
+  hemo::Scene with_rbcs = blood_scene(50e-6, 100e-6, 0.02);
+  use_paper_closures(with_rbcs);
+  Fixture skipped(without_rbcs), full(with_rbcs);
+  ASSERT_FALSE(skipped.engine.has_species(kRbc));
+  ASSERT_TRUE(full.engine.has_species(kRbc));
+  const double R = 25e-6;
+  for (Fixture* fx : {&skipped, &full}) {
+    fx->fluid.set_state(fluid_state(fx->mesh, poiseuille(R, 799 * R / 2)));
+    fx->engine.create_particles({{kPlatelet, fx->scene.platelet.diameter, Vec3(5e-6, 0, 20e-6)},
+                                 {kPlatelet, fx->scene.platelet.diameter, Vec3(-8e-6, 6e-6, 60e-6)}});
+    for (int k = 1; k <= 10; ++k) ASSERT_EQ(fx->engine.run(k, fx->timing.substeps, fx->timing.dt, fx->fluid), "");
+  }
+  EXPECT_EQ(skipped.timing.dt, full.timing.dt) << "the platelets' contacts set the DEM step in both";
+  const auto a = skipped.engine.snapshot(10, 1e-4), b = full.engine.snapshot(10, 1e-4);
+  ASSERT_EQ(a.id, b.id);
+  EXPECT_EQ(a.position, b.position);  // bit for bit
+  EXPECT_EQ(a.velocity, b.velocity);
+  EXPECT_EQ(a.orientation, b.orientation);
 }
 
 TEST(DemEngine, NonFiniteFluidForceStopsTheRunNamingParticleAndStep) {
