@@ -50,6 +50,10 @@ int relaunch_under_mpirun(int argc, char** argv) {
   const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
   const std::string program = ec ? std::string(argv[0]) : self.string();
   const auto cmd = mpirun_command(ranks, program, std::vector<std::string>(argv + 1, argv + argc));
+  // A rank waiting for the other (or, on rank 1, for rank 0's bus traffic) yields its core
+  // instead of spinning on it: the fluid node and the coordinator share the machine (the fluid
+  // launcher does the same). A setting of the user's wins.
+  ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
   std::vector<char*> c_args;
   for (const auto& s : cmd) c_args.push_back(const_cast<char*>(s.c_str()));
   c_args.push_back(nullptr);
