@@ -132,8 +132,11 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
   Scene scene = scene_as_given;  // a swap changes a node's command
   ControlDesk desk(ctx);
   std::optional<ControlRequest> restarted;  // to answer once the nodes run again
-  const long total = scene.time.adaptive_interval() ? 0 : span.last;
-  Progress progress(total, scene.time.end_time(), span.first);
+  // Fixed intervals: the ETA is to the step the run stops after (--stop-after-step), not the end.
+  const bool adaptive = scene.time.adaptive_interval();
+  Progress progress(adaptive ? 0 : span.last,
+                    adaptive ? scene.time.end_time() : static_cast<double>(span.last) * scene.time.coupling_interval,
+                    span.first);
   for (int restarts = 0;;) {
     long from = 0;
     try {
