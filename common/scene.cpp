@@ -335,11 +335,44 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_name(r, "coupling.scheme", s.coupling_scheme, {"serial", "parallel"});
   read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
+  read_name(r, "coupling.fluid_velocity", s.fluid_velocity, {"reconstructed", "cell"});
+  read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
+  r.read("coupling.pressure_gradient_force", s.pressure_gradient_force);
+  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
+          "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   r.report_unknown();
   catalogue = std::move(r.catalogue());
   if (!r.problems().empty()) throw SceneError(path, r.problems());
   return s;
+}
+
+std::vector<NumericalReading> numerical_readings(const Scene& s) {
+  const std::string every =
+      fmt::format("ours: closures every {} DEM step(s), drag on the current velocity every step (exponential)",
+                  s.time.closure_every_dem_steps);
+  std::vector<NumericalReading> r = {
+      {"coupling.fluid_velocity", s.fluid_velocity,
+       s.fluid_velocity == "cell" ? "CFDEM's default: the value of the particle's cell"
+                                  : "ours: u_c + G^T (x - x_c), exact for a linear field"},
+      {"coupling.fluid_force", s.fluid_force,
+       s.fluid_force == "held"                 ? "CFDEM's couple/cfd/force: drag, lift, torque held from the exchange"
+       : s.fluid_force == "held_implicit_drag" ? "CFDEM's couple/cfd/force/implicit: drag implicit on the current "
+                                                 "velocity, lift and torque held from the exchange"
+                                               : every},
+      {"coupling.implicit_drag", s.implicit_drag,
+       s.implicit_drag == "instantaneous" ? "CFDEM's implicitCouple: the fluid takes K = sum beta / V"
+       : s.implicit_drag == "co_relaxed"  ? "ours: each cell's plasma answers its particles every DEM step"
+                                          : "ours: K from the interval's drag response"},
+      {"coupling.pressure_gradient_force", s.pressure_gradient_force ? "true" : "false",
+       s.pressure_gradient_force ? "CFDEM's model A: -V_p grad P (with the driving) on the particles"
+                                 : "off: the driving acts on the plasma only"},
+  };
+  if (s.platelet.present)
+    r.push_back({"platelet.orientation_integrator", s.platelet.orientation_integrator,
+                 s.platelet.orientation_integrator == "euler" ? "the paper's Algorithm 1 as printed (explicit, first order)"
+                                                              : "ours: second order, exact torque-free rotation"});
+  return r;
 }
 
 }  // namespace hemo

@@ -207,7 +207,42 @@ struct Scene {
   // changes with their own mass, once; false: it is never handed back, and acts as inertia the
   // coupling adds to the plasma (the particles' mass again with "interval_response").
   bool return_held_back_momentum = true;
+
+  // Numerical readings where the paper is silent (docs/validation.md measures what each moves).
+  // Ours are the defaults; the others are CFDEMcoupling's documented behaviour, the machinery
+  // the paper's authors used (scenes/calibration-cfdem.toml sets them all).
+  // The plasma velocity a particle sees: "reconstructed" (u_c + G^T (x - x_c), exact for a
+  // linear field) or "cell" (the value of the cell holding its centre: CFDEM's default, no
+  // interpolation).
+  std::string fluid_velocity = "reconstructed";
+  // When the fluid force and torque on a particle are evaluated:
+  //   "per_dem_step"        the closures every time.closure_every_dem_steps DEM steps, the drag
+  //                         on the particle's current velocity every step (exponential update);
+  //   "held_implicit_drag"  CFDEM's couple/cfd/force/implicit with nve/cfd_cn: the closures once
+  //                         per coupling interval, at its first DEM step; the drag coefficient
+  //                         and plasma velocity held, the drag on the current velocity every
+  //                         step; lift and torque held constant until the next exchange;
+  //   "held"                CFDEM's explicit couple/cfd/force: drag, lift and torque evaluated
+  //                         at the interval's first DEM step and applied as constants until the
+  //                         next exchange (stable only while the interval is below twice the
+  //                         particles' drag relaxation time at their DEM mass).
+  std::string fluid_force = "per_dem_step";
+  // The plasma's pressure gradient on the particles' volume, F = -V_p grad P, grad P the cell's,
+  // including the imposed mean drop (-dP/l along the axis): the driving then acts on the whole
+  // mixture, not on the plasma's share alone (CFDEM's "model A" with its gradPForce). Not
+  // exchanged: the fluid feels alpha grad p itself.
+  bool pressure_gradient_force = false;
 };
+
+// A numerical choice the paper leaves open, as a scene makes it, and whose reading it is
+// ("ours", CFDEMcoupling's documented behaviour, the paper's Algorithm 1): `hemocosim check`
+// lists them; docs/validation.md measures what each one moves.
+struct NumericalReading {
+  std::string key;     // e.g. "coupling.fluid_velocity"
+  std::string value;   // as in the scene file
+  std::string reading; // whose, and what it means, in a few words
+};
+std::vector<NumericalReading> numerical_readings(const Scene& scene);
 
 // One problem found in a scene, with where it is.
 struct SceneProblem {

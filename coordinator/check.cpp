@@ -36,6 +36,8 @@ int check_command(const std::string& scene_path) {
     fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.end_time());
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
+  fmt::print("  numerics    (readings the paper leaves open; docs/validation.md)\n");
+  for (const auto& n : numerical_readings(s)) fmt::print("    {:<34} {:<20} {}\n", n.key, n.value, n.reading);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)

@@ -23,6 +23,7 @@ struct FluidSettings {
   double largest_particle_diameter = 0;  // m, over the species present (0: none)
   FluidSolver solver;              // scene keys fluid.*: tolerances, PISO correctors, steady skip
   bool skip_when_steady = false;   // fluid.skip_when_steady and a one-way scene
+  bool publish_pressure_gradient = false;  // coupling.pressure_gradient_force: grad P goes with the state
 };
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from

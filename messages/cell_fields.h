@@ -19,13 +19,16 @@ namespace hemo {
 inline constexpr int kVectorValues = 3;  // per cell: x, y, z
 inline constexpr int kTensorValues = 9;  // per cell: G[0][0], G[0][1], ..., G[2][2]
 
-// n_cells, the length fields and every per-cell array for n cells, all values zero.
-inline void resize_cells(fluid_state_t& s, int n) {
+// n_cells, the length fields and every per-cell array for n cells, all values zero (the
+// pressure gradient only when asked for: it is optional).
+inline void resize_cells(fluid_state_t& s, int n, bool pressure_gradient = false) {
   s.n_cells = n;
   s.n_velocity_values = kVectorValues * n;
   s.n_gradient_values = kTensorValues * n;
+  s.n_pressure_gradient_values = pressure_gradient ? kVectorValues * n : 0;
   s.velocity.assign(static_cast<std::size_t>(s.n_velocity_values), 0.0);
   s.velocity_gradient.assign(static_cast<std::size_t>(s.n_gradient_values), 0.0);
+  s.pressure_gradient.assign(static_cast<std::size_t>(s.n_pressure_gradient_values), 0.0);
 }
 inline void resize_cells(particle_feedback_t& fb, int n) {
   fb.n_cells = n;
@@ -42,6 +45,12 @@ inline const double* gradient_of(const fluid_state_t& s, std::size_t c) {
   return s.velocity_gradient.data() + kTensorValues * c;
 }
 inline double* gradient_of(fluid_state_t& s, std::size_t c) { return s.velocity_gradient.data() + kTensorValues * c; }
+inline const double* pressure_gradient_of(const fluid_state_t& s, std::size_t c) {
+  return s.pressure_gradient.data() + kVectorValues * c;
+}
+inline double* pressure_gradient_of(fluid_state_t& s, std::size_t c) {
+  return s.pressure_gradient.data() + kVectorValues * c;
+}
 inline const double* source_of(const particle_feedback_t& fb, std::size_t c) {
   return fb.source_explicit.data() + kVectorValues * c;
 }

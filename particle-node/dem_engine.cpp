@@ -41,10 +41,14 @@ constexpr const char* kWallFix = "hemo_wall";
 // LIGGGHTS's name of the fix property/atom where fix wall/gran keeps a primitive wall's contact
 // history per atom (checkpoints save it).
 constexpr const char* kWallHistoryFix = "history_hemo_wall";
-// The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1).
-// kCell: the fluid cell they were evaluated in (where the co-relaxed plasma answers), which
-// moves with the atom to another rank as the per-tag locate cache does not.
-enum ClosureSlot { kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kCell = 11, kClosureSlots = 12 };
+// The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1, or
+// a held coupling.fluid_force). kCell: the fluid cell they were evaluated in (where the
+// co-relaxed plasma answers), which moves with the atom to another rank as the per-tag locate
+// cache does not. kDrag: the drag held as a constant (coupling.fluid_force = "held").
+enum ClosureSlot {
+  kBeta = 0, kRatio = 1, kVelocity = 2, kLift = 5, kTorque = 8, kCell = 11, kDrag = 12, kPressure = 15,
+  kClosureSlots = 18
+};
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
@@ -180,7 +184,7 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
   // impact velocity the step is made for), and adds ~5 % of pairs to the lists.
   lmp_->neighbor->register_contact_dist_factor(kContactReach);
   if (any_orientation_) command(fmt::format("fix {} all property/atom hemoRotation vector yes no no 1 0 0 0 0 0 0", kRotationFix));
-  if (closure_every_ > 1) {
+  if (holds_closures()) {
     std::string zeros;
     for (int k = 0; k < kClosureSlots; ++k) zeros += " 0";
     command(fmt::format("fix {} all property/atom hemoClosures vector no no no{}", kClosureFix, zeros));
@@ -193,7 +197,7 @@ void DemEngine::setup_box(const std::array<bool, kSpeciesCount>& used) {
   static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix))->set_callback(&DemEngine::force_callback, this);
   impulse_fix_ = find(kImpulseFix);
   if (any_orientation_) rotation_fix_ = find(kRotationFix);
-  if (closure_every_ > 1) closure_fix_ = find(kClosureFix);
+  if (holds_closures()) closure_fix_ = find(kClosureFix);
   wall_history_fix_ = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
   if (wall_history_fix_ == nullptr) throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
 }
@@ -280,8 +284,11 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
   double** impulse = per_atom(impulse_fix_);
   double** rot = per_atom(rotation_fix_);
   double** held = per_atom(closure_fix_);
-  // The closures at the run's first evaluation (a new flow) and every closure_every_ after.
-  const bool evaluate = held == nullptr || (callbacks_ - 1) % closure_every_ == 0;
+  // The closures at the run's first evaluation (a new flow) and every closure_every_ after;
+  // a held fluid force only at the first (CFDEM: once per exchange).
+  const bool evaluate =
+      held == nullptr || (fluid_force_ == FluidForceUpdate::per_dem_step ? (callbacks_ - 1) % closure_every_ == 0
+                                                                          : callbacks_ == 1);
   step_forces_.resize(nlocal);
   step_cells_.assign(nlocal, -1);  // -1: no fluid force this step (problem noted)
   for (int i = 0; i < nlocal; ++i) {
@@ -318,7 +325,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
       if (held) hold(ff, plasma_velocity, cell, held[i]);
       step_cells_[i] = cell;
     } else {
-      ff = held_fluid_force(held[i], vi, other);
+      ff = held_fluid_force(held[i], vi, other, fluid_force_ == FluidForceUpdate::held);
       step_cells_[i] = static_cast<int>(held[i][kCell]);
     }
     if (cell_plasma_) cell_plasma_->add(step_cells_[i], duration * ff.total(), duration * ff.ratio * ff.beta);
@@ -352,7 +359,7 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     FluidForce& ff = step_forces_[i];
     if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
     const Vec3 fluid_force = ff.total();
-    const Vec3 applied = fluid_force + weight_[species_of_type_[type[i]]];
+    const Vec3 applied = fluid_force + ff.pressure + weight_[species_of_type_[type[i]]];
     f[i][0] = applied.x();
     f[i][1] = applied.y();
     f[i][2] = applied.z();
@@ -385,7 +392,15 @@ int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::i
     flow.centreline_speed = centreline_speed_;
   }
   flow.axis = p.axis;
-  ff = forces.evaluate(flow, other, dt_);
+  // The plasma's pressure on the particle's volume acts like its weight: on the particle, in
+  // the drag's exponential update, not exchanged.
+  const Vec3 pressure = pressure_force_ ? Vec3(-volume_[p.species] * fluid_->pressure_gradient(cell)) : Vec3::Zero();
+  ff = forces.evaluate(flow, other + pressure, dt_);
+  ff.pressure = pressure;
+  if (fluid_force_ == FluidForceUpdate::held) {  // CFDEM's explicit force: beta (u - v) at the exchange, held
+    ff.ratio = 1;
+    ff.drag = ff.beta * flow.slip;
+  }
   if (!ff.finite()) {
     note_problem(p.tag, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
                                     "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
@@ -407,17 +422,24 @@ void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell
     h[kVelocity + d] = plasma_velocity[d];
     h[kLift + d] = ff.lift[d];
     h[kTorque + d] = ff.torque[d];
+    h[kDrag + d] = ff.drag[d];
+    h[kPressure + d] = ff.pressure[d];
   }
 }
 
-FluidForce DemEngine::held_fluid_force(const double* h, const Vec3& v, const Vec3& other) {
+FluidForce DemEngine::held_fluid_force(const double* h, const Vec3& v, const Vec3& other, bool constant_drag) {
   FluidForce ff;
   ff.beta = h[kBeta];
   ff.ratio = h[kRatio];
   ff.lift = Vec3(h[kLift], h[kLift + 1], h[kLift + 2]);
   ff.torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);
-  const Vec3 slip = Vec3(h[kVelocity], h[kVelocity + 1], h[kVelocity + 2]) - v;
-  ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift);
+  ff.pressure = Vec3(h[kPressure], h[kPressure + 1], h[kPressure + 2]);
+  if (constant_drag) {
+    ff.drag = Vec3(h[kDrag], h[kDrag + 1], h[kDrag + 2]);
+  } else {
+    const Vec3 slip = Vec3(h[kVelocity], h[kVelocity + 1], h[kVelocity + 2]) - v;
+    ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift + ff.pressure);
+  }
   return ff;
 }
 

@@ -182,7 +182,10 @@ class DemEngine {
   // Keeps the closures per atom for the steps until the next evaluation (closure_every_ > 1),
   static void hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* held);
   // and applies them there: the drag on the current velocity, with this step's other forces.
-  static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other);
+  // (constant_drag: the drag held too, coupling.fluid_force = "held").
+  static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other, bool constant_drag);
+  // Closure values kept per atom between evaluations.
+  bool holds_closures() const { return closure_every_ > 1 || fluid_force_ != FluidForceUpdate::per_dem_step; }
   // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.
   static void accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last);
   // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
@@ -254,6 +257,13 @@ class DemEngine {
   LAMMPS_NS::FixPropertyAtom* wall_history_fix_ = nullptr;  // LIGGGHTS's: the wall contacts' history
   bool rebuilding_ = false;                // rebuild_neighbours in progress: the callback does nothing
   const int closure_every_ = scene_.time.closure_every_dem_steps;
+  // coupling.fluid_force: when the closures are evaluated and what is held until the next.
+  enum class FluidForceUpdate { per_dem_step, held_implicit_drag, held };
+  const FluidForceUpdate fluid_force_ = scene_.fluid_force == "held"                 ? FluidForceUpdate::held
+                                        : scene_.fluid_force == "held_implicit_drag" ? FluidForceUpdate::held_implicit_drag
+                                                                                      : FluidForceUpdate::per_dem_step;
+  // coupling.pressure_gradient_force: -V_p grad P on every particle (fluid states carry grad P).
+  const bool pressure_force_ = scene_.pressure_gradient_force;
   // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
   const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
   // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).

@@ -19,10 +19,15 @@ struct FluidForce {
   Vec3 drag = Vec3::Zero();    // N, on the particle, exponential update over the step
   Vec3 lift = Vec3::Zero();    // N
   Vec3 torque = Vec3::Zero();  // N m, world frame
+  // N, -V_p grad P (coupling.pressure_gradient_force): applied to the particle, not exchanged
+  // (the fluid feels its own share of the pressure), so not in total().
+  Vec3 pressure = Vec3::Zero();
   double beta = 0;             // N s/m, the linearised drag coefficient at this slip
   double ratio = 1;            // r of the exponential update at this beta and step (exponential_drag.h)
   Vec3 total() const { return drag + lift; }
-  bool finite() const { return drag.allFinite() && lift.allFinite() && torque.allFinite() && std::isfinite(beta); }
+  bool finite() const {
+    return drag.allFinite() && lift.allFinite() && torque.allFinite() && pressure.allFinite() && std::isfinite(beta);
+  }
 };
 
 class SpeciesForces {

@@ -15,6 +15,10 @@ std::string sizes_problem(const fluid_state_t& s) {
   std::string why = flat_size_problem("velocity", s.n_velocity_values, s.velocity, kVectorValues, s.n_cells);
   if (why.empty())
     why = flat_size_problem("velocity gradient", s.n_gradient_values, s.velocity_gradient, kTensorValues, s.n_cells);
+  // The pressure gradient is optional: none, or 3 per cell.
+  if (why.empty() && (s.n_pressure_gradient_values != 0 || !s.pressure_gradient.empty()))
+    why = flat_size_problem("pressure gradient", s.n_pressure_gradient_values, s.pressure_gradient, kVectorValues,
+                            s.n_cells);
   return why.empty() ? why : "fluid state: " + why;
 }
 
@@ -34,6 +38,8 @@ std::string FluidSampler::check(const fluid_state_t& s, int n_cells, const std::
       if (!std::isfinite(gradient_of(s, c)[k]))
         return "fluid velocity gradient is not finite in cell " + std::to_string(c);
   }
+  for (double g : s.pressure_gradient)
+    if (!std::isfinite(g)) return "fluid pressure gradient is not finite";
   return {};
 }
 
@@ -59,6 +65,23 @@ void FluidSampler::set_state(const fluid_state_t& s) {
     shear_rate_[c] = std::sqrt(2.0 * (strain.array() * strain.array()).sum());
     max_speed_ = std::max(max_speed_, velocity_[c].norm());
   }
+  pressure_gradient_.clear();
+  if (s.n_pressure_gradient_values > 0) {
+    pressure_gradient_.resize(n);
+    for (int c = 0; c < n; ++c) {
+      const double* g = pressure_gradient_of(s, c);
+      pressure_gradient_[c] = Vec3(g[0], g[1], g[2]);
+      if (!pressure_gradient_[c].allFinite())
+        throw std::invalid_argument("fluid pressure gradient is not finite in cell " + std::to_string(c));
+    }
+  }
+}
+
+std::vector<double> FluidSampler::cell_pressure_gradients() const {
+  std::vector<double> out;
+  out.reserve(3 * pressure_gradient_.size());
+  for (const Vec3& g : pressure_gradient_) out.insert(out.end(), {g.x(), g.y(), g.z()});
+  return out;
 }
 
 
@@ -78,9 +101,11 @@ std::vector<double> FluidSampler::cell_gradients() const {
   return out;
 }
 
-void FluidSampler::set_state(const std::vector<double>& velocities, const std::vector<double>& gradients) {
+void FluidSampler::set_state(const std::vector<double>& velocities, const std::vector<double>& gradients,
+                             const std::vector<double>& pressure_gradients) {
   const std::size_t n = static_cast<std::size_t>(locator_->n_cells());
-  if (velocities.size() != 3 * n || gradients.size() != 9 * n)
+  if (velocities.size() != 3 * n || gradients.size() != 9 * n ||
+      !(pressure_gradients.empty() || pressure_gradients.size() == 3 * n))
     throw std::invalid_argument("fluid fields of " + std::to_string(velocities.size() / 3) + " cells, the mesh has " +
                                 std::to_string(n));
   fluid_state_t s;
@@ -89,6 +114,8 @@ void FluidSampler::set_state(const std::vector<double>& velocities, const std::v
   s.n_gradient_values = static_cast<int>(gradients.size());
   s.velocity = velocities;
   s.velocity_gradient = gradients;
+  s.n_pressure_gradient_values = static_cast<int>(pressure_gradients.size());
+  s.pressure_gradient = pressure_gradients;
   set_state(s);
 }
 

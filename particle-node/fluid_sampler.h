@@ -1,5 +1,7 @@
 // The plasma as a particle sees it: cell velocity plus the cell's gradient times the offset
-// from the cell centre (exact for a linear field), and the local shear rate.
+// from the cell centre (exact for a linear field), or the cell's value alone (CFDEM's default;
+// coupling.fluid_velocity), the local shear rate, and the pressure gradient when the fluid
+// sends it (coupling.pressure_gradient_force).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -15,7 +17,11 @@ namespace hemo::particles {
 
 class FluidSampler {
  public:
-  explicit FluidSampler(const CellLocator& locator) : locator_(&locator) {}
+  // How velocity(cell, x) reads the plasma at x (scene key coupling.fluid_velocity).
+  enum class Sampling { reconstructed, cell };
+  explicit FluidSampler(const CellLocator& locator, Sampling sampling = Sampling::reconstructed)
+      : locator_(&locator), sampling_(sampling) {}
+  static Sampling sampling_named(const std::string& name) { return name == "cell" ? Sampling::cell : Sampling::reconstructed; }
 
   // Takes a copy of the fluid state's per-cell fields. Throws std::invalid_argument when the
   // state does not fit the mesh or holds a non-finite value (the message names the cause).
@@ -24,16 +30,19 @@ class FluidSampler {
   // The per-cell fields it holds, as set_state takes them (checkpoints keep them this way).
   std::vector<double> cell_velocities() const;  // 3 per cell
   std::vector<double> cell_gradients() const;   // 9 per cell, row-major G[i][j]
-  // set_state from those fields (sizes checked); throws std::invalid_argument.
-  void set_state(const std::vector<double>& velocities, const std::vector<double>& gradients);
+  // set_state from those fields (sizes checked; no pressure gradient: an empty vector);
+  // throws std::invalid_argument.
+  void set_state(const std::vector<double>& velocities, const std::vector<double>& gradients,
+                 const std::vector<double>& pressure_gradients = {});
 
   // Checks a fluid state against the mesh without keeping it: empty string when fine, else a
   // one-line reason (wrong mesh hash, wrong cell count or array length, non-finite value in cell i).
   static std::string check(const fluid_state_t& state, int n_cells, const std::string& mesh_hash);
 
   // u(x) = u_c + G^T (x - x_c), with G[i][j] = d u_j / d x_i; x already wrapped into the
-  // period of the mesh (CellLocator::wrap) and inside `cell`.
+  // period of the mesh (CellLocator::wrap) and inside `cell`. Sampling::cell: u_c.
   Vec3 velocity(int cell, const Vec3& x) const {
+    if (sampling_ == Sampling::cell) return velocity_[cell];
     return velocity_[cell] + gradient_[cell].transpose() * (x - locator_->centre(cell));
   }
   const Vec3& cell_velocity(int cell) const { return velocity_[cell]; }
@@ -41,6 +50,10 @@ class FluidSampler {
   const Mat3& gradient(int cell) const { return gradient_[cell]; }
   // gamma_dot = sqrt(2 S:S), S = (G + G^T)/2
   double shear_rate(int cell) const { return shear_rate_[cell]; }
+  // grad P of the cell, Pa/m, the imposed mean drop included; only when the state carried it.
+  bool has_pressure_gradient() const { return !pressure_gradient_.empty(); }
+  const Vec3& pressure_gradient(int cell) const { return pressure_gradient_[cell]; }
+  std::vector<double> cell_pressure_gradients() const;  // 3 per cell, or none
   // The largest cell speed |u_c| of the state (the closures' centre-line speed u_max).
   double max_cell_speed() const { return max_speed_; }
 
@@ -48,7 +61,9 @@ class FluidSampler {
 
  private:
   const CellLocator* locator_;
+  Sampling sampling_;
   std::vector<Vec3> velocity_;
+  std::vector<Vec3> pressure_gradient_;  // Pa/m, or empty
   std::vector<Mat3> gradient_;
   std::vector<double> shear_rate_;
   double max_speed_ = 0;

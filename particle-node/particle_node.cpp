@@ -28,7 +28,7 @@ void require_same(double scene_value, double mesh_value, const char* what) {
 }
 
 constexpr const char* kRole = "particles";  // the checkpoint's folder (common/checkpoint.h)
-constexpr std::int64_t kCheckpointFormat = 1;
+constexpr std::int64_t kCheckpointFormat = 2;  // 2: the fluid state's pressure gradient
 
 void broadcast(std::string& text, int root, MPI_Comm comm) {
   int len = static_cast<int>(text.size());
@@ -47,6 +47,7 @@ struct ParticleNode::NodeCheckpoint {
   std::string mesh_hash;
   std::vector<double> deposition;  // the interval's per-cell accumulators (Deposition::data)
   std::vector<double> fluid_velocity, fluid_gradient;  // the fluid state of the interval; empty before any
+  std::vector<double> fluid_pressure_gradient;          // of that state; empty when it carried none
 };
 
 ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
@@ -55,7 +56,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
       locator_(mesh),
-      fluid_(locator_),
+      fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
       run_dir_(run_dir) {
   MPI_Comm_rank(comm_, &rank_);
@@ -120,7 +121,8 @@ void ParticleNode::resume(long step) {
   for (int sp = 0; sp < kSpeciesCount; ++sp) warned_re_[sp] = saved.warned_re[sp] != 0;
   std::copy(saved.deposition.begin(), saved.deposition.end(), deposition_.data());
   engine_->take_plasma_mass(deposition_);
-  if (!saved.fluid_velocity.empty()) fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient);
+  if (!saved.fluid_velocity.empty())
+    fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient);
   if (rank_ == 0) {
     std::vector<long> dropped;
     output_ = H5Output::resume(run_dir_ + "/particles.h5", step, &dropped);
@@ -147,6 +149,7 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   in.get("deposition", c.deposition);
   in.get("fluid_velocity", c.fluid_velocity);
   in.get("fluid_gradient", c.fluid_gradient);
+  in.get("fluid_pressure_gradient", c.fluid_pressure_gradient);
   check_fits(c, step, in.path());
   return c;
 }
@@ -164,7 +167,8 @@ void ParticleNode::check_fits(const NodeCheckpoint& c, long step, const std::str
     throw std::runtime_error(fmt::format("it holds {} particles, the scene has {}", c.particles, particles));
   const std::size_t cells = static_cast<std::size_t>(locator_.n_cells());
   const bool fluid_fits =
-      c.fluid_velocity.empty() || (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells);
+      c.fluid_velocity.empty() || (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells &&
+                                   (c.fluid_pressure_gradient.empty() || c.fluid_pressure_gradient.size() == 3 * cells));
   if (c.step != step || c.warned_re.size() != kSpeciesCount ||
       c.deposition.size() != static_cast<std::size_t>(deposition_.size()) || !fluid_fits)
     throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition and {} fluid values for {} cells)", path,
@@ -195,6 +199,10 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
+  if (scene_.pressure_gradient_force && !fluid_.has_pressure_gradient())
+    return fmt::format("step {}: the fluid state carries no pressure gradient, and coupling.pressure_gradient_force "
+                       "needs one (is the fluid node '{}' of another build?)",
+                       order.envelope.step, scene_.run.fluid_command.empty() ? "built-in" : scene_.run.fluid_command);
   set_interval(order.dt_s);
   step_ = order.envelope.step;
   time_ = order.time_s;
@@ -257,6 +265,7 @@ void ParticleNode::write_node_checkpoint(const std::string& path) {
   out.put("deposition", std::vector<double>(deposition_.data(), deposition_.data() + deposition_.size()));
   out.put("fluid_velocity", fluid_.cell_velocities());
   out.put("fluid_gradient", fluid_.cell_gradients());
+  out.put("fluid_pressure_gradient", fluid_.cell_pressure_gradients());
   out.close();
 }
 

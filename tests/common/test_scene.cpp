@@ -192,7 +192,7 @@ implicit_drag = "explicit"
 }
 
 TEST(Scene, ShippedScenesAreValid) {
-  for (const char* name : {"quickstart.toml"}) {
+  for (const char* name : {"quickstart.toml", "calibration.toml", "calibration-cfdem.toml"}) {
     EXPECT_NO_THROW(load_scene(std::string(HEMO_SCENES_DIR) + "/" + name)) << name;
   }
 }
@@ -216,4 +216,34 @@ TEST(Scene, MissingRequiredKeyIsOneProblem) {
   ASSERT_EQ(ps.size(), 1u);
   EXPECT_EQ(ps[0].key, "vessel.diameter_um");
   EXPECT_EQ(ps[0].message, "missing");
+}
+
+// The numerical readings the paper leaves open: ours by default, CFDEM's by name, each listed
+// by `hemocosim check` with whose reading it is.
+TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
+  const Scene ours = load_scene(test::write_temp(std::string(kMinimal) + "[platelet]\nnumber_density_per_ul = 1000\n"));
+  EXPECT_EQ(ours.fluid_velocity, "reconstructed");
+  EXPECT_EQ(ours.fluid_force, "per_dem_step");
+  EXPECT_FALSE(ours.pressure_gradient_force);
+  for (const auto& r : numerical_readings(ours))
+    EXPECT_EQ(r.reading.find("CFDEM"), std::string::npos) << r.key << ": " << r.reading;
+
+  const Scene cfdem = load_scene(std::string(HEMO_SCENES_DIR) + "/calibration-cfdem.toml");
+  const auto readings = numerical_readings(cfdem);
+  ASSERT_EQ(readings.size(), 5u);
+  for (const auto& r : readings) {
+    const bool paper = r.key == "platelet.orientation_integrator";
+    EXPECT_NE(r.reading.find(paper ? "Algorithm 1" : "CFDEM"), std::string::npos) << r.key << ": " << r.reading;
+  }
+
+  std::map<std::string, std::string> by_key;
+  for (auto& p : problems_of(std::string(kMinimal) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
+                                                     "\"explicit\"\npressure_gradient_force = \"yes\"\n"))
+    by_key[p.key] = p.message;
+  EXPECT_NE(by_key["coupling.fluid_velocity"].find("reconstructed, cell"), std::string::npos);
+  EXPECT_NE(by_key["coupling.fluid_force"].find("per_dem_step, held_implicit_drag, held"), std::string::npos);
+  EXPECT_TRUE(by_key.count("coupling.pressure_gradient_force"));
+  // A held force has nothing to co-relax within the interval.
+  EXPECT_FALSE(problems_of(std::string(kMinimal) + "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
+                   .empty());
 }

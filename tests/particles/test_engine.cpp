@@ -638,3 +638,114 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
   EXPECT_NEAR(held, u * (1 - std::exp(-beta / m * time)), 0.02 * held);
   EXPECT_GT(held, 1.2 * exact);
 }
+
+namespace {
+hemo::fluid_state_t uniform_state(const hemo::mesh_t& mesh, const Vec3& u, const Vec3& pressure_gradient) {
+  hemo::fluid_state_t s = fluid_state(mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel,
+                                                std::array<double, 9>& g) {
+    vel = {u.x(), u.y(), u.z()};
+    g.fill(0.0);
+  });
+  s.n_pressure_gradient_values = 3 * s.n_cells;
+  s.pressure_gradient.clear();
+  for (int c = 0; c < s.n_cells; ++c)
+    s.pressure_gradient.insert(s.pressure_gradient.end(), {pressure_gradient.x(), pressure_gradient.y(), pressure_gradient.z()});
+  return s;
+}
+}  // namespace
+
+// coupling.fluid_force = "held" (CFDEM's explicit couple/cfd/force): the force of the exchange is
+// a constant over the interval, so a red cell starting at rest in a uniform flow u receives exactly
+// beta u x interval of impulse (Stokes drag, slip-independent beta), and gains exactly that
+// momentum - not the relaxed m u (1 - exp(-beta T / m)) the per-step drag gives (T = 6 relaxation
+// times here: the held force overshoots the flow, as explicit coupling does at such intervals).
+TEST(DemEngine, HeldForceDeliversForceTimesIntervalOfImpulse) {
+  Fixture fx(0.15, false);
+  const Vec3 u(2e-4, -1e-4, 1e-3);
+  fx.fluid.set_state(uniform_state(fx.mesh, u, Vec3::Zero()));
+  const double beta = 3 * hemo::units::pi * fx.scene.plasma.viscosity * fx.scene.rbc.diameter;
+  const double m = fx.scene.rbc.mass, T = fx.interval;
+  const auto one_interval = [&](const std::string& mode, Vec3* impulse) {
+    hemo::Scene scene = fx.scene;
+    scene.fluid_force = mode;
+    DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
+    engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, Vec3(4e-6, 4e-6, 56e-6)}});
+    EXPECT_EQ(engine.run(1, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
+    engine.deposit(fx.deposition);
+    *impulse = fx.deposition.total_force(T) * T;
+    const auto s = engine.snapshot(0, 0);
+    return Vec3(s.velocity[0], s.velocity[1], s.velocity[2]);
+  };
+  Vec3 held_impulse, step_impulse;
+  const Vec3 v_held = one_interval("held", &held_impulse);
+  const Vec3 v_step = one_interval("per_dem_step", &step_impulse);
+  std::printf("[ info ] %d DEM steps, interval / tau = %.3g: held %.6g, per step %.6g of u\n", fx.timing.substeps,
+              beta * T / m, v_held.z() / u.z(), v_step.z() / u.z());
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_NEAR(held_impulse[d], beta * u[d] * T, 1e-12 * beta * u.norm() * T) << d;
+    EXPECT_NEAR(m * v_held[d], held_impulse[d], 1e-12 * beta * u.norm() * T) << d;
+  }
+  EXPECT_GT(v_held.z(), 5 * u.z());  // beta T / m ~ 6: the explicit force overshoots
+  EXPECT_LT(v_step.z(), u.z());      // the per-step drag relaxes towards u
+}
+
+// coupling.fluid_force = "held_implicit_drag" (CFDEM's couple/cfd/force/implicit): the closures
+// once per interval, the drag on the current velocity every DEM step. In Poiseuille flow with the
+// paper's closures that is bit for bit the per-step path evaluating its closures once per run,
+// and it differs from closures every step (the flow seen changes as the cells move).
+TEST(DemEngine, HeldImplicitDragEvaluatesTheClosuresOncePerInterval) {
+  const auto end_state = [](const std::string& mode, int closure_every) {
+    Fixture fx(0.15, true, closure_every);
+    fx.scene.fluid_force = mode;
+    DemEngine engine(fx.scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
+    const double R = 25e-6, u_max = 799 * R / 2;
+    fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(R, u_max)));
+    engine.create_particles(place_particles(0.8 * R, 100e-6, 0, placement_requests(fx.scene), 5));
+    for (int k = 1; k <= 4; ++k) EXPECT_EQ(engine.run(k, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
+    return engine.snapshot(4, 0);
+  };
+  const auto held = end_state("held_implicit_drag", 1);
+  const auto once = end_state("per_dem_step", 100000);
+  const auto every = end_state("per_dem_step", 1);
+  ASSERT_EQ(held.size(), once.size());
+  EXPECT_EQ(held.position, once.position);
+  EXPECT_EQ(held.velocity, once.velocity);
+  EXPECT_NE(held.velocity, every.velocity);
+}
+
+// coupling.pressure_gradient_force: -V grad P on each cell, not exchanged. A red cell in plasma at
+// rest under a uniform grad P (the calibration's mean drop, dP / l = 3.8e4 Pa/m) settles at the
+// terminal velocity V |grad P| / beta, and its momentum is the exchanged drag impulse plus
+// V |grad P| t exactly; without the force it does not move.
+TEST(DemEngine, PressureGradientForceDrivesTheCellAndIsNotExchanged) {
+  Fixture fx(0.15, false);
+  const Vec3 grad_p(0, 0, -3.8e4);
+  fx.fluid.set_state(uniform_state(fx.mesh, Vec3::Zero(), grad_p));
+  const double beta = 3 * hemo::units::pi * fx.scene.plasma.viscosity * fx.scene.rbc.diameter;
+  const double V = fx.scene.rbc.volume, m = fx.scene.rbc.mass, T = fx.interval;
+  for (bool on : {true, false}) {
+    hemo::Scene scene = fx.scene;
+    scene.pressure_gradient_force = on;
+    DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
+    engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, Vec3(4e-6, 4e-6, 56e-6)}});
+    Vec3 exchanged = Vec3::Zero();
+    const int intervals = 3;
+    for (int k = 1; k <= intervals; ++k) {
+      ASSERT_EQ(engine.run(k, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
+      engine.deposit(fx.deposition);
+      exchanged += fx.deposition.total_force(T) * T;
+    }
+    const auto s = engine.snapshot(0, 0);
+    const double v = s.velocity[2];
+    // The last half kick of the last step is delivered by the next run: the force applied is
+    // the terminal one, V |grad P| minus its drag, ~0 there.
+    const double pressure_impulse = on ? -V * grad_p.z() * intervals * T : 0.0;
+    std::printf("[ info ] pressure force %s: v = %.6g m/s (terminal %.6g), drag impulse %.4g, pressure impulse %.4g\n",
+                on ? "on" : "off", v, -V * grad_p.z() / beta, exchanged.z(), pressure_impulse);
+    EXPECT_NEAR(m * v, exchanged.z() + pressure_impulse, 1e-9 * std::abs(pressure_impulse) + 1e-30);
+    if (on)
+      EXPECT_NEAR(v, -V * grad_p.z() / beta, 1e-6 * -V * grad_p.z() / beta);
+    else
+      EXPECT_EQ(v, 0.0);
+  }
+}

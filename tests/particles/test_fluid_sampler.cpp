@@ -108,3 +108,57 @@ TEST(FluidSampler, ForgedLengthIsRejected) {
             "fluid state: velocity has 0 values, not 3 per cell of 8 cells");
   EXPECT_THROW(fs.set_state(lying), std::invalid_argument);
 }
+
+// coupling.fluid_velocity = "cell" (CFDEM's default): every point of a cell sees the cell's own
+// value, where the reconstruction sees the linear field.
+TEST(FluidSampler, CellSamplingReturnsTheCellValueEverywhereInTheCell) {
+  const auto mesh = box_mesh(3, 2, 4, -1, 1, -1, 1, 4, 2);
+  const CellLocator loc(mesh);
+  FluidSampler cell(loc, FluidSampler::Sampling::cell), reconstructed(loc);
+  EXPECT_EQ(FluidSampler::sampling_named("cell"), FluidSampler::Sampling::cell);
+  EXPECT_EQ(FluidSampler::sampling_named("reconstructed"), FluidSampler::Sampling::reconstructed);
+  cell.set_state(fluid_state(mesh, linear));
+  reconstructed.set_state(fluid_state(mesh, linear));
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> ux(-1, 1), uz(0, 4);
+  double largest_difference = 0;
+  for (int n = 0; n < 500; ++n) {
+    const Vec3 x(ux(rng), ux(rng), uz(rng));
+    const int c = loc.locate(x);
+    ASSERT_GE(c, 0);
+    EXPECT_EQ(cell.velocity(c, loc.wrap(x)), cell.cell_velocity(c));
+    EXPECT_EQ(cell.gradient(c), reconstructed.gradient(c));  // the gradient is the cell's either way
+    largest_difference = std::max(largest_difference, (reconstructed.velocity(c, loc.wrap(x)) - cell.cell_velocity(c)).norm());
+  }
+  EXPECT_GT(largest_difference, 0.5);  // |A| ~ 1 over cells ~ 1 wide
+}
+
+// The pressure gradient is optional in a fluid state: none, or 3 values per cell, all finite.
+TEST(FluidSampler, PressureGradientIsOptionalAndChecked) {
+  const auto mesh = box_mesh(2, 2, 2, 0, 1, 0, 1, 1, 1);
+  const CellLocator loc(mesh);
+  FluidSampler fs(loc);
+  auto state = fluid_state(mesh, linear);
+  ASSERT_EQ(state.n_pressure_gradient_values, 0);
+  fs.set_state(state);
+  EXPECT_FALSE(fs.has_pressure_gradient());
+  EXPECT_TRUE(fs.cell_pressure_gradients().empty());
+
+  state.n_pressure_gradient_values = 3 * state.n_cells;
+  state.pressure_gradient.assign(static_cast<std::size_t>(state.n_pressure_gradient_values), 0.0);
+  for (int c = 0; c < state.n_cells; ++c) state.pressure_gradient[3 * c + 2] = -100.0 * (c + 1);
+  EXPECT_EQ(FluidSampler::check(state, state.n_cells, state.mesh_hash), "");
+  fs.set_state(state);
+  ASSERT_TRUE(fs.has_pressure_gradient());
+  EXPECT_EQ(fs.pressure_gradient(3), Vec3(0, 0, -400.0));
+  EXPECT_EQ(fs.cell_pressure_gradients(), state.pressure_gradient);
+
+  auto short_one = state;
+  short_one.pressure_gradient.pop_back();
+  EXPECT_NE(FluidSampler::check(short_one, state.n_cells, state.mesh_hash).find("pressure gradient"), std::string::npos);
+  auto nan = state;
+  nan.pressure_gradient[4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(FluidSampler::check(nan, state.n_cells, state.mesh_hash).find("pressure gradient is not finite"),
+            std::string::npos);
+  EXPECT_THROW(fs.set_state(nan), std::invalid_argument);
+}
