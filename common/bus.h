@@ -1,6 +1,6 @@
 // The message bus a hemocosim process sees: LCM with the run's envelope, HMAC tags,
 // replay and foreign-run rejection, and a cache of what it published so that a message
-// lost by UDP can be published again on request (DESIGN.md, Lockstep and Security).
+// lost by UDP can be published again on request (docs/design.md, "Lost messages" and "Security").
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
