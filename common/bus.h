@@ -1,6 +1,6 @@
 // The message bus a hemocosim process sees: LCM with the run's envelope, HMAC tags,
 // replay and foreign-run rejection, and a cache of what it published so that a message
-// lost by UDP can be published again on request (DESIGN.md, Lockstep and Security).
+// lost by UDP can be published again on request (docs/design.md, "Lost messages" and "Security").
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -56,7 +56,7 @@ std::vector<std::string> all();
 // What each process listens to. LCM drops a datagram of a channel nobody listens to in its
 // receive thread, so a process is neither woken nor made to check a tag for the large
 // messages meant for another; at the calibration size those wake-ups, at the moment the
-// receiving node should start, were most of the coupling overhead (docs/performance.md).
+// receiving node should start, were most of the coupling overhead (docs/notes/performance-log.md).
 std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend (control: its own bus)
 std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend
 std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend

@@ -1,5 +1,5 @@
 // Where a run's checkpoints live, and how a node writes one so that a crash mid-write never
-// leaves a checkpoint that looks complete (DESIGN.md "Checkpoint, restart, swap").
+// leaves a checkpoint that looks complete (docs/design.md "Checkpoint, restart, swap").
 //
 //   RUN_DIR/checkpoints/step-<k>/<role>/   the node's whole state at the end of step k
 //

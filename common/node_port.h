@@ -125,7 +125,7 @@ class FluidPort : public NodePort {
 
 class ParticlePort : public NodePort {
  public:
-  // The coupling scheme (DESIGN.md "Lockstep coupling") is decided here, by which fluid state
+  // The coupling scheme (docs/design.md "Lockstep coupling") is decided here, by which fluid state
   // a step waits for. Serial (Gauss-Seidel): step k runs in the fluid state of step k, after the
   // fluid has computed it. Parallel (Jacobi, `lagged_fluid`): step k runs in the state of step
   // k - 1, so both nodes compute step k at once. The fluid node is the same for both: it always

@@ -257,7 +257,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
     r.problem("driving", r.line_of("driving"), "give exactly one of pressure_drop_Pa and wall_shear_rate_per_s");
   r.check(s.driving.pressure_drop >= 0 && s.driving.wall_shear_rate >= 0, "driving",
           "must not be negative");
-  // gamma_w = d dP / (4 mu l): the wall shear rate is defined from the pressure drop (MODEL.md §4).
+  // gamma_w = d dP / (4 mu l): the wall shear rate is defined from the pressure drop (docs/model.md §4).
   if (has_shear)
     s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * s.driving.wall_shear_rate / s.vessel.diameter;
   else if (s.vessel.diameter > 0 && s.vessel.length > 0)

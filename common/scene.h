@@ -1,4 +1,4 @@
-// A scene: one TOML file that says everything about a run (MODEL.md, DESIGN.md "Scenes").
+// A scene: one TOML file that says everything about a run (docs/model.md, docs/design.md "Scenes, outputs, analysis").
 // Parsed once, into SI units, with every unknown key and impossible value refused.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
@@ -51,7 +51,7 @@ struct Species {
   // Platelets' contacts are the shortest (they set the DEM step): scaling them more than the red
   // cells lengthens the step without making the red cells heavier.
   double mass_scaling = 0;
-  // Closures chosen by name (particle-node/closures/; MODEL.md §2, §3). A scene file's defaults
+  // Closures chosen by name (particle-node/closures/; docs/model.md §2, §3). A scene file's defaults
   // are the paper's models: RBC "rbc_fit" + "rbc_lift", platelet "oblate" for all three
   // (spherical surrogate: drag "schiller_naumann", lift "shear_lift", torque "none"). A Species
   // built in code starts from plain Stokes drag without lift or torque.
@@ -60,7 +60,7 @@ struct Species {
   std::string torque = "none";
   // Platelet shape: the oblate spheroid's semi-axes (two equal a, c along the symmetry axis) and
   // how its orientation is integrated: "splitting" (second order, exact torque-free rotation)
-  // or "euler" (MODEL.md §3.3 as printed, first order). Orientation is tracked only when a
+  // or "euler" (docs/model.md §3.3 as printed, first order). Orientation is tracked only when a
   // closure needs it.
   double semi_axis_a = 0;         // m
   double semi_axis_c = 0;         // m
@@ -121,7 +121,7 @@ struct Timing {
   double end_time() const { return static_cast<double>(coupling_steps) * coupling_interval; }  // s
 };
 
-// Body force on the particles (m g); MODEL.md §1: off by default.
+// Body force on the particles (m g); docs/model.md §1: off by default.
 struct Gravity {
   double x = 0, y = 0, z = 0;       // m/s^2
 };
@@ -185,7 +185,7 @@ struct Scene {
   // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
   // face of its cell) or "centre_cell" (all to the cell holding its centre).
   std::string solid_fraction = "sphere_overlap";
-  // How a coupling step is shared between the nodes (DESIGN.md "Lockstep coupling"): "serial"
+  // How a coupling step is shared between the nodes (docs/design.md "Lockstep coupling"): "serial"
   // (Gauss-Seidel: the fluid solves step k, then the particles move in it) or "parallel"
   // (Jacobi: both compute step k at once, the particles in the fluid of step k - 1).
   std::string coupling_scheme = "serial";

@@ -23,7 +23,7 @@ struct ResumeOptions {
 int resume_command(const ResumeOptions& opt);
 
 // Asks a running run's coordinator to restart a node, or to swap it for another program
-// (DESIGN.md "Checkpoint, restart, swap"): it checkpoints the current step and starts both
+// (docs/design.md "Checkpoint, restart, swap"): it checkpoints the current step and starts both
 // nodes again from there. Waits for the coordinator's answer.
 struct ControlOptions {
   std::string run_dir;

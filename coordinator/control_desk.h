@@ -1,5 +1,5 @@
 // Requests to restart or swap a node of a running run (`hemocosim restart`, `hemocosim swap`;
-// DESIGN.md "Checkpoint, restart, swap"), heard on the run's CONTROL channel. Like every
+// docs/design.md "Checkpoint, restart, swap"), heard on the run's CONTROL channel. Like every
 // message of the run they carry its HMAC: only someone who can read RUN_DIR/secret can ask.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

@@ -1,4 +1,4 @@
-// The serial (Gauss-Seidel) lockstep of DESIGN.md: the coordinator orders step k, both nodes
+// The serial (Gauss-Seidel) lockstep of docs/design.md: the coordinator orders step k, both nodes
 // report it done, and only then is step k+1 ordered. It also watches the nodes' health.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

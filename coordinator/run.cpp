@@ -127,7 +127,7 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
 
 // The whole span, restarting both nodes from their last common checkpoint when one dies or
 // stops answering (at most run.max_restarts times), or when asked to (`hemocosim restart`,
-// `hemocosim swap`; DESIGN.md "Checkpoint, restart, swap").
+// `hemocosim swap`; docs/design.md "Checkpoint, restart, swap").
 Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, Span span) {
   Scene scene = scene_as_given;  // a swap changes a node's command
   ControlDesk desk(ctx);

@@ -1,4 +1,4 @@
-// The stability guards of a run (issue #6, DESIGN.md "a run never fails silently"): what a
+// The stability guards of a run (issue #6, docs/design.md "a run never fails silently"): what a
 // node's step report says about the run having gone unstable. The nodes stop themselves on what
 // only they can see (a particle outside the mesh, a non-finite particle); these are the causes
 // the coordinator sees in the reports of healthy nodes.

@@ -4,7 +4,7 @@
 
 Description
     Volume-averaged incompressible Navier-Stokes of plasma in a periodic
-    straight vessel (MODEL.md section 1), PISO, coupled in lockstep with a
+    straight vessel (docs/model.md section 1), PISO, coupled in lockstep with a
     particle node over the run's message bus:
 
         d(alpha U)/dt + div(alpha phi U) - div(alpha nu grad U)

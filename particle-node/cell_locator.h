@@ -1,4 +1,4 @@
-// Exact point location in the fluid mesh (DESIGN.md: "the particle node locates particles in
+// Exact point location in the fluid mesh (docs/design.md: "the particle node locates particles in
 // cells exactly, not by nearest centre").
 //
 // Every cell is taken as a convex polyhedron: a point is inside a cell iff it lies on the inner

@@ -28,7 +28,7 @@
 // incompressible and held by its neighbours. Over a long interval the particles drag their
 // cell's plasma along and lose most of the resistance to moving relative to the rest of it: on
 // the calibration scene at 1e-4 s the platelets' D comes out 7.6 times too large. It does remove
-// the contact-exchange instability of dense suspensions (docs/performance.md §1, 2026-12-03).
+// the contact-exchange instability of dense suspensions (docs/performance.md §3 and §4).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 

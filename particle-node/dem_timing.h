@@ -1,4 +1,4 @@
-// The DEM time step, derived from physics (MODEL.md §2, DESIGN.md "Speed and accuracy"):
+// The DEM time step, derived from physics (docs/model.md §2, docs/design.md "Speed and accuracy"):
 //
 //   dt <= t_Hertz / time.dem_steps_per_contact            (default 10)
 //   dt <= time.dem_step_max_relaxation_times x tau_drag   (default 0: no limit)

@@ -1,4 +1,4 @@
-// Orientation of the oblate platelets (MODEL.md §3.3): a unit quaternion q = (w, x, y, z)
+// Orientation of the oblate platelets (docs/model.md §3.3): a unit quaternion q = (w, x, y, z)
 // rotating body -> world, the body z axis along the symmetry axis n, and the angular momentum L
 // in the world frame (omega = R I^-1 R^T L; the engine hands omega to LIGGGHTS for contacts). The body is a symmetric top, I_xx = I_yy = m (a^2 + c^2)/5,
 // I_zz = 2 m a^2 / 5.

@@ -1,4 +1,4 @@
-// hemocosim analyze RUN_DIR: the observables of MODEL.md §5 for one run, as a table or JSON,
+// hemocosim analyze RUN_DIR: the observables of docs/model.md §5 for one run, as a table or JSON,
 // and RUN_DIR/analysis.json + RUN_DIR/profiles.csv for plotting.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

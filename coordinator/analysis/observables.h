@@ -1,4 +1,4 @@
-// The observables of MODEL.md §5, defined once, here, as pure functions over plain arrays.
+// The observables of docs/model.md §5, defined once, here, as pure functions over plain arrays.
 // Nothing in this file reads files or prints: analyze.cpp feeds it snapshots and metrics.
 //
 // Geometry: the vessel is a straight tube of radius R along z through x = y = 0, periodic
@@ -91,7 +91,7 @@ struct Stations {
   int sectors = 24;
   int count() const { return axial * sectors; }
 };
-// About `per_station` RBCs per station (MODEL.md §5), with the shape of the calibration case's
+// About `per_station` RBCs per station (docs/model.md §5), with the shape of the calibration case's
 // 16 x 24 stations kept for other vessels: sectors / slices = 18 R / L, i.e. a station's arc
 // at the wall is about a third of its axial length whatever the vessel.
 Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station = 20);

@@ -15,7 +15,7 @@
 #             compare_profiles.png, compare_msd.png: the runs' window-mean profiles and MSD overlaid
 #
 # Reads only analysis.json, profiles.csv and scene.toml (no HDF5): the observables are computed
-# once, by `hemocosim analyze` (MODEL.md §5), never here.
+# once, by `hemocosim analyze` (docs/model.md §5), never here.
 import argparse
 import csv
 import json

@@ -182,13 +182,13 @@ std::string report_md(const Study& study, const StudyOptions& opt, const Reducti
     m += fmt::format("- **reduced** (`--reduced`): {}\n", reduction->describe());
   else
     m += "- full size: the scenes as the study file and base scene give them\n";
-  if (!study.expectation.empty()) m += fmt::format("\nWhat the paper reports (MODEL.md §4): {}\n", study.expectation);
+  if (!study.expectation.empty()) m += fmt::format("\nWhat the paper reports (docs/model.md §4): {}\n", study.expectation);
   if (reduction)
     m += "\nThese are reduced runs: compare them with the expectation above only where they are long enough to "
          "show it; the numbers below are what the reduced runs give, nothing more.\n";
 
   m += "\n## Observables\n\n";
-  m += "δ: cell-free layer thickness (edge method of MODEL.md §5, and profile method); D: platelet radial diffusivity "
+  m += "δ: cell-free layer thickness (edge method of docs/model.md §5, and profile method); D: platelet radial diffusivity "
        "from MSD = 2 D t through the origin (fit window in brackets); µ_app/µ = γ̇ / (8Ū/d); H_T, H_D: tube and "
        "discharge hematocrit; margination: platelets with r > R − δ (edge). Window: second half of each run.\n\n";
   m += fmt::format("| {} | run | t end (s) | RBCs | PLTs | δ edge (µm) | δ profile (µm) | D (m²/s) | µ_app/µ | H_T | H_D | "

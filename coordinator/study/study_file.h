@@ -1,4 +1,4 @@
-// A study: one base scene and one swept parameter (MODEL.md §4), as a small TOML file:
+// A study: one base scene and one swept parameter (docs/model.md §4), as a small TOML file:
 //
 //   name = "shear-rate"                       # optional; default: the file's stem
 //   title = "..."                             # optional, one line for the report

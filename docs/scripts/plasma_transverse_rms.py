@@ -5,7 +5,7 @@
     /usr/bin/python3 docs/scripts/plasma_transverse_rms.py [--from T] RUN_DIR...
 
 The vessel's axis is z, so U_x, U_y are the cross-flow the particles' feedback stirs. For each
-run, over the fluid snapshots from t = T s (default 0.02; docs/performance.md, "what moves D at short
+run, over the fluid snapshots from t = T s (default 0.02; docs/notes/performance-log.md, "what moves D at short
 intervals"), in mm/s:
   rms            sqrt<U_x^2 + U_y^2> over the cells (and per snapshot)
   grid-scale     rms of U - (mean of the cell's face neighbours), transverse part; for a field

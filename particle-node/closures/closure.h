@@ -1,4 +1,4 @@
-// Fluid-force closures, chosen by name per species in the scene (MODEL.md §2, §3):
+// Fluid-force closures, chosen by name per species in the scene (docs/model.md §2, §3):
 //
 //   [rbc]       drag = "rbc_fit"   lift = "rbc_lift"   torque = "none"
 //   [platelet]  drag = "oblate"    lift = "oblate"     torque = "oblate"

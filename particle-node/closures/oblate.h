@@ -1,4 +1,4 @@
-// The oblate-spheroid platelet closures (MODEL.md §3.1, REFERENCES.md): drag, lift and torque on
+// The oblate-spheroid platelet closures (docs/model.md §3.1, §7.1): drag, lift and torque on
 // a rigid oblate spheroid of aspect ratio lambda = c / a < 1 with symmetry axis n, carried by a
 // placeholder sphere of diameter d (Re = d |u_r| / nu and the reference areas use d).
 //
@@ -18,7 +18,7 @@
 //   lift points to the side of u_r where n leans (n.e > 0), and the same for -n (the body is
 //   symmetric). This is the sign of the Stokes resistance tensor
 //   F = 3 pi mu d [K_90 u_r + (K_0 - K_90)(n.u_r) n], whose part normal to u_r is
-//   3 pi mu d (K_0 - K_90)(n.u_r)(n - (n.e) e) with K_0 > K_90 (REFERENCES.md), and the paper's
+//   3 pi mu d (K_0 - K_90)(n.u_r)(n - (n.e) e) with K_0 > K_90 (docs/model.md §7.1), and the paper's
 //   C_L tends to exactly that at Re -> 0.
 //
 // Torque:
@@ -37,7 +37,7 @@
 
 namespace hemo::particles {
 
-// Stokes drag correction factors of an oblate spheroid (REFERENCES.md, Happel & Brenner),
+// Stokes drag correction factors of an oblate spheroid (docs/model.md §7.1, Happel & Brenner),
 // relative to the volume-equivalent sphere: motion along the axis (K_0, broadside) and across it
 // (K_90, edgewise). Series about lambda = 1 where the closed forms lose precision; lambda in (0, 1].
 double oblate_k0(double lambda);

@@ -1,4 +1,4 @@
-// Red-cell drag of the paper's fit (MODEL.md §2), on the volume-equivalent sphere of diameter d:
+// Red-cell drag of the paper's fit (docs/model.md §2), on the volume-equivalent sphere of diameter d:
 //
 //   F    = 0.125 C_d rho pi d^2 |u_r| u_r,   Re = d |u_r| / nu
 //   C_d  = 73.146 / ( Re (1 + 29.86 Re^27.079) )

@@ -1,4 +1,4 @@
-// Red-cell lift of the paper (MODEL.md §2): the wall-induced migration that forms the cell-free
+// Red-cell lift of the paper (docs/model.md §2): the wall-induced migration that forms the cell-free
 // layer.
 //
 //   F   = C_l rho d^6 |G.a|^2 (G.a) / nu,     C_l = 100.271 / (gamma_dot d^2 / nu)^0.63

@@ -1,4 +1,4 @@
-// Schiller–Naumann drag of a sphere (MODEL.md §3.2, the spherical platelet surrogate):
+// Schiller–Naumann drag of a sphere (docs/model.md §3.2, the spherical platelet surrogate):
 //
 //   |F| = C_D 1/2 rho |u_r|^2 (pi/4) d^2,   C_D = 24/Re (1 + 0.15 Re^0.687),   Re = d |u_r| / nu
 //

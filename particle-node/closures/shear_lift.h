@@ -1,4 +1,4 @@
-// Shear-induced lift of the spherical platelet surrogate (MODEL.md §3.2; McLaughlin, Mei,
+// Shear-induced lift of the spherical platelet surrogate (docs/model.md §3.2; McLaughlin, Mei,
 // Loth & Dorgan, semi-empirical), toward the Segre–Silberberg equilibrium radius:
 //
 //   |F_L| = 0.125 rho |u_max|^2 d^4 / D^2 |C_L|

@@ -85,7 +85,7 @@ TEST(CflEdge, NoRbcsGiveNoThickness) {
   EXPECT_TRUE(std::isnan(c.thickness));
 }
 
-// About 20 RBCs per station, with the calibration case's 16 x 24 shape (MODEL.md §5).
+// About 20 RBCs per station, with the calibration case's 16 x 24 shape (docs/model.md §5).
 TEST(CflEdge, DefaultStationsReproduceTheCalibrationCase) {
   const double rbcs = 0.15 * kTube.volume() / 90e-18;  // 7,854
   const auto st = default_stations(rbcs, kTube);

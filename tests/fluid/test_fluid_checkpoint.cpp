@@ -1,4 +1,4 @@
-// Checkpoints of the fluid node (DESIGN.md "Checkpoint, restart, swap"): the real
+// Checkpoints of the fluid node (docs/design.md "Checkpoint, restart, swap"): the real
 // hemocosim-fluid, serial and on 2 ranks, under a small driver in this test that plays the
 // coordinator and the particle node over the real bus (orders, prescribed feedback, STEP_DONE).
 //

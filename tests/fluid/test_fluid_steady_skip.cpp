@@ -1,4 +1,4 @@
-// One-way coupling: the fluid node stops solving once the flow is steady (issue #6, DESIGN.md
+// One-way coupling: the fluid node stops solving once the flow is steady (issue #6, docs/design.md
 // "skip what a scene doesn't need"). The real hemocosim-fluid under the coordinator over the real
 // bus, driven by hemocosim-prescribed-particles.
 // SPDX-License-Identifier: GPL-3.0-or-later

@@ -1,4 +1,4 @@
-// Checkpoints, resume and restart (DESIGN.md "Checkpoint, restart, swap") on the real nodes over
+// Checkpoints, resume and restart (docs/design.md "Checkpoint, restart, swap") on the real nodes over
 // real LCM: a run stopped part-way and resumed from its checkpoint ends as the uninterrupted run
 // does; a run whose node dies or freezes is restarted from its last checkpoint by the
 // coordinator and ends the same; with restarts off, it keeps that checkpoint to resume from.
@@ -182,7 +182,7 @@ void signal_node_after_a_checkpoint(const std::string& dir, const std::string& b
 }
 
 // A node that dies mid-run is restarted by the coordinator from the last checkpoint both nodes
-// wrote, the other node rolled back to it (DESIGN.md "Checkpoint, restart, swap"): the run
+// wrote, the other node rolled back to it (docs/design.md "Checkpoint, restart, swap"): the run
 // completes, and ends bit for bit as the same scene run without the death.
 // `node_timeout`: the scene's node_timeout_s (s) instead of its own.
 void expect_restart_after(const std::string& name, const std::string& node, int signal, const std::string& cause,

@@ -28,7 +28,7 @@ using FieldAt = std::function<void(const std::array<double, 3>& x, std::array<do
                                    std::array<double, 9>& grad)>;
 fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
 
-// A scene with MODEL.md's default RBCs and platelets (Stokes drag) in a vessel of the given
+// A scene with docs/model.md's default RBCs and platelets (Stokes drag) in a vessel of the given
 // size, hematocrit and wall shear rate.
 Scene blood_scene(double diameter, double length, double hematocrit = 0.15, double wall_shear_rate = 799);
 

@@ -9,7 +9,7 @@
 using namespace hemo::particles;
 
 namespace {
-// The calibration vessel with both species at MODEL.md's sizes and masses.
+// The calibration vessel with both species at docs/model.md's sizes and masses.
 hemo::Scene calibration_scene() {
   hemo::Scene s;
   s.vessel.diameter = 100e-6;

@@ -37,7 +37,7 @@ TEST(OblateStokesFactors, SphereAndDiskLimitsAndTabulatedValues) {
     EXPECT_NEAR(oblate_k0(l) / (8 / (3 * kPi) * std::cbrt(1 / l)), 1.0, 2 * l) << l;
     EXPECT_NEAR(oblate_k90(l) / (16 / (9 * kPi) * std::cbrt(1 / l)), 1.0, 2 * l) << l;
   }
-  // REFERENCES.md's table.
+  // docs/model.md §7.1's table.
   EXPECT_NEAR(oblate_k0(0.25), 1.37683, 5e-6);
   EXPECT_NEAR(oblate_k90(0.25), 1.08315, 5e-6);
   EXPECT_NEAR(oblate_k0(0.5), 1.14061, 5e-6);

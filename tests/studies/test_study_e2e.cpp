@@ -2,7 +2,7 @@
 // --reduced` (3 runs, ~1 min on two cores), then the same command again (all skipped).
 //
 // What it checks of the physics, honestly: the reduced runs cover 0.02 s of physical time, far
-// too short for the cell-free layer, margination or D of MODEL.md §4 to settle, so their trends
+// too short for the cell-free layer, margination or D of docs/model.md §4 to settle, so their trends
 // are not checked. What a 0.02 s run does show is checked: the tube hematocrit of each run is the
 // swept one (the value reached the particle node), and the relative apparent viscosity grows with
 // the hematocrit (more cells, more resistance: immediate, no migration needed).

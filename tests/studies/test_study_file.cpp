@@ -204,7 +204,7 @@ TEST(StudyFile, SetDottedRefusesToDescendIntoAValue) {
   EXPECT_EQ(t.at_path("mesh.core_cells").value<int64_t>(), 3);
 }
 
-// The studies of MODEL.md §4 shipped in scenes/studies: every run's scene valid, full and reduced.
+// The studies of docs/model.md §4 shipped in scenes/studies: every run's scene valid, full and reduced.
 // (Their closure keys need the particle closures of issue #4 in common/scene.cpp.)
 TEST(ShippedStudies, ExpandToValidScenes) {
   const std::map<std::string, std::size_t> want = {{"shape", 2}, {"diameter", 3}, {"shear-rate", 8}, {"hematocrit", 3}};
