@@ -232,6 +232,7 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   const auto readings = numerical_readings(cfdem);
   ASSERT_EQ(readings.size(), 5u);
   for (const auto& r : readings) {
+    if (r.key == "coupling.implicit_drag") continue;  // CFDEM's does not run at the scene's interval (its comment)
     const bool paper = r.key == "platelet.orientation_integrator";
     EXPECT_NE(r.reading.find(paper ? "Algorithm 1" : "CFDEM"), std::string::npos) << r.key << ": " << r.reading;
   }
