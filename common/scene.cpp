@@ -338,6 +338,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_name(r, "coupling.fluid_velocity", s.fluid_velocity, {"reconstructed", "cell"});
   read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
   r.read("coupling.pressure_gradient_force", s.pressure_gradient_force);
+  read_name(r, "coupling.plasma_velocity", s.plasma_velocity, {"cell_centre", "face_flux"});
   r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
@@ -368,6 +369,9 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
        s.pressure_gradient_force ? "CFDEM's model A: -V_p grad P (with the driving) on the particles"
                                  : "off: the driving acts on the plasma only"},
   };
+  r.push_back({"coupling.plasma_velocity", s.plasma_velocity,
+               s.plasma_velocity == "face_flux" ? "ours: U rebuilt from the conservative face fluxes"
+                                                : "OpenFOAM's cell-centre U (ours and CFDEM's)"});
   if (s.platelet.present)
     r.push_back({"platelet.orientation_integrator", s.platelet.orientation_integrator,
                  s.platelet.orientation_integrator == "euler" ? "the paper's Algorithm 1 as printed (explicit, first order)"

@@ -232,6 +232,14 @@ struct Scene {
   // mixture, not on the plasma's share alone (CFDEM's "model A" with its gradPForce). Not
   // exchanged: the fluid feels alpha grad p itself.
   bool pressure_gradient_force = false;
+  // The plasma velocity field the fluid node publishes: "cell_centre" (OpenFOAM's U after the
+  // pressure correction, as CFDEM's solvers hand it over) or "face_flux" (U rebuilt from the
+  // conservative face fluxes, fvc::reconstruct(phi), and its gradient: the velocity that carries
+  // the plasma's volume; OpenFOAM's DPMFoam rebuilds its U from face quantities to the same end).
+  // Where the particles' momentum sources vary from cell to cell the two differ: in the
+  // calibration scene the cell-centre U converges on the axis while the fluxes diverge
+  // (docs/validation.md, "what carries platelets to the axis").
+  std::string plasma_velocity = "cell_centre";
 };
 
 // A numerical choice the paper leaves open, as a scene makes it, and whose reading it is

@@ -122,6 +122,7 @@ FluidSettings fluid_settings(const Scene& scene) {
   f.pressure_drop = driving_pressure_drop(scene);
   f.body_force = f.pressure_drop / (f.density * scene.vessel.length);
   f.publish_pressure_gradient = scene.pressure_gradient_force;
+  f.publish_face_flux_velocity = scene.plasma_velocity == "face_flux";
   f.dt = scene.time.coupling_interval;
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");
   f.solver = scene.fluid;

@@ -24,6 +24,7 @@ struct FluidSettings {
   FluidSolver solver;              // scene keys fluid.*: tolerances, PISO correctors, steady skip
   bool skip_when_steady = false;   // fluid.skip_when_steady and a one-way scene
   bool publish_pressure_gradient = false;  // coupling.pressure_gradient_force: grad P goes with the state
+  bool publish_face_flux_velocity = false; // coupling.plasma_velocity = "face_flux": U from the face fluxes
 };
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from

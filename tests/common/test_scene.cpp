@@ -226,11 +226,11 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   EXPECT_EQ(ours.fluid_force, "per_dem_step");
   EXPECT_FALSE(ours.pressure_gradient_force);
   for (const auto& r : numerical_readings(ours))
-    EXPECT_EQ(r.reading.find("CFDEM"), std::string::npos) << r.key << ": " << r.reading;
+    EXPECT_NE(r.reading.rfind("CFDEM", 0), 0u) << r.key << ": " << r.reading;  // no reading of CFDEM's alone
 
   const Scene cfdem = load_scene(std::string(HEMO_SCENES_DIR) + "/calibration-cfdem.toml");
   const auto readings = numerical_readings(cfdem);
-  ASSERT_EQ(readings.size(), 5u);
+  ASSERT_EQ(readings.size(), 6u);
   for (const auto& r : readings) {
     if (r.key == "coupling.implicit_drag") continue;  // CFDEM's does not run at the scene's interval (its comment)
     const bool paper = r.key == "platelet.orientation_integrator";
@@ -244,6 +244,8 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   EXPECT_NE(by_key["coupling.fluid_velocity"].find("reconstructed, cell"), std::string::npos);
   EXPECT_NE(by_key["coupling.fluid_force"].find("per_dem_step, held_implicit_drag, held"), std::string::npos);
   EXPECT_TRUE(by_key.count("coupling.pressure_gradient_force"));
+  EXPECT_TRUE(problems_of(std::string(kMinimal) + "[coupling]\nplasma_velocity = \"face_flux\"\n").empty());
+  EXPECT_FALSE(problems_of(std::string(kMinimal) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());
   // A held force has nothing to co-relax within the interval.
   EXPECT_FALSE(problems_of(std::string(kMinimal) + "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
                    .empty());
