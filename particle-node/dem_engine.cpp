@@ -52,7 +52,8 @@ enum ClosureSlot {
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
-constexpr double kContactReach = 1.02;  // contact histories are cleared within this x the contact distance
+constexpr double kContactReach = 1.02;
+constexpr double kMaxTurnPerStep = 1.0;  // rad: a platelet's spin beyond this per DEM step is an unstable update  // contact histories are cleared within this x the contact distance
 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
 
@@ -332,7 +333,19 @@ void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, dou
     if (rotation) {
       const Vec3 torque = ff.torque + Vec3(contact_torque[i][0], contact_torque[i][1], contact_torque[i][2]);
       if (advance) rotation->kick(q, l, torque, dt_);
-      const Vec3 w = rotation->top().angular_velocity(q, l);
+      Vec3 w = rotation->top().angular_velocity(q, l);
+      // A platelet turning by a radian in one DEM step (the flow turns it by ~gamma dt / 2,
+      // 3e-3 rad at the calibration point) has an unstable orientation update (the explicit
+      // "euler" one pumps energy into the spin): stop the run naming it, with its spin taken
+      // away meanwhile so that LIGGGHTS's contacts stay finite until the run's end.
+      if (!(w.norm() * dt_ < kMaxTurnPerStep) || !q.coeffs().allFinite()) {
+        note_problem(t, fmt::format("platelet {} spins at {:.3g} rad/s ({:.2g} rad per DEM step of {:.3g} s) at coupling "
+                                    "step {} (DEM step {}): the orientation update '{}' is unstable here (try \"splitting\")",
+                                    t, w.norm(), w.norm() * dt_, dt_, coupling_step_, ntimestep, rotation->name()));
+        if (!q.coeffs().allFinite()) q = Quat::Identity();
+        l = Vec3::Zero();
+        w = Vec3::Zero();
+      }
       rot[i][0] = q.w();
       rot[i][1] = q.x();
       rot[i][2] = q.y();

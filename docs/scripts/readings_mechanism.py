@@ -10,7 +10,9 @@ For each run directory (its particles.h5: /snapshots/<step> with species, positi
   - the platelets' mean rotation rate of the symmetry axis n between snapshots (rad/s, a lower
     bound: several turns between two snapshots count as their net angle), and the fraction of
     platelets whose axis left the start orientation by more than 60 degrees by the last snapshot;
-  - the platelet number density within r < 0.2 R at the last snapshot over that at t = 0.
+  - the platelet number density within r < 0.2 R at the last snapshot over that at t = 0;
+  - the plasma's own mean radial velocity U.e_r in the same bands, from the fluid node's time
+    directories (cell centres from fluid/constant/polyMesh; um/s).
 One line per run on stdout; --csv writes the same as a table.
 """
 import argparse
@@ -21,6 +23,9 @@ import sys
 
 import h5py
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plasma_transverse_rms import _list_body, cell_vectors, mesh_labels, snapshot_times  # noqa: E402
 
 BANDS = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
 
@@ -39,6 +44,46 @@ def axis_of(q):
     # n = R(q) e_z for unit quaternions (w, x, y, z)
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=1)
+
+
+def cell_centres(run):
+    """Mean of each cell's face points (exact enough for banding by radius)."""
+    import re
+    mesh = f"{run}/fluid/constant/polyMesh"
+    count, body = _list_body(f"{mesh}/points", None)
+    points = np.array([[float(x) for x in row.split()] for row in re.findall(r"\(([^()]+)\)", body)[:count]])
+    count, body = _list_body(f"{mesh}/faces", None)
+    faces = [list(map(int, row.split())) for row in re.findall(r"\d+\(([^()]+)\)", body)[:count]]
+    owner = mesh_labels(f"{mesh}/owner")
+    neighbour = mesh_labels(f"{mesh}/neighbour")
+    n_cells = int(max(owner.max(), neighbour.max())) + 1
+    sums = np.zeros((n_cells, 3))
+    counts = np.zeros(n_cells)
+    for f, cells in enumerate(zip(owner, list(neighbour) + [-1] * (len(owner) - len(neighbour)))):
+        centre = points[faces[f]].mean(axis=0)
+        for c in cells:
+            if c >= 0:
+                sums[c] += centre
+                counts[c] += 1
+    return sums / counts[:, None]
+
+
+def plasma_drift(run, radius):
+    centres = cell_centres(run)
+    r = np.hypot(centres[:, 0], centres[:, 1])
+    e_r = np.stack([centres[:, 0] / r, centres[:, 1] / r], axis=1)
+    out = [[] for _ in BANDS[1:]]
+    for t in snapshot_times(run):
+        path = f"{run}/fluid/{t}/U"
+        if not os.path.exists(path):
+            continue
+        U = cell_vectors(path)
+        u_r = (U[:, :2] * e_r).sum(axis=1) * 1e6
+        for b in range(len(BANDS) - 1):
+            m = (r / radius >= BANDS[b]) & (r / radius < BANDS[b + 1])
+            if m.any():
+                out[b].append(u_r[m].mean())
+    return [float(np.mean(v)) if v else float("nan") for v in out]
 
 
 def analyse(run):
@@ -78,6 +123,8 @@ def analyse(run):
         for b in range(len(BANDS) - 1):
             vals = drift[species][b]
             out[f"{name}_drift_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_um_s"] = float(np.mean(vals)) if vals else float("nan")
+    for b, v in enumerate(plasma_drift(run, radius)):
+        out[f"plasma_ur_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_um_s"] = v
     out["plt_axis_rate_rad_s"] = float(np.mean(rates)) if rates else float("nan")
     if first_axis is not None and q_last is not None:
         n_last = axis_of(q_last[sp_last == 1])
