@@ -12,7 +12,12 @@ For each run directory (its particles.h5: /snapshots/<step> with species, positi
     platelets whose axis left the start orientation by more than 60 degrees by the last snapshot;
   - the platelet number density within r < 0.2 R at the last snapshot over that at t = 0;
   - the plasma's own mean radial velocity U.e_r in the same bands, from the fluid node's time
-    directories (cell centres from fluid/constant/polyMesh; um/s).
+    directories (cell centres from fluid/constant/polyMesh; um/s);
+  - the plasma's net outward flux through the cell faces that separate the cells with centres
+    inside r = 0.4, 0.6, 0.8 R from the rest, per unit area of that cylinder (um/s), once from
+    the conservative face fluxes (alpha_f phi_f) and once from the cell-centre U interpolated to
+    the faces (alpha_f (U_o + U_n)/2 . S_f): where the two part, the particles that sample U see
+    a radial flow the plasma's volume does not make.
 One line per run on stdout; --csv writes the same as a table.
 """
 import argparse
@@ -25,7 +30,8 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plasma_transverse_rms import _list_body, cell_vectors, mesh_labels, snapshot_times  # noqa: E402
+from plasma_transverse_rms import (_list_body, cell_scalars, cell_vectors, internal_faces,  # noqa: E402
+                                   mesh_labels, snapshot_times)
 
 BANDS = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
 
@@ -86,6 +92,32 @@ def plasma_drift(run, radius):
     return [float(np.mean(v)) if v else float("nan") for v in out]
 
 
+def plasma_fluxes(run, radius, length):
+    centres = cell_centres(run)
+    r = np.hypot(centres[:, 0], centres[:, 1])
+    owner, neighbour, normals, areas = internal_faces(run)
+    out = {}
+    for rho in (0.4, 0.6, 0.8):
+        inside = r < rho * radius
+        cross = inside[owner] != inside[neighbour]
+        sign = np.where(inside[owner], 1.0, -1.0)
+        cylinder = 2 * np.pi * rho * radius * length
+        by_phi, by_u = [], []
+        for t in snapshot_times(run):
+            if not all(os.path.exists(f"{run}/fluid/{t}/{f}") for f in ("U", "alpha", "phi")):
+                continue
+            alpha = cell_scalars(f"{run}/fluid/{t}/alpha")
+            U = cell_vectors(f"{run}/fluid/{t}/U")
+            phi = cell_scalars(f"{run}/fluid/{t}/phi")[: len(neighbour)]
+            alpha_f = 0.5 * (alpha[owner] + alpha[neighbour])
+            by_phi.append((sign * alpha_f * phi)[cross].sum() / cylinder * 1e6)
+            u_f = 0.5 * (U[owner] + U[neighbour])
+            by_u.append((sign * alpha_f * (u_f * normals).sum(axis=1) * areas)[cross].sum() / cylinder * 1e6)
+        out[f"plasma_outflow_{rho:.1f}R_faces_um_s"] = float(np.mean(by_phi)) if by_phi else float("nan")
+        out[f"plasma_outflow_{rho:.1f}R_cell_U_um_s"] = float(np.mean(by_u)) if by_u else float("nan")
+    return out
+
+
 def analyse(run):
     with open(os.path.join(run, "scene.toml")) as f:
         text = f.read()
@@ -123,6 +155,11 @@ def analyse(run):
         for b in range(len(BANDS) - 1):
             vals = drift[species][b]
             out[f"{name}_drift_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_um_s"] = float(np.mean(vals)) if vals else float("nan")
+    length = None
+    for line in text.splitlines():
+        if line.strip().startswith("length_um") and length is None:
+            length = float(line.split("=")[1].split("#")[0]) * 1e-6
+    out.update(plasma_fluxes(run, radius, length))
     for b, v in enumerate(plasma_drift(run, radius)):
         out[f"plasma_ur_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_um_s"] = v
     out["plt_axis_rate_rad_s"] = float(np.mean(rates)) if rates else float("nan")

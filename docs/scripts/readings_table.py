@@ -72,7 +72,7 @@ def main():
         if config not in configs:
             configs.append(config)
     ref = {seed: r["diffusion"]["D_m2_s"] for seed, r in runs.get((a.reference, "oblate"), {}).items()}
-    print("| configuration | shape | seeds | D (10⁻¹¹ m²/s) | D / D(ours), paired | oblate / sphere D, paired | δ edge at 0.1 s (µm) | µ_app/µ | failed runs |")
+    print("| configuration | shape | seeds | D (10⁻¹¹ m²/s) | D / D(ours), paired | oblate / sphere D, paired | δ edge at 0.1 s (µm) | µ_app/µ | unfinished |")
     print("|---|---|---|---|---|---|---|---|---|")
     for config in configs:
         for shape in ("oblate", "sphere"):
