@@ -47,13 +47,20 @@ def mesh_labels(path):
     return np.array(body.split(")")[0].split()[:count], dtype=int)
 
 
-def internal_faces(run):
-    """Owner, neighbour, unit normal and area of every internal face."""
+def mesh_points_faces(run):
+    """The points and the faces (lists of point labels) of a run's fluid mesh."""
     mesh = f"{run}/fluid/constant/polyMesh"
     count, body = _list_body(f"{mesh}/points", None)
     points = np.array([[float(x) for x in row.split()] for row in re.findall(r"\(([^()]+)\)", body)[:count]])
     count, body = _list_body(f"{mesh}/faces", None)
     faces = [list(map(int, row.split())) for row in re.findall(r"\d+\(([^()]+)\)", body)[:count]]
+    return points, faces
+
+
+def internal_faces(run):
+    """Owner, neighbour, unit normal and area of every internal face."""
+    mesh = f"{run}/fluid/constant/polyMesh"
+    points, faces = mesh_points_faces(run)
     neighbour = mesh_labels(f"{mesh}/neighbour")
     owner = mesh_labels(f"{mesh}/owner")[: len(neighbour)]
     area_vectors = np.array([0.5 * sum(np.cross(points[f[i]], points[f[(i + 1) % len(f)]]) for i in range(len(f)))

@@ -30,8 +30,8 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plasma_transverse_rms import (_list_body, cell_scalars, cell_vectors, internal_faces,  # noqa: E402
-                                   mesh_labels, snapshot_times)
+from plasma_transverse_rms import (cell_scalars, cell_vectors, internal_faces, mesh_labels,  # noqa: E402
+                                   mesh_points_faces, snapshot_times)
 
 BANDS = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
 
@@ -54,12 +54,8 @@ def axis_of(q):
 
 def cell_centres(run):
     """Mean of each cell's face points (exact enough for banding by radius)."""
-    import re
     mesh = f"{run}/fluid/constant/polyMesh"
-    count, body = _list_body(f"{mesh}/points", None)
-    points = np.array([[float(x) for x in row.split()] for row in re.findall(r"\(([^()]+)\)", body)[:count]])
-    count, body = _list_body(f"{mesh}/faces", None)
-    faces = [list(map(int, row.split())) for row in re.findall(r"\d+\(([^()]+)\)", body)[:count]]
+    points, faces = mesh_points_faces(run)
     owner = mesh_labels(f"{mesh}/owner")
     neighbour = mesh_labels(f"{mesh}/neighbour")
     n_cells = int(max(owner.max(), neighbour.max())) + 1
