@@ -52,8 +52,8 @@ enum ClosureSlot {
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
 constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
-constexpr double kContactReach = 1.02;
-constexpr double kMaxTurnPerStep = 1.0;  // rad: a platelet's spin beyond this per DEM step is an unstable update  // contact histories are cleared within this x the contact distance
+constexpr double kContactReach = 1.02;  // contact histories are cleared within this x the contact distance
+constexpr double kMaxTurnPerStep = 1.0;  // rad: a platelet's spin beyond this per DEM step is an unstable update
 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
 
@@ -408,12 +408,10 @@ int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::i
   // The plasma's pressure on the particle's volume acts like its weight: on the particle, in
   // the drag's exponential update, not exchanged.
   const Vec3 pressure = pressure_force_ ? Vec3(-volume_[p.species] * fluid_->pressure_gradient(cell)) : Vec3::Zero();
-  ff = forces.evaluate(flow, other + pressure, dt_);
+  // CFDEM's explicit force (coupling.fluid_force = "held") is the closures at the exchange's own
+  // slip, held: evaluated as over a step of no length (drag beta (u - v), lift at that slip).
+  ff = forces.evaluate(flow, other + pressure, fluid_force_ == FluidForceUpdate::held ? 0.0 : dt_);
   ff.pressure = pressure;
-  if (fluid_force_ == FluidForceUpdate::held) {  // CFDEM's explicit force: beta (u - v) at the exchange, held
-    ff.ratio = 1;
-    ff.drag = ff.beta * flow.slip;
-  }
   if (!ff.finite()) {
     note_problem(p.tag, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
                                     "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
