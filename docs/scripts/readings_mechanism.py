@@ -79,7 +79,10 @@ def plasma_drift(run, radius):
         path = f"{run}/fluid/{t}/U"
         if not os.path.exists(path):
             continue
-        U = cell_vectors(path)
+        try:
+            U = cell_vectors(path)
+        except (AttributeError, ValueError):
+            continue
         u_r = (U[:, :2] * e_r).sum(axis=1) * 1e6
         for b in range(len(BANDS) - 1):
             m = (r / radius >= BANDS[b]) & (r / radius < BANDS[b + 1])
@@ -102,9 +105,12 @@ def plasma_fluxes(run, radius, length):
         for t in snapshot_times(run):
             if not all(os.path.exists(f"{run}/fluid/{t}/{f}") for f in ("U", "alpha", "phi")):
                 continue
-            alpha = cell_scalars(f"{run}/fluid/{t}/alpha")
-            U = cell_vectors(f"{run}/fluid/{t}/U")
-            phi = cell_scalars(f"{run}/fluid/{t}/phi")[: len(neighbour)]
+            try:
+                alpha = cell_scalars(f"{run}/fluid/{t}/alpha")
+                U = cell_vectors(f"{run}/fluid/{t}/U")
+                phi = cell_scalars(f"{run}/fluid/{t}/phi")[: len(neighbour)]
+            except (AttributeError, ValueError):  # a uniform field (a one-way run's steady plasma): no radial flow
+                continue
             alpha_f = 0.5 * (alpha[owner] + alpha[neighbour])
             by_phi.append((sign * alpha_f * phi)[cross].sum() / cylinder * 1e6)
             u_f = 0.5 * (U[owner] + U[neighbour])
