@@ -19,7 +19,7 @@ double NodePort::now() {
 NodePort::NodePort(const RunContext& ctx, std::string role, std::string program, int ranks,
                    const std::vector<std::string>& kinds)
     : bus_(std::make_unique<Bus>(ctx, role, kinds)),
-      heartbeat_(std::make_unique<Heartbeat>(ctx, role)),
+      heartbeat_(std::make_unique<Heartbeat>(ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); })),
       role_(std::move(role)),
       step_(ctx.resume_step),
       step_started_(now()) {
@@ -81,6 +81,7 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
 void NodePort::finalize() {
   report_done(true, "", {{"finalized", 1}});
   heartbeat_.reset();
+  bus_->log_counters();  // the process may exit without unwinding
 }
 
 void NodePort::fail(const std::string& error) {
@@ -88,6 +89,7 @@ void NodePort::fail(const std::string& error) {
   // Several copies: the coordinator must learn why, even if UDP drops one.
   for (int i = 0; i < 3; ++i) report_done(false, error, {});
   heartbeat_.reset();
+  bus_->log_counters();
 }
 
 void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0, /*keep=*/true); }
