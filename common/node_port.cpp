@@ -48,7 +48,9 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
       return r;
     }
     bus_->poll(0.05, [&](const Received& msg) {
-      last_heard = now();
+      // Only the coordinator keeps a node waiting: two nodes whose coordinator is gone would
+      // otherwise keep each other alive with their heartbeats, for ever.
+      if (msg.envelope.sender == "coordinator") last_heard = now();
       if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
           msg.kind == channel::particle_feedback)
         pending_[{msg.kind, msg.envelope.step}] = msg;
@@ -58,7 +60,7 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
       last_asked = now();
     }
     if (now() - last_heard > ctx.timeout_s)
-      throw std::runtime_error(fmt::format("{}: nothing heard from the run for {:.0f} s while waiting for {} (step {})",
+      throw std::runtime_error(fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {})",
                                            role_, ctx.timeout_s, what, step));
   }
 }
