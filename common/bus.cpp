@@ -243,7 +243,7 @@ Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::strin
   for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this);
 }
 
-Bus::~Bus() { log_counters(); }
+Bus::~Bus() { log_counters(/*even_if_clean=*/false); }
 
 BusCounters Bus::counters() const {
   std::lock_guard<std::mutex> lock(counters_mutex_);
@@ -255,11 +255,12 @@ void Bus::count(std::uint64_t BusCounters::*field) {
   ++(counters_.*field);
 }
 
-void Bus::log_counters() {
+void Bus::log_counters(bool even_if_clean) {
   if (counters_logged_) return;
-  counters_logged_ = true;
   try {
     const auto k = counters();
+    if (!even_if_clean && k.rejected() == 0) return;
+    counters_logged_ = true;
     if (k.rejected() > 0)
       spdlog::warn("{} bus: {}", sender_, k.str());
     else

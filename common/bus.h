@@ -165,8 +165,9 @@ class Bus {
 
   // A snapshot (the heartbeat thread reads them while the owner polls).
   BusCounters counters() const;
-  // Writes the counters to the log, once (also done when the bus is destroyed).
-  void log_counters();
+  // Writes the counters to the log, once. A bus destroyed without it logs them only when it
+  // dropped something (a command-line tool's answer stays one line).
+  void log_counters(bool even_if_clean = true);
   ~Bus();
 
  private:

@@ -51,6 +51,7 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
 }
 
 Lockstep::~Lockstep() {
+  bus_->log_counters();  // what the coordinator received and dropped, by cause
   write_metrics();
   for (auto& [name, node] : nodes_)
     if (node.process) node.process->terminate();
