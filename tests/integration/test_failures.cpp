@@ -205,3 +205,33 @@ TEST(Failures, NodesDieWithAKilledCoordinator) {
   EXPECT_TRUE(live_processes_in_group(particles).empty()) << "particle node still running " << took << " s after";
   EXPECT_LT(took, 5.0);  // below the node timeout (10 s): they did not merely time out
 }
+
+// A second Ctrl-C (or SIGTERM) stops the coordinator at once, and its nodes with it.
+TEST(Failures, ASecondInterruptStopsAtOnce) {
+  const std::string dir = fresh_run_dir("interrupted-twice");
+  std::ofstream(dir + ".toml") << small_scene_text(100000);
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/particles.pid"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // stepping
+  long coordinator = 0, fluid = 0, particles = 0;
+  std::ifstream(dir + "/coordinator.pid") >> coordinator;
+  std::ifstream(dir + "/fluid.pid") >> fluid;
+  std::ifstream(dir + "/particles.pid") >> particles;
+  ASSERT_GT(coordinator, 0);
+  ASSERT_GT(fluid, 0);
+  ASSERT_GT(particles, 0);
+  ASSERT_FALSE(live_processes_in_group(fluid).empty());
+  const auto t0 = std::chrono::steady_clock::now();
+  kill(static_cast<pid_t>(coordinator), SIGTERM);
+  kill(static_cast<pid_t>(coordinator), SIGINT);
+  const auto r = result.get();
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("interrupted twice: stopped at once"), std::string::npos) << r.output;
+  EXPECT_LT(took, 2.0);
+  for (int i = 0; i < 50 && !(live_processes_in_group(fluid).empty() && live_processes_in_group(particles).empty()); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_TRUE(live_processes_in_group(fluid).empty());
+  EXPECT_TRUE(live_processes_in_group(particles).empty());
+}
