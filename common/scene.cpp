@@ -197,9 +197,9 @@ class Reader {
         {"time.coupling_relaxation_times", {ninf, 1e6}},
         {"output.every_steps", {ninf, 1e9}},
         {"output.checkpoint_every_steps", {ninf, 1e9}},
-        {"gravity.x_m_s2", {-1e6, 1e6}},
-        {"gravity.y_m_s2", {-1e6, 1e6}},
-        {"gravity.z_m_s2", {-1e6, 1e6}},
+        {"gravity.x_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
+        {"gravity.y_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
+        {"gravity.z_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
         {"fluid.pressure_tolerance", {ninf, 1}},
         {"fluid.velocity_tolerance", {ninf, 1}},
         {"fluid.min_correctors", {ninf, 1000}},

@@ -192,7 +192,7 @@ implicit_drag = "explicit"
 }
 
 TEST(Scene, ShippedScenesAreValid) {
-  for (const char* name : {"quickstart.toml"}) {
+  for (const char* name : {"quickstart.toml", "calibration.toml"}) {
     EXPECT_NO_THROW(load_scene(std::string(HEMO_SCENES_DIR) + "/" + name)) << name;
   }
 }
