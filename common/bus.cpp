@@ -1,8 +1,15 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "bus.h"
 
+#include <hemo/control_t.hpp>
+#include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
+#include <hemo/hello_t.hpp>
+#include <hemo/mesh_t.hpp>
+#include <hemo/particle_feedback_t.hpp>
 #include <hemo/resend_request_t.hpp>
+#include <hemo/step_done_t.hpp>
+#include <hemo/step_order_t.hpp>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -12,6 +19,7 @@
 #include <openssl/core_names.h>
 #include <openssl/params.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -25,17 +33,27 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Sequence numbers start at the wall clock in microseconds, so a restarted process never
-// reuses a number its predecessor sent (receivers would take it for a replay).
+std::int64_t wall_clock_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Sequence numbers are the wall clock in microseconds, and strictly increasing: a restarted
+// process never reuses a number its predecessor sent (receivers would take it for a replay),
+// and a receiver refuses what was sent before it listened (bus.h, kClockSkewAllowanceUs).
 std::atomic<std::int64_t>& process_seq() {
-  static std::atomic<std::int64_t> seq{std::chrono::duration_cast<std::chrono::microseconds>(
-                                           std::chrono::system_clock::now().time_since_epoch())
-                                           .count()};
+  static std::atomic<std::int64_t> seq{0};
   return seq;
 }
 
 std::uint32_t read_be32(const std::uint8_t* p) {
   return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
+}
+
+std::int64_t read_be64(const std::uint8_t* p) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v = (v << 8) | p[i];
+  return static_cast<std::int64_t>(v);
 }
 
 void write_be64(std::uint8_t* p, std::int64_t v) {
@@ -44,7 +62,8 @@ void write_be64(std::uint8_t* p, std::int64_t v) {
 
 constexpr std::size_t kHashBytes = 8;     // LCM type fingerprint before the fields
 constexpr std::size_t kTagBytes = 32;     // HMAC-SHA256
-constexpr std::int64_t kReplayWindow = 1 << 16;
+// Sequence numbers are microseconds: remember a sender's for 10 s behind its newest.
+constexpr std::int64_t kReplayWindow = 10'000'000;
 
 }  // namespace
 
@@ -70,15 +89,38 @@ void RunContext::load_secret() {
   if (secret.size() < 16) throw std::runtime_error("run secret " + secret_file + " is shorter than 16 bytes");
 }
 
-std::size_t tag_offset(const std::uint8_t* buf, std::size_t len) {
-  std::size_t pos = kHashBytes;
-  for (int s = 0; s < 2; ++s) {  // run_id, sender: int32 length (with NUL), bytes
-    if (pos + 4 > len) throw std::runtime_error("truncated envelope");
-    pos += 4 + read_be32(buf + pos);
+std::optional<RawEnvelope> parse_envelope(const std::uint8_t* buf, std::size_t len) noexcept {
+  try {
+    RawEnvelope raw;
+    std::size_t pos = kHashBytes;
+    for (std::string* field : {&raw.envelope.run_id, &raw.envelope.sender}) {
+      if (len < pos + 4) return std::nullopt;
+      // int32 length including the NUL: zero or negative (the crash of issue #21), or past the
+      // end of the bytes, is no envelope.
+      const auto n = static_cast<std::int32_t>(read_be32(buf + pos));
+      pos += 4;
+      if (n < 1 || static_cast<std::size_t>(n) > kMaxEnvelopeString || len - pos < static_cast<std::size_t>(n))
+        return std::nullopt;
+      if (buf[pos + static_cast<std::size_t>(n) - 1] != 0) return std::nullopt;
+      field->assign(reinterpret_cast<const char*>(buf + pos), static_cast<std::size_t>(n) - 1);
+      pos += static_cast<std::size_t>(n);
+    }
+    if (len - pos < 16 + kTagBytes) return std::nullopt;
+    raw.envelope.step = read_be64(buf + pos);
+    raw.envelope.seq = read_be64(buf + pos + 8);
+    pos += 16;
+    raw.tag_offset = pos;
+    std::memcpy(raw.envelope.tag, buf + pos, kTagBytes);
+    return raw;
+  } catch (...) {  // std::string's allocation
+    return std::nullopt;
   }
-  pos += 16;  // step, seq
-  if (pos + kTagBytes > len) throw std::runtime_error("truncated envelope");
-  return pos;
+}
+
+std::size_t tag_offset(const std::uint8_t* buf, std::size_t len) {
+  const auto raw = parse_envelope(buf, len);
+  if (!raw) throw std::runtime_error("truncated or malformed envelope");
+  return raw->tag_offset;
 }
 
 // HMAC-SHA256 of the message as if its tag bytes were zero, without copying the message.
@@ -108,24 +150,66 @@ void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secre
   std::memcpy(buf.data() + off, tag.data(), kTagBytes);
 }
 
-bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
-  std::size_t off;
+bool verify(const std::uint8_t* buf, std::size_t len, const std::vector<std::uint8_t>& secret) noexcept {
+  const auto raw = parse_envelope(buf, len);
+  if (!raw) return false;
   try {
-    off = tag_offset(buf.data(), buf.size());
-  } catch (const std::exception&) {
+    const auto tag = compute_tag(buf, len, raw->tag_offset, secret);
+    return CRYPTO_memcmp(tag.data(), buf + raw->tag_offset, kTagBytes) == 0;
+  } catch (...) {
     return false;
   }
-  const auto tag = compute_tag(buf.data(), buf.size(), off, secret);
-  return CRYPTO_memcmp(tag.data(), buf.data() + off, kTagBytes) == 0;
+}
+
+bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+  return verify(buf.data(), buf.size(), secret);
 }
 
 std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len) {
-  envelope_t env;
-  if (len < kHashBytes) return std::nullopt;
-  if (env._decodeNoHash(buf, static_cast<int>(kHashBytes), static_cast<int>(len - kHashBytes)) < 0)
-    return std::nullopt;
-  return env;
+  auto raw = parse_envelope(buf, len);
+  if (!raw) return std::nullopt;
+  return raw->envelope;
 }
+
+std::string BusCounters::str() const {
+  return fmt::format("received {}, accepted {}; dropped: too short/malformed {}, other run {}, bad tag {}, "
+                     "pre-start {}, replay {}, undecodable {} (own echoes {}, injected drops {}); resent {}, "
+                     "asked again {}",
+                     received, accepted, rejected_short, rejected_foreign, rejected_auth, rejected_prestart,
+                     rejected_replay, rejected_corrupt, own, injected_drops, resent, resend_requests);
+}
+
+namespace {
+// The message of a channel kind decoded as its type; nothing when it does not decode (LCM's
+// decoder throws on a negative length, allocates what a length says: caught here) or leaves
+// bytes over.
+template <class Msg>
+std::pair<std::shared_ptr<const void>, std::type_index> decode_as(const std::vector<std::uint8_t>& bytes) {
+  auto m = std::make_shared<Msg>();
+  int n = -1;
+  try {
+    n = m->decode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  } catch (...) {
+    n = -1;
+  }
+  if (n < 0 || static_cast<std::size_t>(n) != bytes.size()) return {nullptr, typeid(void)};
+  return {std::move(m), typeid(Msg)};
+}
+
+std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::string& kind,
+                                                                    const std::vector<std::uint8_t>& bytes) {
+  if (kind == channel::hello) return decode_as<hello_t>(bytes);
+  if (kind == channel::heartbeat) return decode_as<heartbeat_t>(bytes);
+  if (kind == channel::step) return decode_as<step_order_t>(bytes);
+  if (kind == channel::mesh) return decode_as<mesh_t>(bytes);
+  if (kind == channel::fluid_state) return decode_as<fluid_state_t>(bytes);
+  if (kind == channel::particle_feedback) return decode_as<particle_feedback_t>(bytes);
+  if (kind == channel::step_done) return decode_as<step_done_t>(bytes);
+  if (kind == channel::resend) return decode_as<resend_request_t>(bytes);
+  if (kind == channel::control) return decode_as<control_t>(bytes);
+  return {nullptr, typeid(void)};
+}
+}  // namespace
 
 // LCM's UDP multicast drops large (fragmented) messages when the kernel's receive buffer is
 // small; deploy/install-deps.sh raises it where it may. Say so once when it could not.
@@ -155,7 +239,34 @@ Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::strin
   if (!lcm_.good()) throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
   warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
+  opened_us_ = wall_clock_us();
   for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this);
+}
+
+Bus::~Bus() { log_counters(/*even_if_clean=*/false); }
+
+BusCounters Bus::counters() const {
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  return counters_;
+}
+
+void Bus::count(std::uint64_t BusCounters::*field) {
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  ++(counters_.*field);
+}
+
+void Bus::log_counters(bool even_if_clean) {
+  if (counters_logged_) return;
+  try {
+    const auto k = counters();
+    if (!even_if_clean && k.rejected() == 0) return;
+    counters_logged_ = true;
+    if (k.rejected() > 0)
+      spdlog::warn("{} bus: {}", sender_, k.str());
+    else
+      spdlog::info("{} bus: {}", sender_, k.str());
+  } catch (...) {
+  }
 }
 
 void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
@@ -172,7 +283,7 @@ void Bus::request_resend(const std::string& kind, std::int64_t step) {
   req.channel = kind;
   req.wanted_step = step;
   publish(channel::resend, req, step);
-  ++counters_.resend_requests;
+  count(&BusCounters::resend_requests);
 }
 
 void Bus::forget_before(std::int64_t step) {
@@ -191,21 +302,39 @@ bool Bus::accept_seq(const std::string& sender, std::int64_t seq) {
   return true;
 }
 
+// Runs inside LCM's C dispatch: nothing may be thrown through it (an exception there left
+// LCM's receive buffer allocated, and the next message aborted the process in
+// lcm_ringbuf_dealloc; issue #21).
 void Bus::on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
-  const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
-  std::vector<std::uint8_t> bytes(data, data + rbuf->data_size);
-  auto env = peek_envelope(bytes.data(), bytes.size());
-  if (!env) { ++counters_.rejected_corrupt; return; }
-  if (env->run_id != ctx_.run_id) { ++counters_.rejected_foreign; return; }
-  if (env->sender == sender_) return;  // multicast loops our own messages back to us
+  try {
+    handle_raw(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, chan);
+  } catch (...) {
+    count(&BusCounters::rejected_corrupt);
+  }
+}
+
+// Every check on the raw bytes first; only an authentic, fresh message is decoded.
+void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::string& chan) {
+  count(&BusCounters::received);
+  auto raw = parse_envelope(data, len);
+  if (!raw) return count(&BusCounters::rejected_short);
+  const auto& env = raw->envelope;
+  if (env.run_id != ctx_.run_id) return count(&BusCounters::rejected_foreign);
+  if (env.sender == sender_) return count(&BusCounters::own);  // multicast loops our own messages back to us
   if (ctx_.drop_every > 0 && chan.find(channel::heartbeat) == std::string::npos &&
       ++received_for_drop_ % static_cast<std::uint64_t>(ctx_.drop_every) == 0)
-    return;  // as if UDP had lost it
-  if (!verify(bytes, ctx_.secret)) { ++counters_.rejected_auth; return; }
-  if (!accept_seq(env->sender, env->seq)) { ++counters_.rejected_replay; return; }
-  ++counters_.accepted;
+    return count(&BusCounters::injected_drops);  // as if UDP had lost it
+  if (!verify(data, len, ctx_.secret)) return count(&BusCounters::rejected_auth);
+  if (env.seq < opened_us_ - kClockSkewAllowanceUs) return count(&BusCounters::rejected_prestart);
+  if (!accept_seq(env.sender, env.seq)) return count(&BusCounters::rejected_replay);
   const auto slash = chan.rfind('/');
-  inbox_.push_back({chan.substr(slash + 1), *env, std::move(bytes)});
+  Received msg{chan.substr(slash + 1), env, std::vector<std::uint8_t>(data, data + len)};
+  auto [decoded, type] = decode_kind(msg.kind, msg.bytes);
+  if (!decoded) return count(&BusCounters::rejected_corrupt);
+  msg.decoded = std::move(decoded);
+  msg.decoded_type = type;
+  count(&BusCounters::accepted);
+  inbox_.push_back(std::move(msg));
 }
 
 int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_message) {
@@ -224,11 +353,7 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   int handled = 0;
   for (const auto& msg : batch) {
     if (msg.kind == channel::resend) {
-      resend_request_t req;
-      if (req.decode(msg.bytes.data(), 0, static_cast<int>(msg.bytes.size())) < 0) {
-        ++counters_.rejected_corrupt;
-        continue;
-      }
+      const auto req = msg.as<resend_request_t>();  // decoded on arrival
       auto kind = kept_.find(req.channel);
       if (kind == kept_.end()) continue;
       auto it = kind->second.find(req.wanted_step);
@@ -237,7 +362,7 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
       auto buf = it->second;
       write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 8, next_seq());
       publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
-      ++counters_.resent;
+      count(&BusCounters::resent);
       continue;
     }
     on_message(msg);
@@ -246,15 +371,25 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   return handled;
 }
 
-std::int64_t Bus::next_seq() { return ++process_seq(); }
+std::int64_t Bus::next_seq() {
+  auto& seq = process_seq();
+  std::int64_t prev = seq.load();
+  std::int64_t next;
+  do {
+    next = std::max(prev + 1, wall_clock_us());
+  } while (!seq.compare_exchange_weak(prev, next));
+  return next;
+}
 
 struct Heartbeat::Impl {
   std::atomic<bool> stop{false};
   std::thread thread;
 };
 
-Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s) : impl_(new Impl) {
-  impl_->thread = std::thread([this, ctx, sender, period_s] {
+Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
+                     std::function<BusCounters()> counters)
+    : impl_(new Impl) {
+  impl_->thread = std::thread([this, ctx, sender, period_s, counters] {
     lcm::LCM lcm(ctx.lcm_url);
     const auto start = Clock::now();
     while (!impl_->stop.load()) {
@@ -265,6 +400,19 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s)
       hb.envelope.seq = Bus::next_seq();
       std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
       hb.uptime_s = std::chrono::duration<double>(Clock::now() - start).count();
+      if (counters) {
+        const auto k = counters();
+        hb.accepted = static_cast<std::int64_t>(k.accepted);
+        hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
+        hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
+        hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
+        hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
+        hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
+        hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
+      } else {
+        hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
+            hb.rejected_replay = hb.rejected_undecodable = 0;
+      }
       std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
       hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
       sign(buf, ctx.secret);

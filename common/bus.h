@@ -12,10 +12,14 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
+#include <typeindex>
+#include <typeinfo>
 #include <vector>
 
 namespace CLI { class App; }
@@ -62,28 +66,59 @@ std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, 
 std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend
 }  // namespace channel
 
-// Counters a process keeps about what it received; the monitor shows them.
+// Counters a process keeps about what it received; written to its log at the end, published
+// with its heartbeat, shown by `hemocosim monitor`. Every datagram that reaches the bus is
+// counted exactly once: accepted, own, injected_drops, or one of the rejected_* causes.
+// The checks run in this order, on the raw bytes, before any LCM decoding:
+//   short        no well-formed envelope: too short for it, or a string length zero, negative
+//                or past the end, or not NUL-terminated
+//   foreign      another run's id
+//   (own)        our own message looped back by multicast (not a rejection)
+//   (injected)   dropped on purpose by run.drop_every (fault injection, not a rejection)
+//   auth         the HMAC tag does not verify
+//   prestart     sequence number (the sender's wall clock in microseconds) from before this
+//                bus was opened, less a clock-skew allowance: a recording played back
+//   replay       sequence number already seen from that sender
+//   undecodable  authentic, but does not decode as its channel's type
 struct BusCounters {
+  std::uint64_t received = 0;          // datagrams handed to the bus by LCM
   std::uint64_t accepted = 0;
-  std::uint64_t rejected_auth = 0;     // HMAC did not verify
-  std::uint64_t rejected_replay = 0;   // sequence number already seen
+  std::uint64_t own = 0;               // our own messages, looped back
+  std::uint64_t injected_drops = 0;    // run.drop_every
+  std::uint64_t rejected_short = 0;    // no well-formed envelope
   std::uint64_t rejected_foreign = 0;  // another run's id
-  std::uint64_t rejected_corrupt = 0;  // did not decode
+  std::uint64_t rejected_auth = 0;     // HMAC did not verify
+  std::uint64_t rejected_prestart = 0; // sent before this bus was opened (a replayed recording)
+  std::uint64_t rejected_replay = 0;   // sequence number already seen
+  std::uint64_t rejected_corrupt = 0;  // authentic but undecodable as its channel's type
   std::uint64_t resent = 0;            // messages we published again on request
   std::uint64_t resend_requests = 0;   // times we asked a peer again
+  std::uint64_t rejected() const {
+    return rejected_short + rejected_foreign + rejected_auth + rejected_prestart + rejected_replay + rejected_corrupt;
+  }
+  std::string str() const;             // one line for a log
 };
 
-// A received message before typing: channel kind, envelope and raw bytes (tag verified).
+// A received message: channel kind, envelope and raw bytes (tag verified) and, set by the bus,
+// the message decoded as its channel's type (so `as` of that type copies instead of decoding).
 struct Received {
   std::string kind;
   envelope_t envelope;
   std::vector<std::uint8_t> bytes;
+  std::shared_ptr<const void> decoded;
+  std::type_index decoded_type = typeid(void);
 
   template <class Msg>
   Msg as() const {
+    if (decoded && decoded_type == std::type_index(typeid(Msg))) return *static_cast<const Msg*>(decoded.get());
     Msg m;
-    if (m.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0)
-      throw std::runtime_error("message on " + kind + " does not decode as its type");
+    int n = -1;
+    try {
+      n = m.decode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    } catch (const std::exception&) {
+      n = -1;  // LCM's decoder throws on a zero or negative string length
+    }
+    if (n < 0) throw std::runtime_error("message on " + kind + " does not decode as its type");
     return m;
   }
 };
@@ -128,36 +163,65 @@ class Bus {
   // Returns the number of messages handled.
   int poll(double timeout_s, const std::function<void(const Received&)>& on_message);
 
-  const BusCounters& counters() const { return counters_; }
+  // A snapshot (the heartbeat thread reads them while the owner polls).
+  BusCounters counters() const;
+  // Writes the counters to the log, once. A bus destroyed without it logs them only when it
+  // dropped something (a command-line tool's answer stays one line).
+  void log_counters(bool even_if_clean = true);
+  ~Bus();
 
  private:
+  void count(std::uint64_t BusCounters::*field);
   void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf,
                        bool keep);
-  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);  // never throws
+  void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel);
   bool accept_seq(const std::string& sender, std::int64_t seq);
 
   RunContext ctx_;
   std::string sender_;
   lcm::LCM lcm_;
   std::mutex publish_mutex_;
+  mutable std::mutex counters_mutex_;
   BusCounters counters_;
+  bool counters_logged_ = false;
+  std::int64_t opened_us_ = 0;  // wall clock when the bus subscribed; older sequence numbers are pre-start
   std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;
   std::uint64_t received_for_drop_ = 0;
 };
 
+// Sequence numbers are the sender's wall clock in microseconds (strictly increasing per
+// process), so a receiver tells a recording played back from live traffic: a message whose
+// sequence number is older than the receiver's bus, by more than this allowance for clock skew
+// between hosts, is refused as pre-start.
+inline constexpr std::int64_t kClockSkewAllowanceUs = 1'000'000;
+
+// The envelope read from the raw bytes of an encoded message, by its fixed layout alone (LCM:
+// 8-byte fingerprint, run_id and sender as int32 length with the NUL + bytes + NUL, step and
+// seq as int64, the 32-byte tag), every length checked against the bytes: no LCM decoding.
+struct RawEnvelope {
+  envelope_t envelope;
+  std::size_t tag_offset = 0;
+};
+inline constexpr std::size_t kMaxEnvelopeString = 256;  // run ids and sender names are short
+std::optional<RawEnvelope> parse_envelope(const std::uint8_t* buf, std::size_t len) noexcept;
+
 // HMAC-SHA256 tag handling on an encoded message (exposed for tests and the monitor).
 // The tag sits at a fixed place after the envelope's variable-length strings.
 std::size_t tag_offset(const std::uint8_t* buf, std::size_t len);  // throws if malformed
 void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
+bool verify(const std::uint8_t* buf, std::size_t len, const std::vector<std::uint8_t>& secret) noexcept;
 bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
 std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len);
 
 // Publishes a heartbeat on its own LCM instance from a background thread while alive.
 class Heartbeat {
  public:
-  Heartbeat(const RunContext& ctx, std::string sender, double period_s = 0.5);
+  // With `counters`, each heartbeat carries what they return (the process's bus counters).
+  Heartbeat(const RunContext& ctx, std::string sender, double period_s = 0.5,
+            std::function<BusCounters()> counters = {});
   ~Heartbeat();
   Heartbeat(const Heartbeat&) = delete;
   Heartbeat& operator=(const Heartbeat&) = delete;

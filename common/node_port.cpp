@@ -19,7 +19,7 @@ double NodePort::now() {
 NodePort::NodePort(const RunContext& ctx, std::string role, std::string program, int ranks,
                    const std::vector<std::string>& kinds)
     : bus_(std::make_unique<Bus>(ctx, role, kinds)),
-      heartbeat_(std::make_unique<Heartbeat>(ctx, role)),
+      heartbeat_(std::make_unique<Heartbeat>(ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); })),
       role_(std::move(role)),
       step_(ctx.resume_step),
       step_started_(now()) {
@@ -48,7 +48,9 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
       return r;
     }
     bus_->poll(0.05, [&](const Received& msg) {
-      last_heard = now();
+      // Only the coordinator keeps a node waiting: two nodes whose coordinator is gone would
+      // otherwise keep each other alive with their heartbeats, for ever.
+      if (msg.envelope.sender == "coordinator") last_heard = now();
       if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
           msg.kind == channel::particle_feedback)
         pending_[{msg.kind, msg.envelope.step}] = msg;
@@ -58,7 +60,7 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
       last_asked = now();
     }
     if (now() - last_heard > ctx.timeout_s)
-      throw std::runtime_error(fmt::format("{}: nothing heard from the run for {:.0f} s while waiting for {} (step {})",
+      throw std::runtime_error(fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {})",
                                            role_, ctx.timeout_s, what, step));
   }
 }
@@ -81,6 +83,7 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
 void NodePort::finalize() {
   report_done(true, "", {{"finalized", 1}});
   heartbeat_.reset();
+  bus_->log_counters();  // the process may exit without unwinding
 }
 
 void NodePort::fail(const std::string& error) {
@@ -88,6 +91,7 @@ void NodePort::fail(const std::string& error) {
   // Several copies: the coordinator must learn why, even if UDP drops one.
   for (int i = 0; i < 3; ++i) report_done(false, error, {});
   heartbeat_.reset();
+  bus_->log_counters();
 }
 
 void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0, /*keep=*/true); }

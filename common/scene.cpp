@@ -6,15 +6,25 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <functional>
+#include <limits>
+#include <map>
 #include <set>
 
 namespace hemo {
 
 std::string SceneProblem::str(const std::string& file) const {
-  if (line > 0) return fmt::format("{}:{}: {}: {}", file, line, key, message);
-  return fmt::format("{}: {}: {}", file, key, message);
+  const std::string what = value.empty() ? key : key + " = " + value;
+  if (line > 0) return fmt::format("{}:{}: {}: {}", file, line, what, message);
+  return fmt::format("{}: {}: {}", file, what, message);
 }
 
 static std::string join_problems(const std::string& file, const std::vector<SceneProblem>& ps) {
@@ -41,36 +51,61 @@ class Reader {
     auto node = root_.at_path(key);
     if (!node) return false;
     const int line = static_cast<int>(node.node()->source().begin.line);
+    const std::string value = value_text(node);
     if constexpr (std::is_same_v<T, std::string>) {
-      if (auto v = node.value<std::string>()) { out = *v; return true; }
-      problem(key, line, "expected a string");
+      if (auto v = node.value_exact<std::string>()) { out = *v; return true; }
+      problem(key, line, "expected a string", value);
     } else if constexpr (std::is_same_v<T, bool>) {
-      if (auto v = node.value<bool>()) { out = *v; return true; }
-      problem(key, line, "expected true or false");
+      // value<bool>() would take the integer 1 for true: only a TOML boolean is one.
+      if (auto v = node.value_exact<bool>()) { out = *v; return true; }
+      problem(key, line, "expected true or false", value);
     } else if constexpr (std::is_integral_v<T>) {
-      if (auto v = node.value_exact<int64_t>()) { out = static_cast<T>(*v); return true; }
-      problem(key, line, "expected an integer");
-    } else {
-      if (auto v = node.value<double>()) {
-        if (!std::isfinite(*v)) { problem(key, line, "must be a finite number"); return false; }
-        out = *v * scale;
+      if (auto v = node.value_exact<int64_t>()) {
+        // Read wide, refuse what the field cannot hold: no silent narrowing.
+        using L = std::numeric_limits<T>;
+        if (*v < static_cast<int64_t>(L::min()) ||
+            (static_cast<uint64_t>(L::max()) < static_cast<uint64_t>(INT64_MAX) && *v > static_cast<int64_t>(L::max()))) {
+          problem(key, line, fmt::format("out of range: must be an integer from {} to {}", L::min(), L::max()), value);
+          return false;
+        }
+        if (!within_bounds(key, line, static_cast<double>(*v), value)) return false;
+        out = static_cast<T>(*v);
         return true;
       }
-      problem(key, line, "expected a number");
+      problem(key, line, "expected an integer", value);
+    } else {
+      if (node.is_number()) {
+        const double v = *node.value<double>();
+        if (!std::isfinite(v)) { problem(key, line, "must be a finite number", value); return false; }
+        if (!within_bounds(key, line, v, value)) return false;
+        out = v * scale;
+        return true;
+      }
+      problem(key, line, "expected a number", value);
     }
     return false;
   }
+
+  // The value of a key as the file has it, for messages ("" when absent).
+  std::string value_text(const std::string& key) const { return value_text(root_.at_path(key)); }
 
   int line_of(const std::string& key) const {
     auto node = root_.at_path(key);
     return node ? static_cast<int>(node.node()->source().begin.line) : 0;
   }
 
-  void problem(const std::string& key, int line, std::string message) {
-    problems_.push_back({key, line, std::move(message)});
+  void problem(const std::string& key, int line, std::string message, std::string value = {}) {
+    problems_.push_back({key, line, std::move(message), std::move(value)});
   }
+  // One problem per key: the first cause found (a value refused as read is not also "must be
+  // positive" with the default it kept).
   void check(bool ok, const std::string& key, const std::string& message) {
-    if (!ok) problem(key, line_of(key), message);
+    if (!ok && !has_problem(key)) problem(key, line_of(key), message, value_text(key));
+  }
+  bool has_problem(const std::string& key) const {
+    for (const auto& p : problems_)
+      if (p.key == key) return true;
+    return false;
   }
 
   void report_unknown() { walk(root_, ""); }
@@ -89,6 +124,90 @@ class Reader {
       if (!known_.count(key))
         problem(key, static_cast<int>(v.source().begin.line), "unknown key");
     }
+  }
+
+  static std::string value_text(toml::node_view<const toml::node> node) {
+    if (!node) return {};
+    if (auto v = node.value_exact<std::string>()) {
+      std::string t = *v;
+      if (t.size() > 60) t = t.substr(0, 60) + "...";
+      return "\"" + t + "\"";
+    }
+    if (auto v = node.value_exact<bool>()) return *v ? "true" : "false";
+    if (auto v = node.value_exact<int64_t>()) return std::to_string(*v);
+    if (auto v = node.value_exact<double>()) return fmt::format("{}", *v);
+    if (node.is_table()) return "(a table)";
+    if (node.is_array()) return "(an array)";
+    return "(a date or time)";
+  }
+
+  // The physical range a number may have, in the file's units: what is outside is a mistake
+  // (or an attempt to overflow what is derived from it), named with the range.
+  bool within_bounds(const std::string& key, int line, double v, const std::string& value) {
+    const auto it = bounds().find(key);
+    if (it == bounds().end()) return true;
+    const auto [lo, hi] = it->second;
+    if (v >= lo && v <= hi) return true;
+    if (lo == -std::numeric_limits<double>::infinity())
+      problem(key, line, fmt::format("must be at most {:g}", hi), value);
+    else
+      problem(key, line, fmt::format("must be in [{:g}, {:g}]", lo, hi), value);
+    return false;
+  }
+  static const std::map<std::string, std::pair<double, double>>& bounds() {
+    constexpr double ninf = -std::numeric_limits<double>::infinity();
+    static const std::map<std::string, std::pair<double, double>> b = {
+        {"run.node_timeout_s", {ninf, 86400}},
+        {"run.startup_timeout_s", {ninf, 1e6}},
+        {"run.step_timeout_s", {ninf, 1e6}},
+        {"run.max_restarts", {ninf, 1000}},
+        {"run.fluid_ranks", {ninf, 4096}},
+        {"run.particle_ranks", {ninf, 4096}},
+        {"run.max_courant", {ninf, 1000}},
+        {"vessel.diameter_um", {5, 1e4}},   // a capillary to a 10-mm artery
+        {"vessel.length_um", {ninf, 1e5}},
+        {"mesh.core_cells", {ninf, 200}},
+        {"mesh.ring_cells", {ninf, 200}},
+        {"mesh.axial_cells", {ninf, 10000}},
+        {"plasma.density_kg_m3", {ninf, 1e5}},
+        {"plasma.viscosity_Pa_s", {ninf, 1e3}},
+        {"driving.pressure_drop_Pa", {ninf, 1e9}},
+        {"driving.wall_shear_rate_per_s", {ninf, 1e7}},
+        {"rbc.diameter_um", {ninf, 100}},
+        {"rbc.volume_um3", {ninf, 1e6}},
+        {"rbc.density_kg_m3", {ninf, 1e5}},
+        {"rbc.mass_scaling", {ninf, 1e9}},
+        {"platelet.diameter_um", {ninf, 100}},
+        {"platelet.mass_pg", {ninf, 1e6}},
+        {"platelet.volume_um3", {ninf, 1e6}},
+        {"platelet.number_density_per_ul", {ninf, 1e8}},
+        {"platelet.semi_axis_a_um", {ninf, 100}},
+        {"platelet.semi_axis_c_um", {ninf, 100}},
+        {"platelet.mass_scaling", {ninf, 1e9}},
+        {"contact.cell_youngs_modulus_Pa", {ninf, 1e13}},
+        {"contact.wall_youngs_modulus_Pa", {ninf, 1e13}},
+        {"contact.friction", {ninf, 100}},
+        {"time.coupling_interval_s", {ninf, 1}},
+        {"time.coupling_steps", {ninf, 1e9}},
+        {"time.dem_substeps", {ninf, 1e7}},
+        {"time.dem_steps_per_contact", {ninf, 1e4}},
+        {"time.dem_step_max_relaxation_times", {ninf, 1e6}},
+        {"time.closure_every_dem_steps", {ninf, 1e6}},
+        {"time.mass_scaling", {ninf, 1e9}},
+        {"time.coupling_relaxation_times", {ninf, 1e6}},
+        {"output.every_steps", {ninf, 1e9}},
+        {"output.checkpoint_every_steps", {ninf, 1e9}},
+        {"gravity.x_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
+        {"gravity.y_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
+        {"gravity.z_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
+        {"fluid.pressure_tolerance", {ninf, 1}},
+        {"fluid.velocity_tolerance", {ninf, 1}},
+        {"fluid.min_correctors", {ninf, 1000}},
+        {"fluid.max_correctors", {ninf, 1000}},
+        {"fluid.corrector_tolerance", {ninf, 1}},
+        {"fluid.steady_tolerance", {ninf, 1}},
+    };
+    return b;
   }
 
   // The value a key has before the file is read, in the file's units.
@@ -172,9 +291,232 @@ void read_species(Reader& r, Species& s, bool rbc) {
 
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue);
 
+namespace {
+
+// Hertz contact duration of two elastic spheres (particle-node/dem_timing.cpp, which the
+// coordinator does not link: the same formula, for the work estimate only). A wall is
+// mass = radius = infinity.
+double hertz_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2, double nu2, double v) {
+  auto inv = [](double x) { return std::isfinite(x) ? 1.0 / x : 0.0; };
+  const double m = 1.0 / (inv(m1) + inv(m2));
+  const double r = 1.0 / (inv(r1) + inv(r2));
+  const double e = 1.0 / ((1 - nu1 * nu1) / e1 + (1 - nu2 * nu2) / e2);
+  return 2.87 * std::pow(m * m / (r * e * e * v), 0.2);
+}
+
+}  // namespace
+
+WorkEstimate estimate_work(const Scene& s) {
+  WorkEstimate w;
+  const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+  w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
+                (s.platelet.present ? s.platelet.number_density * volume : 0);
+  struct Body { const Species* sp; double mass, r; };
+  std::vector<Body> bodies;
+  for (const Species* sp : {&s.rbc, &s.platelet})
+    if (sp->present && sp->diameter > 0 && sp->mass > 0)
+      bodies.push_back({sp, sp->mass * (sp->mass_scaling > 0 ? sp->mass_scaling : s.time.mass_scaling), sp->diameter / 2});
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto& c = s.contact;
+  const double shear = s.driving.wall_shear_rate;
+  auto impact = [&](double d) { return shear > 0 ? shear * d : 1e-3; };
+  w.contact_time = inf;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const auto& a = bodies[i];
+    for (std::size_t j = i; j < bodies.size(); ++j) {
+      const auto& b = bodies[j];
+      w.contact_time = std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, b.mass,
+                                                           b.r, c.cell_youngs_modulus, c.cell_poisson_ratio,
+                                                           impact(2 * std::max(a.r, b.r))));
+    }
+    w.contact_time = std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, inf, inf,
+                                                         c.wall_youngs_modulus, c.wall_poisson_ratio, impact(2 * a.r)));
+  }
+  if (s.time.dem_substeps > 0)
+    w.substeps = s.time.dem_substeps;
+  else if (std::isfinite(w.contact_time))
+    w.substeps = std::max(1.0, std::ceil(s.time.coupling_interval / (w.contact_time / s.time.steps_per_contact) * (1 - 1e-12)));
+  else
+    w.substeps = 0;  // no particles: no DEM
+  w.particle_steps = w.substeps * static_cast<double>(s.time.coupling_steps) * std::ceil(w.particles);
+  return w;
+}
+
+namespace {
+
+// Cross-checks of a scene whose every value is valid on its own: the particles fit the vessel
+// and are smaller than its fluid cells (unresolved CFD-DEM), and the run is a sane amount of work.
+void check_geometry_and_work(Reader& r, const Scene& s) {
+  // Blame the key the file gives (the species' diameter if it sets one, else the vessel's).
+  auto blame = [&](const std::string& own, const std::string& other) {
+    return r.line_of(own) > 0 || r.line_of(other) == 0 ? own : other;
+  };
+  auto fail = [&](const std::string& key, const std::string& value, const std::string& message) {
+    r.problem(key, r.line_of(key), message, value);
+  };
+  const double d_vessel = s.vessel.diameter;
+  // The mesh's cell size: the edge of a cube of the mean cell volume (the O-grid's cells differ
+  // little in volume; coordinator/study/study_file.h uses the same measure).
+  const double cells = std::max(1.0, (1.0 * s.mesh.core_cells * s.mesh.core_cells + 4.0 * s.mesh.core_cells * s.mesh.ring_cells) *
+                                         s.mesh.axial_cells);
+  const double cell = std::cbrt(units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length / cells);
+  for (const Species* sp : {&s.rbc, &s.platelet}) {
+    if (!sp->present) continue;
+    const std::string dkey = sp->name + ".diameter_um";
+    const double d = sp->diameter;
+    const std::string dtext = fmt::format("{:g}", d / units::um);
+    if (!(d < d_vessel / 2)) {
+      const auto key = blame(dkey, "vessel.diameter_um");
+      fail(key, key == dkey ? dtext : fmt::format("{:g}", d_vessel / units::um),
+           fmt::format("a {} of {:g} um does not fit a vessel of {:g} um: its diameter must be below half the "
+                       "vessel's (vessel.diameter_um above {:g})",
+                       sp->name, d / units::um, d_vessel / units::um, 2 * d / units::um));
+      continue;
+    }
+    if (!(2 * d <= s.vessel.length)) {
+      const auto key = blame(dkey, "vessel.length_um");
+      fail(key, key == dkey ? dtext : fmt::format("{:g}", s.vessel.length / units::um),
+           fmt::format("the periodic vessel of {:g} um is shorter than two {} diameters ({:g} um)",
+                       s.vessel.length / units::um, sp->name, 2 * d / units::um));
+      continue;
+    }
+    if (!(d / cell < 1)) {
+      const std::string key = blame(dkey, "mesh.axial_cells");
+      fail(key, key == dkey ? dtext : r.value_text(key),
+           fmt::format("a {} of {:g} um is larger than the fluid cells ({:.3g} um, the cube root of the mean cell "
+                       "volume): unresolved CFD-DEM needs particle diameter / cell size < 1 (here {:.2f}); use fewer "
+                       "cells (mesh.*) or smaller particles",
+                       sp->name, d / units::um, cell / units::um, d / cell));
+    }
+  }
+  if (std::max<long long>(1, 1LL * s.mesh.core_cells * s.mesh.core_cells + 4LL * s.mesh.core_cells * s.mesh.ring_cells) *
+          s.mesh.axial_cells > 20'000'000)
+    fail("mesh.axial_cells", r.value_text("mesh.axial_cells"),
+         "the mesh would have more than 20,000,000 cells");
+  if (!r.problems().empty()) return;
+
+  const auto w = estimate_work(s);
+  if (w.substeps > kMaxDemSubsteps) {
+    const std::string key = r.line_of("time.dem_substeps") > 0 ? "time.dem_substeps" : "time.coupling_interval_s";
+    fail(key, r.value_text(key).empty() ? fmt::format("{:g}", s.time.coupling_interval) : r.value_text(key),
+         fmt::format("plans {:.3g} DEM substeps per coupling interval (shortest contact {:.3g} s / "
+                     "time.dem_steps_per_contact {:g}): at most {:g}; shorten the coupling interval",
+                     w.substeps, w.contact_time, s.time.steps_per_contact, kMaxDemSubsteps));
+  } else if (w.particle_steps > kMaxParticleSteps) {
+    fail("time.coupling_steps", std::to_string(s.time.coupling_steps),
+         fmt::format("plans {:.3g} particle-steps ({:.0f} particles x {:.3g} DEM substeps x {} coupling steps): "
+                     "at most {:g}",
+                     w.particle_steps, std::ceil(w.particles), w.substeps, s.time.coupling_steps, kMaxParticleSteps));
+  }
+}
+
+}  // namespace
+
+// The deepest nesting a TOML text can make: the dots of the current [table] header, plus open
+// brackets and braces and the dots of the keys on a line (a.b.c = 1 is three levels), outside
+// strings and comments. An overestimate (a number's decimal point counts too) is fine: the
+// limit is far above any scene's.
+static int nesting_depth(const std::string& text) {
+  int deepest = 0, brackets = 0, dots = 0, header = 0;
+  bool line_start = true, header_line = false;
+  enum { code, basic, literal, ml_basic, ml_literal, comment } state = code;
+  auto end_line = [&] {
+    if (header_line) header = dots + 1;
+    dots = 0, line_start = true, header_line = false;
+  };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char ch = text[i];
+    const bool triple_quote = text.compare(i, 3, "\"\"\"") == 0, triple_apos = text.compare(i, 3, "'''") == 0;
+    switch (state) {
+      case code:
+        if (line_start && ch != ' ' && ch != '\t' && ch != '\n' && ch != '\r') {
+          line_start = false;
+          header_line = ch == '[' && brackets == 0;
+        }
+        if (ch == '#') state = comment;
+        else if (triple_quote) state = ml_basic, i += 2;
+        else if (triple_apos) state = ml_literal, i += 2;
+        else if (ch == '"') state = basic;
+        else if (ch == '\'') state = literal;
+        else if (ch == '[' || ch == '{') ++brackets;
+        else if (ch == ']' || ch == '}') brackets = std::max(0, brackets - 1);
+        else if (ch == '.') ++dots;
+        else if (ch == '\n') end_line();
+        break;
+      case basic:
+        if (ch == '\\') ++i;
+        else if (ch == '"') state = code;
+        else if (ch == '\n') state = code, end_line();
+        break;
+      case literal:
+        if (ch == '\'') state = code;
+        else if (ch == '\n') state = code, end_line();
+        break;
+      case ml_basic:
+        if (ch == '\\') ++i;
+        else if (triple_quote) state = code, i += 2;
+        break;
+      case ml_literal:
+        if (triple_apos) state = code, i += 2;
+        break;
+      case comment:
+        if (ch == '\n') state = code, end_line();
+        break;
+    }
+    deepest = std::max(deepest, (header_line ? 0 : header) + brackets + dots + 1);
+  }
+  return deepest;
+}
+
+// Reads the file, refusing before any parsing what toml++ should not see: anything but a
+// regular file (a FIFO would hang the reader, a directory or device is no scene), a file over
+// kMaxSceneBytes, nesting deeper than kMaxSceneNesting (toml++ recurses per level).
+static std::string read_scene_text(const std::string& path) {
+  auto refuse = [&](const std::string& why) { return SceneError(path, {{"(file)", 0, why}}); };
+  // O_NONBLOCK: opening a FIFO does not wait for a writer; fstat on what was opened (no race
+  // between looking and opening).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) throw refuse(fmt::format("cannot open: {}", std::strerror(errno)));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw refuse(fmt::format("cannot stat: {}", std::strerror(errno)));
+  if (!S_ISREG(st.st_mode)) {
+    const char* what = S_ISDIR(st.st_mode)    ? "a directory"
+                       : S_ISFIFO(st.st_mode) ? "a FIFO"
+                       : S_ISCHR(st.st_mode)  ? "a character device"
+                       : S_ISBLK(st.st_mode)  ? "a block device"
+                       : S_ISSOCK(st.st_mode) ? "a socket"
+                                              : "not a regular file";
+    throw refuse(fmt::format("is {}, not a regular file", what));
+  }
+  if (st.st_size > kMaxSceneBytes)
+    throw refuse(fmt::format("{} bytes: larger than a scene may be ({} bytes)", st.st_size, kMaxSceneBytes));
+  std::string text;
+  text.resize(static_cast<std::size_t>(kMaxSceneBytes) + 1);
+  std::size_t got = 0;
+  for (;;) {
+    const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw refuse(fmt::format("cannot read: {}", std::strerror(errno)));
+    if (n == 0) break;
+    got += static_cast<std::size_t>(n);
+    if (got == text.size()) throw refuse(fmt::format("larger than a scene may be ({} bytes)", kMaxSceneBytes));
+  }
+  text.resize(got);
+  if (text.find('\0') != std::string::npos) throw refuse("holds NUL bytes: not a TOML text file");
+  if (const int depth = nesting_depth(text); depth > kMaxSceneNesting)
+    throw refuse(fmt::format("nested {} levels deep (tables, arrays, dotted keys): at most {} are allowed", depth,
+                             kMaxSceneNesting));
+  return text;
+}
+
 static toml::table parse_scene_file(const std::string& path) {
+  const std::string text = read_scene_text(path);
   try {
-    return toml::parse_file(path);
+    return toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     const int line = static_cast<int>(e.source().begin.line);
     if (e.source().path == nullptr && line == 0)
@@ -234,7 +576,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   // Required, without a default: missing is one problem, not also "must be positive".
   for (auto [key, value] : {std::pair{"vessel.diameter_um", &s.vessel.diameter}, {"vessel.length_um", &s.vessel.length}}) {
     if (!r.read(key, *value, units::um))
-      r.problem(key, 0, "missing");
+      r.check(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
     else
       r.check(*value > 0, key, "must be positive");
   }
@@ -255,8 +597,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   const bool has_shear = r.read("driving.wall_shear_rate_per_s", s.driving.wall_shear_rate);
   if (has_dp == has_shear)
     r.problem("driving", r.line_of("driving"), "give exactly one of pressure_drop_Pa and wall_shear_rate_per_s");
-  r.check(s.driving.pressure_drop >= 0 && s.driving.wall_shear_rate >= 0, "driving",
-          "must not be negative");
+  r.check(s.driving.pressure_drop >= 0, "driving.pressure_drop_Pa", "must not be negative");
+  r.check(s.driving.wall_shear_rate >= 0, "driving.wall_shear_rate_per_s", "must not be negative");
   // gamma_w = d dP / (4 mu l): the wall shear rate is defined from the pressure drop (docs/model.md §4).
   if (has_shear)
     s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * s.driving.wall_shear_rate / s.vessel.diameter;
@@ -342,6 +684,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
+  if (r.problems().empty()) check_geometry_and_work(r, s);
   r.report_unknown();
   catalogue = std::move(r.catalogue());
   if (!r.problems().empty()) throw SceneError(path, r.problems());

@@ -252,13 +252,23 @@ struct NumericalReading {
 };
 std::vector<NumericalReading> numerical_readings(const Scene& scene);
 
-// One problem found in a scene, with where it is.
+// One problem found in a scene, with where it is: one line "file:line: key = value: rule".
 struct SceneProblem {
   std::string key;   // dotted key, e.g. "vessel.diameter_um"
   int line = 0;      // 0 when the key is missing
   std::string message;
+  std::string value = {};  // the value as in the file (or the default it took), when there is one
   std::string str(const std::string& file) const;
 };
+
+// What a scene file may be before it is parsed (load_scene refuses anything else, naming why).
+inline constexpr long kMaxSceneBytes = 1L << 20;  // a scene is a few kB
+inline constexpr int kMaxSceneNesting = 64;       // tables, arrays and dotted-key levels
+// Work a scene may plan (hemocosim check names the figure when it is more): DEM substeps per
+// coupling interval, from the shortest Hertz contact time (a lower bound: the drag relaxation
+// limit can only add), and particle-steps over the whole run.
+inline constexpr double kMaxDemSubsteps = 1e5;
+inline constexpr double kMaxParticleSteps = 1e14;
 
 class SceneError : public std::runtime_error {
  public:
@@ -271,6 +281,17 @@ class SceneError : public std::runtime_error {
 
 // Reads and validates a scene file; throws SceneError listing every problem found.
 Scene load_scene(const std::string& path);
+
+// What a scene asks of the DEM, estimated as `hemocosim check` does (particle-node/dem_timing.h
+// derives the actual step; this uses only the shortest Hertz contact time, so its substeps are
+// a lower bound of the particle node's).
+struct WorkEstimate {
+  double particles = 0;       // expected number of particles in the vessel
+  double contact_time = 0;    // s, shortest Hertz contact time at the DEM masses (inf: none)
+  double substeps = 0;        // DEM steps per coupling interval
+  double particle_steps = 0;  // particles x substeps x coupling steps
+};
+WorkEstimate estimate_work(const Scene& scene);
 
 // Every key a scene may hold, with its default in the file's units, in reading order
 // (`hemocosim check --keys`; docs/scenes.md is made from it).

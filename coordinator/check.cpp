@@ -38,6 +38,10 @@ int check_command(const std::string& scene_path) {
   fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
   fmt::print("  numerics    (readings the paper leaves open; docs/validation.md)\n");
   for (const auto& n : numerical_readings(s)) fmt::print("    {:<34} {:<20} {}\n", n.key, n.value, n.reading);
+  if (const auto w = estimate_work(s); w.substeps > 0)
+    fmt::print("  work        at least {:.0f} DEM substeps per coupling interval (shortest contact {:.3g} s), "
+               "~{:.3g} particle-steps in all\n",
+               w.substeps, w.contact_time, w.particle_steps);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)

@@ -14,9 +14,11 @@ bool is_node(const std::string& node) { return node == "fluid" || node == "parti
 // A control message; nothing for bytes that are not one (they carry the run's tag, but must not
 // stop a run or a requester by failing to decode).
 std::optional<control_t> as_control(const Received& msg) {
-  control_t m;
-  if (m.decode(msg.bytes.data(), 0, static_cast<int>(msg.bytes.size())) < 0) return std::nullopt;
-  return m;
+  try {
+    return msg.as<control_t>();  // decoded by the bus on arrival; LCM's decoder can throw
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
 }
 }  // namespace
 

@@ -39,7 +39,7 @@ std::vector<std::string> split(const std::string& s) {
 Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step)
     : scene_(scene), dir_(std::move(dir)), ctx_(ctx), first_step_(first_step) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator", channel::heard_by_coordinator());
-  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator");
+  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); });
   if (first_step > 0) {
     metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
   } else {
@@ -51,6 +51,7 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
 }
 
 Lockstep::~Lockstep() {
+  bus_->log_counters();  // what the coordinator received and dropped, by cause
   write_metrics();
   for (auto& [name, node] : nodes_)
     if (node.process) node.process->terminate();

@@ -3,6 +3,7 @@
 #include "commands.h"
 #include "run_directory.h"
 
+#include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
 
 #include <fmt/format.h>
@@ -38,6 +39,7 @@ int monitor_command(const MonitorOptions& opt) {
   std::map<std::string, ChannelStats> channels;
   std::map<std::string, double> last_seen;  // sender -> time
   std::map<std::string, std::string> last_error;
+  std::map<std::string, heartbeat_t> last_heartbeat;  // sender -> its latest, with its bus counters
   std::int64_t step = -1;
   const double start = now();
   double window_start = start;
@@ -50,6 +52,7 @@ int monitor_command(const MonitorOptions& opt) {
       c.last_step = msg.envelope.step;
       c.last_sender = msg.envelope.sender;
       last_seen[msg.envelope.sender] = now();
+      if (msg.kind == channel::heartbeat) last_heartbeat[msg.envelope.sender] = msg.as<heartbeat_t>();
       if (msg.kind == channel::step_done) {
         step = std::max<std::int64_t>(step, msg.envelope.step);
         auto done = msg.as<step_done_t>();
@@ -71,10 +74,19 @@ int monitor_command(const MonitorOptions& opt) {
     out += "nodes:";
     for (const auto& [sender, seen] : last_seen)
       out += fmt::format("  {} {}", sender, t - seen < 2.0 ? "alive" : fmt::format("silent {:.0f} s", t - seen));
-    const auto& k = bus.counters();
-    out += fmt::format("\nrejected: auth {}  replay {}  foreign run {}  corrupt {}   resend requests seen {}\n",
-                       k.rejected_auth, k.rejected_replay, k.rejected_foreign, k.rejected_corrupt,
-                       channels.count(channel::resend) ? channels[channel::resend].count : 0);
+    // What each process dropped (from its heartbeat), and the monitor itself: only accepted
+    // messages are in the table above (replays and recordings from before it started are not).
+    out += fmt::format("\n{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", "dropped by", "accepted", "short",
+                       "foreign", "bad tag", "pre-start", "replay", "undecodable");
+    for (const auto& [sender, hb] : last_heartbeat)
+      out += fmt::format("{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", sender, hb.accepted, hb.rejected_short,
+                         hb.rejected_foreign, hb.rejected_auth, hb.rejected_prestart, hb.rejected_replay,
+                         hb.rejected_undecodable);
+    const auto k = bus.counters();
+    out += fmt::format("{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", "(this monitor)", k.accepted,
+                       k.rejected_short, k.rejected_foreign, k.rejected_auth, k.rejected_prestart, k.rejected_replay,
+                       k.rejected_corrupt);
+    out += fmt::format("resend requests seen {}\n", channels.count(channel::resend) ? channels[channel::resend].count : 0);
     for (const auto& [node, err] : last_error) out += fmt::format("{} reported: {}\n", node, err);
     fmt::print("{}", out);
     std::fflush(stdout);

@@ -10,6 +10,7 @@
 #include <fcntl.h>
 #include <fstream>
 #include <stdexcept>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
@@ -22,10 +23,17 @@ NodeProcess::NodeProcess(std::string name, std::vector<std::string> argv, std::s
   if (argv.empty()) throw std::runtime_error(name_ + " node: empty command");
   const int log = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
   if (log < 0) throw std::runtime_error(fmt::format("cannot open {}: {}", log_path_, std::strerror(errno)));
+  const pid_t coordinator = ::getpid();
   pid_ = ::fork();
   if (pid_ < 0) throw std::runtime_error(fmt::format("cannot start the {} node: {}", name_, std::strerror(errno)));
   if (pid_ == 0) {
     ::setpgid(0, 0);  // its own process group: mpirun children die with it
+    // The node dies with its coordinator, even one killed with SIGKILL: SIGTERM when the
+    // coordinator (the thread that forked it) ends. It survives the exec (of the node, and of
+    // mpirun when the node becomes one, which passes it on to the ranks). A coordinator that
+    // died before this line is no longer our parent.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != coordinator) ::_exit(125);
     ::dup2(log, STDOUT_FILENO);
     ::dup2(log, STDERR_FILENO);
     ::close(log);

@@ -22,7 +22,16 @@ namespace hemo {
 
 namespace {
 volatile std::sig_atomic_t interrupted = 0;
-void on_signal(int) { interrupted = 1; }
+// The first SIGINT / SIGTERM stops the run after its step, with a checkpoint; a second one stops
+// it at once (the nodes get SIGTERM as the coordinator ends, node_process.cpp).
+void on_signal(int sig) {
+  if (interrupted) {
+    static const char msg[] = "hemocosim: error: interrupted twice: stopped at once, without a checkpoint\n";
+    [[maybe_unused]] const auto n = ::write(STDERR_FILENO, msg, sizeof msg - 1);
+    ::_exit(128 + sig);
+  }
+  interrupted = 1;
+}
 
 std::string default_run_dir(const Scene& scene) {
   char stamp[32];

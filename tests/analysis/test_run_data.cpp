@@ -170,7 +170,8 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   const TempDir tmp("run");
   const std::string dir = tmp.str();
   write_text(dir + "/scene.toml",
-             "[vessel]\ndiameter_um = 20\nlength_um = 40\n[driving]\nwall_shear_rate_per_s = 800\n"
+             "[vessel]\ndiameter_um = 20\nlength_um = 40\n[mesh]\ncore_cells = 2\nring_cells = 2\naxial_cells = 2\n"
+             "[driving]\nwall_shear_rate_per_s = 800\n"
              "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
   const double d = 20 * kUm, u = 800 * d / (8 * 1.25);
   std::string csv = "step,time_s,node,name,value\n";

@@ -10,6 +10,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <future>
 #include <mutex>
 #include <thread>
 
@@ -182,4 +183,25 @@ TEST(NodePort, HeartbeatStopsWithTheLastWord) {
     heartbeats_within(0.1);  // what was already on its way
     EXPECT_EQ(heartbeats_within(1.2), 0) << (ok ? "after finalize" : "after fail");
   }
+}
+
+// A node whose coordinator is gone gives up after its timeout, although its peer still sends
+// heartbeats (two orphaned nodes kept each other waiting for ever).
+TEST(NodePort, APeersHeartbeatDoesNotKeepANodeWaitingWithoutItsCoordinator) {
+  auto ctx = test::make_context("orphan");
+  ctx.timeout_s = 1;
+  auto peer = std::make_unique<Heartbeat>(ctx, "fluid", 0.1);
+  auto waiting = std::async(std::launch::async, [&] {
+    ParticlePort port(ctx, "particles", "test particles");
+    try {
+      port.initialize();  // waits for the fluid's mesh, which never comes
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("initialized");
+  });
+  const bool gave_up = waiting.wait_for(std::chrono::seconds(5)) == std::future_status::ready;
+  peer.reset();  // (so that a node that ignored its timeout ends now)
+  EXPECT_TRUE(gave_up) << "still waiting 5 s after a timeout of 1 s";
+  EXPECT_NE(waiting.get().find("nothing heard from the coordinator"), std::string::npos);
 }

@@ -5,6 +5,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_helpers.h"
 
+#include "bus.h"
+
+#include <lcm/lcm-cpp.hpp>
+#include <toml++/toml.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +19,8 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <random>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -356,4 +363,122 @@ TEST(Checkpoint, UnstableStepIsNotKeptAsACheckpoint) {
   EXPECT_NE(r.output.find("at step 1 "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("it has no checkpoint to resume from"), std::string::npos) << r.output;
   EXPECT_TRUE(checkpoint_folders(dir).empty());
+}
+
+namespace {
+
+// Genuine datagrams of a run, captured from its bus (the fuzzer replays and mangles them).
+struct Capture {
+  const std::vector<std::uint8_t>* secret = nullptr;
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> got;
+  void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
+    const auto* d = static_cast<const std::uint8_t*>(rbuf->data);
+    if (got.size() < 400 && hemo::verify(d, rbuf->data_size, *secret))  // not the fuzzer's own
+      got.emplace_back(channel, std::vector<std::uint8_t>(d, d + rbuf->data_size));
+  }
+};
+
+// Sprays the run in `dir` with hostile datagrams on every one of its channels until `done`:
+// random bytes, zero and negative envelope lengths, truncated and bit-flipped genuine messages,
+// genuine ones signed with a wrong key or carrying another run's id, and exact replays.
+// Returns how many it sent.
+long fuzz_run(const std::string& dir, const std::future<CommandResult>& done) {
+  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const auto info = toml::parse_file(dir + "/run.toml");
+  hemo::RunContext ctx;
+  ctx.run_id = info["run_id"].value_or(std::string());
+  ctx.lcm_url = info["lcm_url"].value_or(std::string());
+  ctx.secret_file = info["secret_file"].value_or(std::string());
+  ctx.load_secret();
+  auto wrong_key = ctx.secret;
+  wrong_key[0] ^= 0x80;
+  lcm::LCM raw(ctx.lcm_url);
+  Capture capture;
+  capture.secret = &ctx.secret;
+  raw.subscribe(ctx.run_id + "/.*", &Capture::on, &capture);
+  std::mt19937_64 rng(21);
+  auto uniform = [&](std::size_t n) { return static_cast<std::size_t>(rng() % n); };
+  const auto kinds = hemo::channel::all();
+  long sent = 0;
+  auto send = [&](const std::string& channel, const std::vector<std::uint8_t>& b) {
+    raw.publish(channel, b.data(), static_cast<unsigned>(b.size()));
+    ++sent;
+  };
+  while (done.wait_for(std::chrono::milliseconds(0)) != std::future_status::ready) {
+    raw.handleTimeout(1);
+    for (const auto& kind : kinds) {
+      const std::string channel = ctx.run_id + "/" + kind;
+      std::vector<std::uint8_t> junk(1 + uniform(300));
+      for (auto& x : junk) x = static_cast<std::uint8_t>(rng());
+      send(channel, junk);
+      std::vector<std::uint8_t> zero(100, 0x41);
+      zero[8] = zero[9] = zero[10] = zero[11] = 0;  // run id of length 0 (the issue's datagram)
+      send(channel, zero);
+      zero[8] = zero[9] = zero[10] = zero[11] = 0xff;  // ... of length -1
+      send(channel, zero);
+    }
+    if (!capture.got.empty()) {
+      for (int k = 0; k < 4; ++k) {
+        const auto& [channel, genuine] = capture.got[uniform(capture.got.size())];
+        send(channel, genuine);  // a replay
+        auto cut = genuine;
+        cut.resize(uniform(cut.size()));
+        send(channel, cut);
+        auto flipped = genuine;
+        flipped[uniform(flipped.size())] ^= static_cast<std::uint8_t>(1u << uniform(8));
+        send(channel, flipped);
+        auto forged = genuine;
+        forged[forged.size() - 1] ^= 1;
+        hemo::sign(forged, wrong_key);
+        send(channel, forged);
+        auto foreign = genuine;
+        foreign[12] ^= 0x01;  // another run's id (first character), signed with the run's key
+        hemo::sign(foreign, ctx.secret);
+        send(channel, foreign);
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return sent;
+}
+
+// The number after `what` in the last bus report of a node's log.
+long last_count(const std::string& log_path, const std::string& what) {
+  std::ifstream in(log_path);
+  long value = -1;
+  const std::regex re(what + " ([0-9]+)");
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (line.find(" bus: received ") != std::string::npos && std::regex_search(line, m, re)) value = std::stol(m[1]);
+  }
+  return value;
+}
+
+}  // namespace
+
+// Issue #21 on a live coupled run: thousands of hostile datagrams on every channel while it
+// runs. No process fails, every one counts what it dropped, and the run ends bit for bit as the
+// same scene run in peace.
+TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
+  const std::string peace = fresh_run_dir("fuzz-peace"), war = fresh_run_dir("fuzz-war");
+  const std::string text = scene_with_checkpoints(200, 100);
+  std::ofstream(peace + ".toml") << text;
+  const auto a = run(bin("hemocosim") + " run " + peace + ".toml --out " + peace);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+
+  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + peace + ".toml --out " + war); });
+  const long sent = fuzz_run(war, result);
+  const auto r = result.get();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::printf("%ld hostile datagrams sent during the run\n", sent);
+  EXPECT_GE(sent, 10000);
+  for (const char* node : {"fluid", "particles"}) {
+    const std::string log = war + "/" + node + ".log";
+    EXPECT_GT(last_count(log, "too short/malformed"), 0) << log;
+    EXPECT_GT(last_count(log, "bad tag"), 0) << log;
+    EXPECT_GT(last_count(log, "other run"), 0) << log;
+    EXPECT_EQ(last_count(log, "undecodable"), 0) << log;
+  }
+  expect_same_run(peace, war, 0.0);
 }
