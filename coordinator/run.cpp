@@ -85,6 +85,7 @@ void use_swapped_programs(const RunDirectory& dir, Scene& scene) {
 // request `restarted` (of the span before) is answered once the nodes run again.
 Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext& ctx, const Span span,
                    Progress& progress, ControlDesk& desk, std::optional<ControlRequest>& restarted) {
+  const double span_start_s = progress.seconds();  // the profile is of this span: its steps, its wall time
   Lockstep lockstep(scene, dir, ctx, span.first);
   lockstep.await(span.first, scene.run.startup_timeout);
   CouplingClock clock = span_clock(scene, lockstep, span.first);
@@ -130,7 +131,7 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
     if (stopping_early) break;
   }
   lockstep.stop(clock.step() + 1);
-  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds(), clock.step() - span.first));
+  fmt::print(stderr, "{}", lockstep.profile_report(progress.seconds() - span_start_s, clock.step() - span.first));
   return {clock.step(), clock.time_s(), clock.finished()};
 }
 

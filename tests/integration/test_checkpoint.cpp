@@ -66,6 +66,11 @@ long step_after(const std::string& text, const std::string& marker) {
   if (at == std::string::npos) return -1;
   return std::stol(text.substr(at + marker.size()));
 }
+double number_after(const std::string& text, const std::string& marker) {
+  const auto at = text.find(marker);
+  if (at == std::string::npos) return -1;
+  return std::stod(text.substr(at + marker.size()));
+}
 
 // Two runs of the same scene end the same: the same snapshots, the same particles and the same
 // flow (`round_off` 0: bit for bit; else the largest |dx| (m) allowed, and |dv| and the flow
@@ -213,6 +218,12 @@ void expect_restart_after(const std::string& name, const std::string& node, int 
   EXPECT_EQ(from % 8, 0) << r.output;
   EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("(1 restart)"), std::string::npos) << r.output;
+  // The profile is of the span after the restart: its steps, and the wall time since the nodes
+  // were started again, without the span that was lost (for a frozen node, at least its timeout).
+  EXPECT_EQ(step_after(r.output, "profile of "), 300 - from) << r.output;
+  const double profile_wall = number_after(r.output, " coupled steps ("), total = number_after(r.output, "done in ");
+  EXPECT_GT(profile_wall, 0) << r.output;
+  EXPECT_LT(profile_wall, total - (node_timeout.empty() ? 0.0 : std::stod(node_timeout))) << r.output;
   expect_same_run(whole, hurt, 0.0);
 }
 
