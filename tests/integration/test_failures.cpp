@@ -178,17 +178,33 @@ std::vector<long> live_processes_in_group(long pgid) {
 // A coordinator killed outright (SIGKILL: no handler runs) takes its nodes with it: each node
 // (and whatever runs in its process group) is gone within seconds, not left computing or
 // waiting out its node timeout.
-TEST(Failures, NodesDieWithAKilledCoordinator) {
-  const std::string dir = fresh_run_dir("orphaned");
-  std::ofstream(dir + ".toml") << small_scene_text(100000);  // node_timeout_s = 10
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
-  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
+namespace {
+// A long run of the small scene in the background, once it steps, and its processes' ids.
+struct SteppingRun {
+  std::string dir;
+  std::future<hemo::test::CommandResult> result;
+  long coordinator = 0, fluid = 0, particles = 0;
+};
+SteppingRun start_stepping_run(const std::string& name, const std::string& written_once_stepping) {
+  SteppingRun r;
+  r.dir = fresh_run_dir(name);
+  std::ofstream(r.dir + ".toml") << small_scene_text(100000);  // node_timeout_s = 10
+  const std::string dir = r.dir;
+  r.result = std::async(std::launch::async, [dir] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/" + written_once_stepping); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::this_thread::sleep_for(std::chrono::seconds(1));  // stepping
-  long coordinator = 0, fluid = 0, particles = 0;
-  std::ifstream(dir + "/coordinator.pid") >> coordinator;
-  std::ifstream(dir + "/fluid.pid") >> fluid;
-  std::ifstream(dir + "/particles.pid") >> particles;
+  std::ifstream(dir + "/coordinator.pid") >> r.coordinator;
+  std::ifstream(dir + "/fluid.pid") >> r.fluid;
+  std::ifstream(dir + "/particles.pid") >> r.particles;
+  return r;
+}
+}  // namespace
+
+TEST(Failures, NodesDieWithAKilledCoordinator) {
+  SteppingRun running = start_stepping_run("orphaned", "metrics.csv");
+  auto& result = running.result;
+  const long coordinator = running.coordinator, fluid = running.fluid, particles = running.particles;
   ASSERT_GT(coordinator, 0);
   ASSERT_GT(fluid, 0);
   ASSERT_GT(particles, 0);
@@ -208,16 +224,9 @@ TEST(Failures, NodesDieWithAKilledCoordinator) {
 
 // A second Ctrl-C (or SIGTERM) stops the coordinator at once, and its nodes with it.
 TEST(Failures, ASecondInterruptStopsAtOnce) {
-  const std::string dir = fresh_run_dir("interrupted-twice");
-  std::ofstream(dir + ".toml") << small_scene_text(100000);
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
-  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/particles.pid"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  std::this_thread::sleep_for(std::chrono::seconds(1));  // stepping
-  long coordinator = 0, fluid = 0, particles = 0;
-  std::ifstream(dir + "/coordinator.pid") >> coordinator;
-  std::ifstream(dir + "/fluid.pid") >> fluid;
-  std::ifstream(dir + "/particles.pid") >> particles;
+  SteppingRun running = start_stepping_run("interrupted-twice", "particles.pid");
+  auto& result = running.result;
+  const long coordinator = running.coordinator, fluid = running.fluid, particles = running.particles;
   ASSERT_GT(coordinator, 0);
   ASSERT_GT(fluid, 0);
   ASSERT_GT(particles, 0);
