@@ -75,6 +75,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));
   std::ofstream(dir_.path + "/" + node + ".pid") << state.process->pid() << "\n";
   state.last_heard = now();
+  state.heard = false;
 }
 
 void Lockstep::order(long step, double time_s, double dt_s, bool write_output, bool write_checkpoint) {
@@ -160,9 +161,13 @@ void Lockstep::check_health(long step) {
       throw NodeLost(fmt::format("{} node {} at step {}{}{} (log: {})", name, node.process->how_it_ended(), step,
                                  last.empty() ? "" : ": ", last, node.process->log_path()));
     }
-    if (now() - node.last_heard > scene_.run.node_timeout)
-      throw NodeLost(fmt::format("{} node stopped answering at step {}: no heartbeat for {:.0f} s (log: {})", name,
-                                 step, scene_.run.node_timeout, node.process->log_path()));
+    // Until its first heartbeat a node is starting up (MPI launch, engine set-up, a loaded or
+    // remote host): it has the start-up allowance, not the heartbeat timeout.
+    const double allowance = node.heard ? scene_.run.node_timeout : std::max(scene_.run.node_timeout, scene_.run.startup_timeout);
+    if (now() - node.last_heard > allowance)
+      throw NodeLost(fmt::format("{} node {} at step {}: no heartbeat for {:.0f} s (log: {})", name,
+                                 node.heard ? "stopped answering" : "did not start", step, allowance,
+                                 node.process->log_path()));
   }
 }
 
@@ -177,7 +182,10 @@ void Lockstep::await(long step, double timeout_s) {
   while (!all_done()) {
     bus_->poll(0.05, [&](const Received& msg) {
       auto it = nodes_.find(msg.envelope.sender);
-      if (it != nodes_.end()) it->second.last_heard = now();
+      if (it != nodes_.end()) {
+        it->second.last_heard = now();
+        it->second.heard = true;
+      }
       if (msg.kind == channel::step_done) record(msg);
     });
     if (!unstable_.empty()) throw UnstableRun(unstable_);

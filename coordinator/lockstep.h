@@ -61,6 +61,7 @@ class Lockstep {
   struct NodeState {
     std::unique_ptr<NodeProcess> process;
     double last_heard = 0;
+    bool heard = false;  // anything from it since it was launched (before that, it is starting up)
     long done_step = -1;
     long checkpoint_step = -1;  // the newest checkpoint the node acknowledged
     double compute = 0, wait = 0;

@@ -63,6 +63,38 @@ TEST(Failures, FrozenNodeTimesOutNamingIt) {
   EXPECT_NE(r.output.find("fluid node stopped answering"), std::string::npos) << r.output;
 }
 
+// Until a node has been heard from it is starting up (MPI launch, engine set-up, a loaded host):
+// it has run.startup_timeout_s for its first heartbeat, not the shorter node_timeout_s; a node
+// that never says anything within the start-up allowance is named as not started.
+namespace {
+CommandResult run_with_slow_particle_start(const std::string& name, int delay_s, const std::string& timeouts) {
+  const std::string dir = fresh_run_dir(name);
+  const std::string wrapper = dir + "-slow-particles.sh";
+  std::ofstream(wrapper) << "#!/bin/sh\nsleep " << delay_s << "\nexec " << bin("hemocosim-particles") << " \"$@\"\n";
+  std::filesystem::permissions(wrapper, std::filesystem::perms::owner_all);
+  std::string text = small_scene_text(20, "particle_command = \"" + wrapper + "\"\n" + timeouts);
+  const std::string own_timeout = "node_timeout_s = 10";
+  const auto at = text.find(own_timeout);
+  if (at == std::string::npos) throw std::runtime_error("coupled_small.toml lost its node_timeout_s");
+  text.erase(at, own_timeout.size());
+  std::ofstream(dir + ".toml") << text;
+  return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+}
+}  // namespace
+
+TEST(Failures, ANodeSlowToStartIsGivenTheStartUpAllowance) {
+  const auto r = run_with_slow_particle_start("slow-start", 5, "node_timeout_s = 2\nstartup_timeout_s = 120\n");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
+}
+
+TEST(Failures, ANodeThatNeverStartsIsNamedAfterTheStartUpAllowance) {
+  const auto r = run_with_slow_particle_start("never-starts", 60, "node_timeout_s = 1\nstartup_timeout_s = 4\n");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("particles node did not start at step 0: no heartbeat for 4 s"), std::string::npos) << r.output;
+  EXPECT_LT(r.seconds, 40) << r.output;
+}
+
 // The stability guards stop a run whose reports break them, in one line naming the cause, and
 // keep the state the run went unstable in: the nodes are stopped in order and write it.
 namespace {
