@@ -240,7 +240,11 @@ Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::strin
   warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
   opened_us_ = wall_clock_us();
-  for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this);
+  // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
+  // receipt: a burst of junk while a node computes a step would push genuine messages out
+  // uncounted. Room for a flood of several seconds instead, so that whatever arrives is handled
+  // here and counted by cause; bounded, so that a flood cannot take all memory.
+  for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this)->setQueueCapacity(kSubscriptionQueue);
 }
 
 Bus::~Bus() { log_counters(/*even_if_clean=*/false); }

@@ -123,6 +123,9 @@ struct Received {
   }
 };
 
+// Messages a subscription keeps unhandled before LCM discards new ones (LCM's default: 30).
+inline constexpr int kSubscriptionQueue = 10000;
+
 class Bus {
  public:
   // Listens to the run's channels of the given kinds.
