@@ -115,7 +115,8 @@ class FakeNode : public NodeHandle {
       else std::this_thread::sleep_for(std::chrono::milliseconds(10));
     Bus bus(ctx_, node_, {channel::step, channel::resend});
     auto heartbeat = std::make_unique<Heartbeat>(ctx_, node_, 0.1);
-    report(bus, true, "", 0, false);  // start-up: step 0, or the checkpoint resumed
+    // Start-up (step 0, or the checkpoint resumed), with its set-up time as a node reports it.
+    report(bus, true, "", owner_.compute_s(node_, step_), false);
     for (;;) {
       double asked = now();
       while (!orders_.count(step_ + 1)) {

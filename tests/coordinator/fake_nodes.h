@@ -64,7 +64,8 @@ class FakeLauncher : public NodeLauncher {
   std::function<Act(const std::string& node, int launch, long step)> script = [](const std::string&, int, long) {
     return Act::ok;
   };
-  // Seconds a node computes a step (it listens to the bus meanwhile) and reports as compute_s.
+  // Seconds a node computes a step (it listens to the bus meanwhile) and reports as compute_s;
+  // of its start-up step, only reported (its set-up time).
   std::function<double(const std::string& node, long step)> compute_s = [](const std::string&, long) { return 0.0; };
   // Seconds before a launched node sends its first heartbeat.
   std::function<double(const std::string& node, int launch)> start_delay_s = [](const std::string&, int) {
