@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 
 namespace hemo::test {
@@ -45,10 +46,9 @@ class RuntimeTest : public ::testing::Test {
     if (!HasFailure()) std::filesystem::remove_all(root_, ec);
   }
 
-  // Runs from step 0 to `last` (0: the scene's end).
-  Reached drive_run(long last = 0) {
-    return drive(scene_, dir_, ctx_, {0, last > 0 ? last : scene_.time.coupling_steps}, launcher_,
-                 [] { return false; });
+  // Runs from step 0 to `last` (0: the scene's end); `interrupted` stands for the signal handler.
+  Reached drive_run(long last = 0, const std::function<bool()>& interrupted = [] { return false; }) {
+    return drive(scene_, dir_, ctx_, {0, last > 0 ? last : scene_.time.coupling_steps}, launcher_, interrupted);
   }
 
   std::string root_;

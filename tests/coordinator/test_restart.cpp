@@ -182,3 +182,40 @@ TEST_F(RuntimeTest, ProfileAfterARestartCountsOnlyTheSpanAfterIt) {
     EXPECT_NEAR(per_step_ms, 1e3 * after_restart / 4, 1e-6) << node;
   }
 }
+
+// A node that freezes is lost after the heartbeat timeout and restarted with the other from the
+// last common checkpoint; the run then ends as if nothing happened.
+TEST_F(RuntimeTest, FrozenNodeIsRestartedFromTheLastCommonCheckpoint) {
+  scene_.output.checkpoint_every_steps = 3;
+  scene_.run.max_restarts = 1;
+  launcher_.script = [](const std::string& node, int launch, long step) {
+    return node == "fluid" && launch == 0 && step == 5 ? Act::freeze : Act::ok;
+  };
+  const Reached reached = drive_run();
+  EXPECT_TRUE(reached.end);
+  EXPECT_EQ(reached.restarts, 1);
+  for (const Launch& l : launcher_.launches())
+    EXPECT_EQ(l.resume_step, l.launch == 0 ? 0 : 3) << l.node << " launch " << l.launch;
+  EXPECT_EQ(launcher_.launches().size(), 4u);
+}
+
+// An interrupt (Ctrl-C, SIGTERM) stops the run after the step it came in, which is checkpointed
+// though no checkpoint is due, so that `hemocosim resume` goes on from there.
+TEST_F(RuntimeTest, InterruptStopsAfterTheStepWithACheckpoint) {
+  scene_.time.coupling_steps = 12;
+  scene_.output.checkpoint_every_steps = 0;
+  launcher_.compute_s = [](const std::string&, long) { return 0.02; };
+  const auto interrupted = [this] {
+    for (const Event& e : launcher_.ledger.events())
+      if (e.kind == Event::reported && e.step == 4) return true;
+    return false;
+  };
+  const Reached reached = drive_run(0, interrupted);
+  EXPECT_FALSE(reached.end);
+  EXPECT_GE(reached.step, 5);
+  EXPECT_LT(reached.step, 12);
+  EXPECT_EQ(dir_.last_checkpoint(), reached.step);
+  for (const Event& e : launcher_.ledger.events()) {
+    if (e.kind == Event::ordered && e.checkpoint) EXPECT_EQ(e.step, reached.step) << e.node;
+  }
+}
