@@ -216,6 +216,8 @@ TEST_F(RuntimeTest, InterruptStopsAfterTheStepWithACheckpoint) {
   EXPECT_LT(reached.step, 12);
   EXPECT_EQ(dir_.last_checkpoint(), reached.step);
   for (const Event& e : launcher_.ledger.events()) {
-    if (e.kind == Event::ordered && e.checkpoint) EXPECT_EQ(e.step, reached.step) << e.node;
+    if (e.kind == Event::ordered && e.checkpoint) {
+      EXPECT_EQ(e.step, reached.step) << e.node;
+    }
   }
 }
