@@ -36,8 +36,9 @@ std::vector<std::string> split(const std::string& s) {
 }
 }  // namespace
 
-Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step)
-    : scene_(scene), dir_(std::move(dir)), ctx_(ctx), first_step_(first_step) {
+Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, NodeLauncher& launcher,
+                   long first_step)
+    : scene_(scene), dir_(std::move(dir)), ctx_(ctx), launcher_(launcher), first_step_(first_step) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator", channel::heard_by_coordinator());
   heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); });
   if (first_step > 0) {
@@ -72,7 +73,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back(fmt::format("{}", first_step));
   }
   auto& state = nodes_[node];
-  state.process = std::make_unique<NodeProcess>(node, argv, dir_.log(node));
+  state.process = launcher_.launch(node, argv, dir_.log(node));
   std::ofstream(dir_.path + "/" + node + ".pid") << state.process->pid() << "\n";
   state.last_heard = now();
   state.heard = false;

@@ -4,7 +4,7 @@
 #pragma once
 
 #include "bus.h"
-#include "node_process.h"
+#include "node_launcher.h"
 #include "run_directory.h"
 #include "scene.h"
 
@@ -31,8 +31,9 @@ struct NodeLost : std::runtime_error {
 
 class Lockstep {
  public:
-  // Launches both nodes: from scratch (first_step 0) or from the run's checkpoint of first_step.
-  Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, long first_step = 0);
+  // Launches both nodes through `launcher` (which must outlive the lockstep): from scratch
+  // (first_step 0) or from the run's checkpoint of first_step.
+  Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, NodeLauncher& launcher, long first_step = 0);
   ~Lockstep();
 
   // Orders step k (time at its end, its interval; output, checkpoint wanted or not).
@@ -59,7 +60,7 @@ class Lockstep {
 
  private:
   struct NodeState {
-    std::unique_ptr<NodeProcess> process;
+    std::unique_ptr<NodeHandle> process;
     double last_heard = 0;
     bool heard = false;  // anything from it since it was launched (before that, it is starting up)
     long done_step = -1;
@@ -80,6 +81,7 @@ class Lockstep {
   const Scene& scene_;
   RunDirectory dir_;
   RunContext ctx_;
+  NodeLauncher& launcher_;
   long first_step_ = 0;         // the step the nodes started from
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;

@@ -19,7 +19,8 @@ std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path
   if (fs::exists(path) && !fs::is_empty(path))
     throw std::runtime_error("run directory " + path + " exists and is not empty; choose another --out");
   fs::create_directories(path);
-  RunDirectory dir{fs::absolute(path).string()};
+  RunDirectory dir;
+  dir.path = fs::absolute(path).string();
   fs::copy_file(scene_path, dir.scene_copy(), fs::copy_options::overwrite_existing);
 
   std::random_device rd;
@@ -44,7 +45,8 @@ std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path
 }
 
 std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) {
-  RunDirectory dir{fs::absolute(path).string()};
+  RunDirectory dir;
+  dir.path = fs::absolute(path).string();
   toml::table info;
   try {
     info = toml::parse_file(dir.info_file());

@@ -1,0 +1,47 @@
+// How the lockstep starts its nodes, behind an interface: the coordinator starts child
+// processes (ProcessLauncher), the runtime's unit tests start fake nodes in threads, so the
+// lockstep, restart and swap logic can be tested without OpenFOAM or LIGGGHTS.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <memory>
+#include <string>
+#include <sys/types.h>
+#include <vector>
+
+namespace hemo {
+
+// What the lockstep needs to know of a running node besides its messages.
+class NodeHandle {
+ public:
+  virtual ~NodeHandle() = default;  // ends the node if it still runs
+  virtual bool running() = 0;
+  // "exited with status 3" / "was killed by signal 9 (Killed)"; empty while running.
+  virtual std::string how_it_ended() const = 0;
+  virtual void terminate() = 0;
+  virtual pid_t pid() const = 0;
+  virtual std::string log_path() const = 0;
+  // The last non-empty line of its log, for error messages.
+  virtual std::string last_log_line() const = 0;
+  // Peak resident memory, once it ended (MiB; 0 if not known).
+  virtual double peak_memory_mib() const = 0;
+};
+
+class NodeLauncher {
+ public:
+  virtual ~NodeLauncher() = default;
+  // Starts `node` ("fluid" or "particles") as `argv` (the program, then the arguments the
+  // lockstep gives every node: --scene, --run-dir, --run-id, ..., --resume-step), its output
+  // going to `log_path`.
+  virtual std::unique_ptr<NodeHandle> launch(const std::string& node, const std::vector<std::string>& argv,
+                                             const std::string& log_path) = 0;
+};
+
+// Nodes as child processes (node_process.h).
+class ProcessLauncher : public NodeLauncher {
+ public:
+  std::unique_ptr<NodeHandle> launch(const std::string& node, const std::vector<std::string>& argv,
+                                     const std::string& log_path) override;
+};
+
+}  // namespace hemo
