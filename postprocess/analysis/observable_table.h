@@ -1,0 +1,45 @@
+// The observables `analyze` reports, declared once. The text table (format_table), analysis.json
+// (format_json), a study's summary.csv and its report.md all iterate observable_table(), so an
+// observable added here reaches all four; tests/studies/test_observables.cpp checks that it does.
+//
+// analysis.json holds more than these (stations, sample counts, the MSD points, how the flux was
+// taken): that context is written by format_json around them and shown by the table as the
+// bracketed detail of the observable it qualifies.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace hemo::analysis {
+
+struct Analysis;
+
+// How the table and the report print a value: value / scale, in `unit`.
+struct Shown {
+  enum class Style { fixed, scientific, general } style = Style::fixed;
+  int digits = 3;          // after the point (fixed), of the mantissa (scientific), significant (general)
+  double scale = 1;        // e.g. 1e-6 to print metres as µm
+  std::string unit;        // as printed ("µm"); empty for a pure number
+};
+
+struct Observable {
+  std::string name;         // the summary.csv column; unique
+  std::string json_path;    // where analysis.json holds it, dotted ("cfl.edge.thickness_m")
+  std::string label;        // its name in the text table and the report ("δ edge")
+  std::string unit;         // SI unit of the stored value (JSON, CSV); "1" for a pure number
+  std::string description;  // one line, for the report's legend
+  double (*value)(const Analysis&);                   // NaN when undefined
+  Shown shown;
+  std::string (*detail)(const Analysis&) = nullptr;  // the text table's bracketed context, if any
+
+  // "1.23" in the shown unit, or "n/a" for NaN.
+  std::string format(const Analysis& a) const;
+  // The report's column header: the label and the shown unit, "δ edge (µm)".
+  std::string header() const;
+};
+
+// In the order of the table, the CSV columns and the report's columns.
+const std::vector<Observable>& observable_table();
+
+}  // namespace hemo::analysis
