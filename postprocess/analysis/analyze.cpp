@@ -178,9 +178,9 @@ std::string format_table(const Analysis& a) {
                              a.window_is_default ? " (default: second half of the run)" : ""));
   for (const auto& o : observable_table()) {
     std::string text = o.format(a);
-    if (!o.shown.unit.empty()) text += " " + o.shown.unit;
+    if (!o.shown.unit.empty()) text += fmt::format(" {}", o.shown.unit);
     if (o.detail) text = fmt::format("{:<14} [{}]", text, o.detail(a));
-    line(o.label, text);
+    line(std::string(o.label), text);
   }
   for (const auto& n : a.notes) line("note", n);
   return t;
@@ -226,7 +226,25 @@ std::string format_json(const Analysis& a) {
   j["margination"] = {{"cfl_method", "edge"}, {"inner_radius_m", number(a.tube.radius - a.cfl_edge.thickness)}};
   j["profiles"] = {{"bins", a.bins}, {"file", "profiles.csv"}};
   j["notes"] = a.notes;
-  for (const auto& o : observable_table()) j[pointer(o.json_path)] = number(o.value(a));
+  // The declaration too, so that a reader (hemocosim_plot.py) needs no list of its own.
+  nlohmann::ordered_json declared = nlohmann::ordered_json::array();
+  for (const auto& o : observable_table()) {
+    j[pointer(std::string(o.json_path))] = number(o.value(a));
+    const char* style = o.shown.style == Shown::Style::scientific ? "scientific"
+                        : o.shown.style == Shown::Style::general  ? "general"
+                                                                  : "fixed";
+    declared.push_back({{"name", std::string(o.name)},
+                        {"path", std::string(o.json_path)},
+                        {"label", std::string(o.label)},
+                        {"unit", std::string(o.unit)},
+                        {"description", std::string(o.description)},
+                        {"shown_unit", std::string(o.shown.unit)},
+                        {"shown_scale", o.shown.scale},
+                        {"shown_style", style},
+                        {"sweep_panel", std::string(o.sweep_panel)},
+                        {"sweep_series", std::string(o.sweep_series)}});
+  }
+  j["observables"] = declared;
   return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 

@@ -60,7 +60,9 @@ std::string Observable::format(const Analysis& a) const {
   return "";
 }
 
-std::string Observable::header() const { return shown.unit.empty() ? label : label + " (" + shown.unit + ")"; }
+std::string Observable::header() const {
+  return shown.unit.empty() ? std::string(label) : fmt::format("{} ({})", label, shown.unit);
+}
 
 const std::vector<Observable>& observable_table() {
   static const std::vector<Observable> table = {
@@ -72,18 +74,22 @@ const std::vector<Observable>& observable_table() {
        [](const Analysis& a) { return a.mean_platelet_count; }, {Style::fixed, 0, 1, ""}},
       {"cfl_edge_m", "cfl.edge.thickness_m", "δ edge", "m",
        "cell-free layer thickness R − <RBC core edge> over stations and snapshots (edge method, docs/model.md §5)",
-       [](const Analysis& a) { return a.cfl_edge.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_edge_detail},
+       [](const Analysis& a) { return a.cfl_edge.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_edge_detail,
+       "CFL thickness δ", "edge method"},
       {"cfl_profile_m", "cfl.profile.thickness_m", "δ profile", "m",
        "cell-free layer thickness where the RBC volume fraction falls below 10 % of its core mean (profile method)",
-       [](const Analysis& a) { return a.cfl_profile.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_profile_detail},
+       [](const Analysis& a) { return a.cfl_profile.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_profile_detail,
+       "CFL thickness δ", "profile method"},
       {"D_m2_s", "diffusion.D_m2_s", "D", "m^2/s",
        "platelet radial diffusivity from MSD = 2 D t, least squares through the origin",
-       [](const Analysis& a) { return a.diffusion.diffusivity; }, {Style::scientific, 3, 1, "m²/s"}, diffusion_detail},
+       [](const Analysis& a) { return a.diffusion.diffusivity; }, {Style::scientific, 3, 1, "m²/s"}, diffusion_detail,
+       "platelet D", "radial MSD"},
       {"D_fit_end_s", "diffusion.window_end_s", "D fit end", "s", "largest MSD lag used in the fit of D",
        [](const Analysis& a) { return a.diffusion.window_end; }, {Style::general, 3, 1, "s"}},
       {"relative_apparent_viscosity", "rheology.relative_apparent_viscosity", "µ_app/µ", "1",
        "apparent viscosity relative to the plasma's: imposed wall shear rate over 8 U / d",
-       [](const Analysis& a) { return a.rheology.relative_viscosity; }, {Style::fixed, 3, 1, ""}, viscosity_detail},
+       [](const Analysis& a) { return a.rheology.relative_viscosity; }, {Style::fixed, 3, 1, ""}, viscosity_detail,
+       "µ_app / µ", "γ̇ / (8Ū/d)"},
       {"mean_velocity_m_s", "rheology.mean_velocity_m_s", "U", "m/s", "mean plasma velocity, window mean (fluid node)",
        [](const Analysis& a) { return a.rheology.mean_velocity; }, {Style::scientific, 3, 1, "m/s"}, velocity_detail},
       {"tube_hematocrit", "hematocrit.tube", "H_T", "1", "tube hematocrit N_RBC V_RBC / (π R² L), window mean",

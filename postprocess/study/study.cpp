@@ -148,7 +148,7 @@ std::string csv_field(const std::string& s) {
 std::string summary_csv(const Study& study, const std::vector<Row>& rows) {
   const auto& observables = analysis::observable_table();
   std::string c = "index,label,swept_value,status";
-  for (const auto& o : observables) c += "," + o.name;
+  for (const auto& o : observables) c += fmt::format(",{}", o.name);
   c += ",wall_s,run_dir\n";
   for (const auto& r : rows) {
     const auto& st = *r.run;

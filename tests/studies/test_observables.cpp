@@ -91,7 +91,7 @@ struct AnalysedStudy {
 }  // namespace
 
 TEST(Observables, NamesPathsAndLabelsAreUnique) {
-  std::set<std::string> names, paths, labels;
+  std::set<std::string_view> names, paths, labels;
   for (const auto& o : analysis::observable_table()) {
     EXPECT_TRUE(names.insert(o.name).second) << o.name;
     EXPECT_TRUE(paths.insert(o.json_path).second) << o.json_path;
@@ -115,9 +115,22 @@ TEST(Observables, EveryDeclaredObservableReachesTableJsonSummaryAndReport) {
 
   // The columns: the study's own around the observables, in the table's order.
   std::vector<std::string> expected_header = {"index", "label", "swept_value", "status"};
-  for (const auto& o : table) expected_header.push_back(o.name);
+  for (const auto& o : table) expected_header.emplace_back(o.name);
   expected_header.insert(expected_header.end(), {"wall_s", "run_dir"});
   EXPECT_EQ(header, expected_header);
+
+  // analysis.json declares them too, in the same order (hemocosim_plot.py draws from that).
+  {
+    const auto json = nlohmann::json::parse(read_text(rows.front().at("run_dir") + "/analysis.json"));
+    ASSERT_TRUE(json.contains("observables"));
+    const auto& declared = json["observables"];
+    ASSERT_EQ(declared.size(), table.size());
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      EXPECT_EQ(declared[i]["name"], std::string(table[i].name));
+      EXPECT_EQ(declared[i]["path"], std::string(table[i].json_path));
+      EXPECT_EQ(declared[i]["sweep_panel"], std::string(table[i].sweep_panel));
+    }
+  }
 
   int finite = 0;
   for (const auto& row : rows) {
@@ -133,11 +146,11 @@ TEST(Observables, EveryDeclaredObservableReachesTableJsonSummaryAndReport) {
     const std::string report_row = report.substr(report_row_at, report.find('\n', report_row_at) - report_row_at);
 
     for (const auto& o : table) {
-      SCOPED_TRACE(o.name + " of " + dir_name);
+      SCOPED_TRACE(std::string(o.name) + " of " + dir_name);
       const double v = o.value(a);
       finite += std::isfinite(v);
       // analysis.json: a number at its path (null when undefined), exactly the value.
-      const auto ptr = pointer(o.json_path);
+      const auto ptr = pointer(std::string(o.json_path));
       ASSERT_TRUE(json.contains(ptr)) << o.json_path;
       if (std::isfinite(v)) {
         ASSERT_TRUE(json.at(ptr).is_number()) << json.at(ptr);
@@ -146,7 +159,7 @@ TEST(Observables, EveryDeclaredObservableReachesTableJsonSummaryAndReport) {
         EXPECT_TRUE(json.at(ptr).is_null()) << json.at(ptr);
       }
       // summary.csv: the value to its 9 significant digits, empty when undefined.
-      const std::string cell = row.at(o.name);
+      const std::string cell = row.at(std::string(o.name));
       if (std::isfinite(v)) {
         ASSERT_FALSE(cell.empty());
         EXPECT_NEAR(std::stod(cell), v, 5e-9 * std::abs(v)) << cell;
@@ -154,14 +167,14 @@ TEST(Observables, EveryDeclaredObservableReachesTableJsonSummaryAndReport) {
         EXPECT_EQ(cell, "");
       }
       // The text table: a line of its own with the label and the printed value.
-      const auto at = text.find("\n  " + o.label + " ");
+      const auto at = text.find("\n  " + std::string(o.label) + " ");
       ASSERT_NE(at, std::string::npos) << text;
       const std::string line = text.substr(at + 1, text.find('\n', at + 1) - at - 1);
       EXPECT_NE(line.find(" " + o.format(a)), std::string::npos) << line;
       // report.md: its column and, in the run's row, the printed value; its line in the legend.
       EXPECT_NE(report.find("| " + o.header() + " |"), std::string::npos) << o.header();
       EXPECT_NE(report_row.find("| " + o.format(a) + " |"), std::string::npos) << report_row;
-      EXPECT_NE(report.find("- " + o.header() + ": " + o.description), std::string::npos);
+      EXPECT_NE(report.find("- " + o.header() + ": " + std::string(o.description)), std::string::npos);
     }
   }
   // Undefined values pass trivially; most of the synthetic runs' must be defined.
