@@ -2,8 +2,8 @@
 #include "study.h"
 
 #include "checkpoint.h"
-#include "observable_table.h"
 #include "child_process.h"
+#include "observable_table.h"
 #include "plot.h"
 #include "scene.h"
 
