@@ -356,7 +356,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   };
   const double d_vessel = s.vessel.diameter;
   // The mesh's cell size: the edge of a cube of the mean cell volume (the O-grid's cells differ
-  // little in volume; coordinator/study/study_file.h uses the same measure).
+  // little in volume; postprocess/study/study_file.h uses the same measure).
   const double cells = std::max(1.0, (1.0 * s.mesh.core_cells * s.mesh.core_cells + 4.0 * s.mesh.core_cells * s.mesh.ring_cells) *
                                          s.mesh.axial_cells);
   const double cell = std::cbrt(units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length / cells);

@@ -1,50 +1,29 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "node_process.h"
 
+#include "child_process.h"
+
 #include <fmt/format.h>
 
-#include <cerrno>
 #include <chrono>
 #include <csignal>
-#include <cstring>
-#include <fcntl.h>
 #include <fstream>
 #include <stdexcept>
-#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <thread>
-#include <unistd.h>
 
 namespace hemo {
 
 NodeProcess::NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path)
     : name_(std::move(name)), log_path_(std::move(log_path)) {
   if (argv.empty()) throw std::runtime_error(name_ + " node: empty command");
-  const int log = ::open(log_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  if (log < 0) throw std::runtime_error(fmt::format("cannot open {}: {}", log_path_, std::strerror(errno)));
-  const pid_t coordinator = ::getpid();
-  pid_ = ::fork();
-  if (pid_ < 0) throw std::runtime_error(fmt::format("cannot start the {} node: {}", name_, std::strerror(errno)));
-  if (pid_ == 0) {
-    ::setpgid(0, 0);  // its own process group: mpirun children die with it
-    // The node dies with its coordinator, even one killed with SIGKILL: SIGTERM when the
-    // coordinator (the thread that forked it) ends. It survives the exec (of the node, and of
-    // mpirun when the node becomes one, which passes it on to the ranks). A coordinator that
-    // died before this line is no longer our parent.
-    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (::getppid() != coordinator) ::_exit(125);
-    ::dup2(log, STDOUT_FILENO);
-    ::dup2(log, STDERR_FILENO);
-    ::close(log);
-    std::vector<char*> args;
-    for (auto& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    ::execvp(args[0], args.data());
-    std::fprintf(stderr, "cannot execute %s: %s\n", args[0], std::strerror(errno));
-    ::_exit(127);
-  }
-  ::close(log);
+  StartOptions opt;
+  opt.log_path = log_path_;
+  opt.own_process_group = true;  // terminate() signals the group: mpirun's ranks go with the node
+  // A coordinator killed with SIGKILL cannot terminate() its nodes: they end with it instead.
+  opt.die_with_parent = true;
+  pid_ = start_child(argv, opt);
 }
 
 NodeProcess::~NodeProcess() {
@@ -53,12 +32,7 @@ NodeProcess::~NodeProcess() {
 
 void NodeProcess::reap(int status) {
   status_ = status;
-  if (WIFEXITED(status))
-    ended_ = fmt::format("exited with status {}", WEXITSTATUS(status));
-  else if (WIFSIGNALED(status))
-    ended_ = fmt::format("was killed by signal {} ({})", WTERMSIG(status), strsignal(WTERMSIG(status)));
-  else
-    ended_ = "ended";
+  ended_ = WIFEXITED(status) || WIFSIGNALED(status) ? child_result(status).describe() : "ended";
 }
 
 bool NodeProcess::running() {

@@ -24,7 +24,7 @@ PACKAGES=(
   liblcm-dev liblcm-bin libglib2.0-dev
   libeigen3-dev libhdf5-dev hdf5-tools
   libopenmpi-dev openmpi-bin
-  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev
+  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   libssl-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-h5py python3-matplotlib
   procps iproute2

@@ -5,6 +5,7 @@
 #include "synthetic_run.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <thread>
@@ -105,6 +106,16 @@ TEST(Plot, AnalysisIsRedoneOnlyWhenStale) {
   fs::last_write_time(run + "/particles.h5", fs::last_write_time(run + "/analysis.json") + std::chrono::seconds(2));
   EXPECT_TRUE(ensure_analysis(run));
   EXPECT_TRUE(ensure_analysis(run, /*force=*/true));
+  // An analysis.json of an older hemocosim, without the declaration the sweep figure is drawn
+  // from, is redone even when it is newer than the run.
+  fs::last_write_time(run + "/particles.h5", fs::last_write_time(run + "/analysis.json") - std::chrono::seconds(10));
+  EXPECT_FALSE(ensure_analysis(run));
+  auto json = nlohmann::json::parse(read_text(run + "/analysis.json"));
+  json.erase("observables");
+  write_text(run + "/analysis.json", json.dump(2));
+  EXPECT_TRUE(ensure_analysis(run));
+  EXPECT_TRUE(nlohmann::json::parse(read_text(run + "/analysis.json")).contains("observables"));
+  EXPECT_FALSE(ensure_analysis(run));
 }
 
 TEST(Plot, ErrorsAreOneClearLine) {

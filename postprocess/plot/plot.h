@@ -32,7 +32,8 @@ int plot_command(const PlotOptions& opt);
 analysis::Analysis analyze_run_dir(const std::string& run_dir);
 
 // Writes RUN_DIR/analysis.json and RUN_DIR/profiles.csv with the default analysis options
-// unless both exist and are newer than particles.h5 (or `force`). Returns true if it analysed.
+// unless both exist, are newer than particles.h5 and analysis.json declares its observables (or
+// `force`). Returns true if it analysed.
 bool ensure_analysis(const std::string& run_dir, bool force = false);
 
 // Where hemocosim_plot.py is: $HEMOCOSIM_PLOT_SCRIPT, then <exe dir>/../share/hemocosim/ (build

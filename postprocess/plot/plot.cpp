@@ -5,6 +5,7 @@
 #include "child_process.h"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <cstdlib>
 #include <filesystem>
@@ -37,6 +38,17 @@ bool up_to_date(const fs::path& file, const fs::path& than) {
   return fs::last_write_time(file, ec) >= fs::last_write_time(than, ec);
 }
 
+// An analysis.json that a reader of this version can use: it parses and declares its observables
+// (the plot script draws the sweep figure from that declaration).
+bool current_analysis(const fs::path& json) {
+  std::ifstream in(json);
+  try {
+    return nlohmann::json::parse(in).contains("observables");
+  } catch (const nlohmann::json::exception&) {
+    return false;
+  }
+}
+
 std::string join(const std::vector<std::string>& v, const std::string& sep) {
   std::string s;
   for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
@@ -58,7 +70,9 @@ analysis::Analysis analyze_run_dir(const std::string& run_dir) {
 
 bool ensure_analysis(const std::string& run_dir, bool force) {
   const fs::path dir(run_dir), h5 = dir / "particles.h5";
-  if (!force && up_to_date(dir / "analysis.json", h5) && up_to_date(dir / "profiles.csv", h5)) return false;
+  if (!force && up_to_date(dir / "analysis.json", h5) && up_to_date(dir / "profiles.csv", h5) &&
+      current_analysis(dir / "analysis.json"))
+    return false;
   analyze_run_dir(run_dir);
   return true;
 }

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
 
+#include "observable_table.h"
+
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -150,26 +153,19 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
 
 namespace {
 
-std::string num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : "null"; }
-
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) {
-      out += fmt::format("\\u{:04x}", static_cast<int>(c));
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
-}
-
 // A fixed-point figure, or "n/a" for an undefined one.
 std::string fixed(double v, int digits, double scale = 1) {
   return std::isfinite(v) ? fmt::format("{:.{}f}", v / scale, digits) : "n/a";
 }
-std::string sci(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "n/a"; }
+
+// JSON has no NaN: an undefined number is null.
+nlohmann::ordered_json number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nullptr; }
+
+nlohmann::ordered_json::json_pointer pointer(const std::string& dotted) {
+  std::string p;
+  for (char c : dotted) p += c == '.' ? '/' : c;
+  return nlohmann::ordered_json::json_pointer("/" + p);
+}
 
 }  // namespace
 
@@ -177,78 +173,79 @@ std::string format_table(const Analysis& a) {
   std::string t;
   auto line = [&t](const std::string& label, const std::string& text) { t += fmt::format("  {:<18}{}\n", label, text); };
   t += fmt::format("{}: analysis\n", a.run_dir);
-  line("vessel", fmt::format("d = {} um, l = {} um; {} RBCs, {} platelets (window mean)", fixed(2 * a.tube.radius, 1, kUm),
-                             fixed(a.tube.length, 1, kUm), fixed(a.mean_rbc_count, 0), fixed(a.mean_platelet_count, 0)));
+  line("vessel", fmt::format("d = {} µm, l = {} µm", fixed(2 * a.tube.radius, 1, kUm), fixed(a.tube.length, 1, kUm)));
   line("window", fmt::format("t = {:.4g} .. {:.4g} s, {} snapshots{}", a.window_start, a.window_end, a.window_snapshots,
                              a.window_is_default ? " (default: second half of the run)" : ""));
-  line("CFL thickness", fmt::format("delta = {} um  [edge method: {} x {} stations, {} samples, {} empty; edge {} +- {} um]",
-                                    fixed(a.cfl_edge.thickness, 2, kUm), a.stations.axial, a.stations.sectors,
-                                    a.cfl_edge.samples, a.cfl_edge.empty_samples, fixed(a.cfl_edge.edge_mean, 2, kUm),
-                                    fixed(a.cfl_edge.edge_std, 2, kUm)));
-  line("", fmt::format("delta = {} um  [profile method: RBC volume fraction < 10% of core mean {}]",
-                       fixed(a.cfl_profile.thickness, 2, kUm), fixed(a.cfl_profile.core_mean_fraction, 3)));
-  line("radial diffusion", fmt::format("D = {} m^2/s  [MSD = 2 D t through the origin over [0, {:.4g}] s: {} points, "
-                                       "{} platelets; t = 0 at {:.4g} s]",
-                                       sci(a.diffusion.diffusivity), a.diffusion.points > 0 ? a.diffusion.window_end : 0.0,
-                                       a.diffusion.points, a.msd.empty() ? 0 : a.msd.front().matched, a.msd_reference_time));
-  line("mean velocity", fmt::format("U = {} m/s  [{} samples]", sci(a.rheology.mean_velocity), a.velocity_samples));
-  line("wall shear rate", fmt::format("imposed {} 1/s, apparent 8U/d = {} 1/s", fixed(a.rheology.wall_shear_rate, 1),
-                                      fixed(a.rheology.apparent_wall_shear_rate, 1)));
-  line("wall shear stress", fmt::format("{} Pa  [fluid node]", fixed(a.wall_shear_stress, 4)));
-  line("viscosity", fmt::format("mu_app/mu = {}", fixed(a.rheology.relative_viscosity, 3)));
-  line("hematocrit", fmt::format("tube H_T = {}, discharge H_D = {}  [H_D = Q_RBC / Q, Q = {}]", fixed(a.tube_hematocrit, 4),
-                                 fixed(a.discharge_hematocrit, 4), a.total_flux_source));
-  line("margination", fmt::format("index = {}  [platelets with r > R - delta, edge-method delta]",
-                                  fixed(a.margination_index, 3)));
+  for (const auto& o : observable_table()) {
+    std::string text = o.format(a);
+    if (!o.shown.unit.empty()) text += fmt::format(" {}", o.shown.unit);
+    if (o.detail) text = fmt::format("{:<14} [{}]", text, o.detail(a));
+    line(std::string(o.label), text);
+  }
   for (const auto& n : a.notes) line("note", n);
   return t;
 }
 
 std::string format_json(const Analysis& a) {
-  std::string j = "{\n";
-  j += fmt::format("  \"run_dir\": {},\n", quoted(a.run_dir));
-  j += fmt::format("  \"units\": \"SI (m, s, m^2/s, m^3/s, Pa)\",\n");
-  j += fmt::format("  \"vessel\": {{\"radius_m\": {}, \"length_m\": {}}},\n", num(a.tube.radius), num(a.tube.length));
-  j += fmt::format(
-      "  \"window\": {{\"start_s\": {}, \"end_s\": {}, \"snapshots\": {}, \"default_second_half\": {}, "
-      "\"mean_rbc_count\": {}, \"mean_platelet_count\": {}}},\n",
-      num(a.window_start), num(a.window_end), a.window_snapshots, a.window_is_default ? "true" : "false",
-      num(a.mean_rbc_count), num(a.mean_platelet_count));
-  j += fmt::format(
-      "  \"cfl\": {{\n    \"edge\": {{\"method\": \"edge\", \"thickness_m\": {}, \"edge_mean_m\": {}, \"edge_std_m\": {}, "
-      "\"stations_axial\": {}, \"stations_sectors\": {}, \"samples\": {}, \"empty_samples\": {}}},\n",
-      num(a.cfl_edge.thickness), num(a.cfl_edge.edge_mean), num(a.cfl_edge.edge_std), a.stations.axial,
-      a.stations.sectors, a.cfl_edge.samples, a.cfl_edge.empty_samples);
-  j += fmt::format(
-      "    \"profile\": {{\"method\": \"profile\", \"thickness_m\": {}, \"edge_m\": {}, \"threshold_of_core_mean\": 0.1, "
-      "\"core_radius_fraction\": 0.5, \"core_mean_volume_fraction\": {}}}\n  }},\n",
-      num(a.cfl_profile.thickness), num(a.cfl_profile.edge_mean), num(a.cfl_profile.core_mean_fraction));
-  j += fmt::format(
-      "  \"diffusion\": {{\"D_m2_s\": {}, \"fit\": \"MSD = 2 D t, least squares through the origin\", \"t_fit_s\": {}, "
-      "\"window_start_s\": 0, \"window_end_s\": {}, \"points\": {}, \"reference_time_s\": {},\n    \"msd\": [",
-      num(a.diffusion.diffusivity), num(a.diffusion.t_fit), num(a.diffusion.window_end), a.diffusion.points,
-      num(a.msd_reference_time));
-  for (std::size_t i = 0; i < a.msd.size(); ++i)
-    j += fmt::format("{}{{\"lag_s\": {}, \"msd_m2\": {}, \"matched\": {}}}", i ? ", " : "", num(a.msd[i].lag_s),
-                     num(a.msd[i].msd_m2), a.msd[i].matched);
-  j += "]},\n";
-  j += fmt::format(
-      "  \"rheology\": {{\"mean_velocity_m_s\": {}, \"samples\": {}, \"wall_shear_rate_per_s\": {}, "
-      "\"apparent_wall_shear_rate_per_s\": {}, \"relative_apparent_viscosity\": {}, \"wall_shear_stress_Pa\": {}}},\n",
-      num(a.rheology.mean_velocity), a.velocity_samples, num(a.rheology.wall_shear_rate),
-      num(a.rheology.apparent_wall_shear_rate), num(a.rheology.relative_viscosity), num(a.wall_shear_stress));
-  j += fmt::format(
-      "  \"hematocrit\": {{\"tube\": {}, \"discharge\": {}, \"rbc_volume_flux_m3_s\": {}, \"total_volume_flux_m3_s\": {}, "
-      "\"total_flux_source\": {}, \"rbc_volume_m3\": {}}},\n",
-      num(a.tube_hematocrit), num(a.discharge_hematocrit), num(a.rbc_volume_flux), num(a.total_volume_flux),
-      quoted(a.total_flux_source), num(a.rbc_volume));
-  j += fmt::format("  \"margination\": {{\"index\": {}, \"cfl_method\": \"edge\", \"inner_radius_m\": {}}},\n",
-                   num(a.margination_index), num(a.tube.radius - a.cfl_edge.thickness));
-  j += fmt::format("  \"profiles\": {{\"bins\": {}, \"file\": \"profiles.csv\"}},\n", a.bins);
-  j += "  \"notes\": [";
-  for (std::size_t i = 0; i < a.notes.size(); ++i) j += (i ? ", " : "") + quoted(a.notes[i]);
-  j += "]\n}\n";
-  return j;
+  // The context around the observables; each observable is then put at its json_path.
+  nlohmann::ordered_json j;
+  j["run_dir"] = a.run_dir;
+  j["units"] = "SI (m, s, m^2/s, m^3/s, Pa)";
+  j["vessel"] = {{"radius_m", number(a.tube.radius)}, {"length_m", number(a.tube.length)}};
+  j["window"] = {{"start_s", number(a.window_start)},
+                 {"snapshots", a.window_snapshots},
+                 {"default_second_half", a.window_is_default}};
+  j["cfl"]["edge"] = {{"method", "edge"},
+                      {"edge_mean_m", number(a.cfl_edge.edge_mean)},
+                      {"edge_std_m", number(a.cfl_edge.edge_std)},
+                      {"stations_axial", a.stations.axial},
+                      {"stations_sectors", a.stations.sectors},
+                      {"samples", a.cfl_edge.samples},
+                      {"empty_samples", a.cfl_edge.empty_samples}};
+  j["cfl"]["profile"] = {{"method", "profile"},
+                         {"edge_m", number(a.cfl_profile.edge_mean)},
+                         {"threshold_of_core_mean", 0.1},
+                         {"core_radius_fraction", 0.5},
+                         {"core_mean_volume_fraction", number(a.cfl_profile.core_mean_fraction)}};
+  nlohmann::ordered_json msd = nlohmann::ordered_json::array();
+  for (const auto& p : a.msd) msd.push_back({{"lag_s", number(p.lag_s)}, {"msd_m2", number(p.msd_m2)}, {"matched", p.matched}});
+  j["diffusion"] = {{"fit", "MSD = 2 D t, least squares through the origin"},
+                    {"t_fit_s", number(a.diffusion.t_fit)},
+                    {"window_start_s", 0},
+                    {"points", a.diffusion.points},
+                    {"reference_time_s", number(a.msd_reference_time)},
+                    {"msd", msd}};
+  j["rheology"] = {{"samples", a.velocity_samples},
+                   {"wall_shear_rate_per_s", number(a.rheology.wall_shear_rate)},
+                   {"apparent_wall_shear_rate_per_s", number(a.rheology.apparent_wall_shear_rate)},
+                   {"wall_shear_stress_Pa", number(a.wall_shear_stress)}};
+  j["hematocrit"] = {{"rbc_volume_flux_m3_s", number(a.rbc_volume_flux)},
+                     {"total_volume_flux_m3_s", number(a.total_volume_flux)},
+                     {"total_flux_source", a.total_flux_source},
+                     {"rbc_volume_m3", number(a.rbc_volume)}};
+  j["margination"] = {{"cfl_method", "edge"}, {"inner_radius_m", number(a.tube.radius - a.cfl_edge.thickness)}};
+  j["profiles"] = {{"bins", a.bins}, {"file", "profiles.csv"}};
+  j["notes"] = a.notes;
+  // The declaration too, so that a reader (hemocosim_plot.py) needs no list of its own.
+  nlohmann::ordered_json declared = nlohmann::ordered_json::array();
+  for (const auto& o : observable_table()) {
+    j[pointer(std::string(o.json_path))] = number(o.value(a));
+    const char* style = o.shown.style == Shown::Style::scientific ? "scientific"
+                        : o.shown.style == Shown::Style::general  ? "general"
+                                                                  : "fixed";
+    declared.push_back({{"name", std::string(o.name)},
+                        {"path", std::string(o.json_path)},
+                        {"label", std::string(o.label)},
+                        {"unit", std::string(o.unit)},
+                        {"description", std::string(o.description)},
+                        {"shown_unit", std::string(o.shown.unit)},
+                        {"shown_scale", o.shown.scale},
+                        {"shown_style", style},
+                        {"sweep_panel", std::string(o.sweep_panel)},
+                        {"sweep_series", std::string(o.sweep_series)}});
+  }
+  j["observables"] = declared;
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 std::string format_profiles_csv(const Analysis& a) {

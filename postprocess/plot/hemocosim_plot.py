@@ -10,8 +10,9 @@
 # Per run:    <run>_profiles.png  radial number density of RBCs and platelets at t = 0, 0.5, 1, 2 s
 #                                 (or at 0, 1/4, 1/2, 1 of a shorter run: the snapshots nearest)
 #             <run>_msd.png       radial MSD of the platelets with the fitted line MSD = 2 D t
-# Several:    sweep.png           CFL thickness (edge and profile methods), D and mu_app/mu against
-#                                 the swept scene key (--key, or the one key whose value differs)
+# Several:    sweep.png           the observables analysis.json declares for it (CFL thickness by the
+#                                 edge and profile methods, D, mu_app/mu) against the swept scene
+#                                 key (--key, or the one key whose value differs)
 #             compare_profiles.png, compare_msd.png: the runs' window-mean profiles and MSD overlaid
 #
 # Reads only analysis.json, profiles.csv and scene.toml (no HDF5): the observables are computed
@@ -264,34 +265,48 @@ def sweep_axis(runs, key, labels):
     return list(range(len(runs))), ticks, key or "run"
 
 
+def sweep_panels(runs):
+    """The sweep figure's panels as analysis.json declares them ("observables", from
+    postprocess/analysis/observable_table.cpp): [(y-axis title, scientific, [observable, ...])]."""
+    declared = runs[0].get("observables")
+    if not declared:
+        fail(f"{runs[0].path}/analysis.json declares no observables (written by an older hemocosim): "
+             "run `hemocosim analyze` on it again")
+    panels = {}
+    for o in declared:
+        if o.get("sweep_panel"):
+            panels.setdefault(o["sweep_panel"], []).append(o)
+    out = []
+    for title, members in panels.items():
+        unit = members[0].get("shown_unit")
+        out.append((f"{title} ({unit})" if unit else title,
+                    any(m.get("shown_style") == "scientific" for m in members), members))
+    return out
+
+
 def plot_sweep(runs, key, labels, out, xlabel=None):
     x, ticks, title = sweep_axis(runs, key, labels)
     title = xlabel or title
     order = sorted(range(len(runs)), key=lambda i: x[i])
     xs = [x[i] for i in order]
-    series = [
-        ("CFL thickness δ (µm)", [
-            ("edge method", [num(runs[i].get("cfl", "edge", "thickness_m")) / UM for i in order]),
-            ("profile method", [num(runs[i].get("cfl", "profile", "thickness_m")) / UM for i in order]),
-        ]),
-        ("platelet D (m²/s)", [("radial MSD", [num(runs[i].get("diffusion", "D_m2_s")) for i in order])]),
-        ("µ_app / µ", [("γ̇ / (8Ū/d)", [num(runs[i].get("rheology", "relative_apparent_viscosity")) for i in order])]),
-    ]
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4), constrained_layout=True)
-    for ax, (ylabel, lines) in zip(axes, series):
-        for name, ys in lines:
-            ax.plot(xs, ys, "-o", ms=4, label=name)
+    panels = sweep_panels(runs)
+    fig, axes = plt.subplots(1, len(panels), figsize=(14 * len(panels) / 3, 4), constrained_layout=True, squeeze=False)
+    for ax, (ylabel, scientific, members) in zip(axes[0], panels):
+        for o in members:
+            ys = [num(runs[i].get(*o["path"].split("."))) / o.get("shown_scale", 1) for i in order]
+            ax.plot(xs, ys, "-o", ms=4, label=o.get("sweep_series") or o["label"])
         ax.set_xlabel(title)
         ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
         if ticks is not None:
             ax.set_xticks(xs)
             ax.set_xticklabels([ticks[i] for i in order], rotation=20)
-        if len(lines) > 1:
+        if len(members) > 1:
             ax.legend(fontsize=8)
-    axes[0].ticklabel_format(axis="y", useOffset=False)
-    axes[2].ticklabel_format(axis="y", useOffset=False)
-    axes[1].ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
+        if scientific:
+            ax.ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
+        else:
+            ax.ticklabel_format(axis="y", useOffset=False)
     fig.suptitle(f"observables against {title} ({len(runs)} runs)")
     fig.savefig(out, dpi=120)
     plt.close(fig)

@@ -296,7 +296,7 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
   std::string args;
   for (const auto& s : opt.suites) args += " " + s;
   m += fmt::format("Generated {} by `hemocosim bench{} --out {}`. Errors against each suite's reference run "
-                   "(definitions: `coordinator/bench/bench_metrics.h`, docs/performance.md): e_U, e_rPLT, e_rRBC, e_D "
+                   "(definitions: `postprocess/bench/bench_metrics.h`, docs/performance.md): e_U, e_rPLT, e_rRBC, e_D "
                    "relative; L1 between the last snapshot's radial distributions (10 bins of r/R; 0 equal, 2 disjoint); "
                    "D noise ≈ √(2/N_PLT). Wall: the whole `hemocosim run`; compute: the nodes' own (profile.csv).\n",
                    utc_now(), args, opt.out);

@@ -1,10 +1,12 @@
-// Running a program as a child process: its output line by line, its exit status.
-// Used by `plot` (the Python script) and `study` (one `hemocosim run` per scene).
+// Running a program as a child process: the one fork/exec of hemocosim. run_child waits for it
+// (`plot` runs the Python script, `study` and `bench` one `hemocosim run` per scene);
+// start_child leaves it running (the coordinator's nodes, coordinator/node_process.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
 #include <functional>
 #include <string>
+#include <sys/types.h>
 #include <utility>
 #include <vector>
 
@@ -16,6 +18,9 @@ struct ChildResult {
   bool ok() const { return exit_code == 0; }
   std::string describe() const;  // "exited with status 2" / "was killed by signal 2 (Interrupt)"
 };
+
+// The result of a status from wait(2) of a child that exited or was killed.
+ChildResult child_result(int wait_status);
 
 struct ChildOptions {
   std::vector<std::pair<std::string, std::string>> env;  // set in the child only
@@ -34,6 +39,25 @@ struct ChildOptions {
 // Runs argv[0] (searched in PATH when it has no '/'); throws std::runtime_error only when the
 // child cannot be created. A program that cannot be executed gives exit code 127.
 ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& opt = {});
+
+struct StartOptions {
+  std::vector<std::pair<std::string, std::string>> env;  // set in the child only
+  // The child's stdout and stderr are appended to this file (created 0644); empty: this
+  // process's. A file that cannot be opened throws before anything is started.
+  std::string log_path;
+  // The child leads a process group of its own, so that kill(-pid, ...) also reaches what it
+  // starts (the ranks under mpirun).
+  bool own_process_group = false;
+  // The child gets SIGTERM when the thread that started it ends, however it ends (SIGKILL
+  // included). It is kept across exec, and mpirun passes it on to its ranks.
+  bool die_with_parent = false;
+};
+
+// Starts argv[0] (searched in PATH when it has no '/') and returns its pid without waiting; the
+// caller reaps it (waitpid / wait4). A program that cannot be executed exits with 127 after a
+// line on its stderr; with die_with_parent, one whose parent was already gone exits with 125.
+// Throws std::runtime_error when the child cannot be created.
+pid_t start_child(const std::vector<std::string>& argv, const StartOptions& opt = {});
 
 // Directory of the running executable (from /proc/self/exe).
 std::string executable_dir();

@@ -3,6 +3,7 @@
 
 #include "checkpoint.h"
 #include "child_process.h"
+#include "observable_table.h"
 #include "plot.h"
 #include "scene.h"
 
@@ -113,10 +114,6 @@ SceneRunner child_runner(const std::string& hemocosim) {
 
 // ---- Report ----------------------------------------------------------------------------------
 
-std::string fixed(double v, int digits, double scale = 1) {
-  return std::isfinite(v) ? fmt::format("{:.{}f}", v / scale, digits) : "n/a";
-}
-std::string sci(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "n/a"; }
 std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : ""; }
 
 const char* state_name(StudyRunStatus::State s) {
@@ -149,21 +146,16 @@ std::string csv_field(const std::string& s) {
 }
 
 std::string summary_csv(const Study& study, const std::vector<Row>& rows) {
-  std::string c = "index,label,swept_value,status,end_time_s,rbc_count,platelet_count,cfl_edge_m,cfl_profile_m,D_m2_s,"
-                  "D_fit_end_s,relative_apparent_viscosity,mean_velocity_m_s,tube_hematocrit,discharge_hematocrit,"
-                  "margination_index,wall_s,run_dir\n";
+  const auto& observables = analysis::observable_table();
+  std::string c = "index,label,swept_value,status";
+  for (const auto& o : observables) c += fmt::format(",{}", o.name);
+  c += ",wall_s,run_dir\n";
   for (const auto& r : rows) {
-    const auto& a = r.a;
     const auto& st = *r.run;
-    const bool ok = r.analysed;
-    c += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.1f},{}\n", st.study_case.index + 1,
-                     csv_field(st.study_case.label), csv_field(study.value_text(st.study_case.index)), state_name(st.state),
-                     ok ? csv_num(a.window_end) : "", ok ? csv_num(a.mean_rbc_count) : "", ok ? csv_num(a.mean_platelet_count) : "",
-                     ok ? csv_num(a.cfl_edge.thickness) : "", ok ? csv_num(a.cfl_profile.thickness) : "",
-                     ok ? csv_num(a.diffusion.diffusivity) : "", ok ? csv_num(a.diffusion.window_end) : "",
-                     ok ? csv_num(a.rheology.relative_viscosity) : "", ok ? csv_num(a.rheology.mean_velocity) : "",
-                     ok ? csv_num(a.tube_hematocrit) : "", ok ? csv_num(a.discharge_hematocrit) : "",
-                     ok ? csv_num(a.margination_index) : "", st.wall_s, csv_field(st.run_dir));
+    c += fmt::format("{},{},{},{}", st.study_case.index + 1, csv_field(st.study_case.label),
+                     csv_field(study.value_text(st.study_case.index)), state_name(st.state));
+    for (const auto& o : observables) c += "," + (r.analysed ? csv_num(o.value(r.a)) : std::string());
+    c += fmt::format(",{:.1f},{}\n", st.wall_s, csv_field(st.run_dir));
   }
   return c;
 }
@@ -187,29 +179,22 @@ std::string report_md(const Study& study, const StudyOptions& opt, const Reducti
     m += "\nThese are reduced runs: compare them with the expectation above only where they are long enough to "
          "show it; the numbers below are what the reduced runs give, nothing more.\n";
 
+  const auto& observables = analysis::observable_table();
   m += "\n## Observables\n\n";
-  m += "δ: cell-free layer thickness (edge method of docs/model.md §5, and profile method); D: platelet radial diffusivity "
-       "from MSD = 2 D t through the origin (fit window in brackets); µ_app/µ = γ̇ / (8Ū/d); H_T, H_D: tube and "
-       "discharge hematocrit; margination: platelets with r > R − δ (edge). Window: second half of each run.\n\n";
-  m += fmt::format("| {} | run | t end (s) | RBCs | PLTs | δ edge (µm) | δ profile (µm) | D (m²/s) | µ_app/µ | H_T | H_D | "
-                   "margination | wall (s) | status |\n",
-                   swept_header(study));
-  m += "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& o : observables) m += fmt::format("- {}: {}\n", o.header(), o.description);
+  m += "\nWindow: second half of each run.\n\n";
+  m += fmt::format("| {} | run |", swept_header(study));
+  for (const auto& o : observables) m += fmt::format(" {} |", o.header());
+  m += " wall (s) | status |\n|---|---|";
+  for (std::size_t i = 0; i < observables.size(); ++i) m += "---|";
+  m += "---|---|\n";
   for (const auto& r : rows) {
     const auto& st = *r.run;
-    const auto& a = r.a;
-    const std::string value = study.value_text(st.study_case.index);
-    if (!r.analysed) {
-      m += fmt::format("| {} | {} | | | | | | | | | | | {:.1f} | {} |\n", value, st.study_case.dir_name, st.wall_s,
-                       st.state == StudyRunStatus::State::failed ? "failed" : "not analysed");
-      continue;
-    }
-    m += fmt::format("| {} | {} | {:.4g} | {} | {} | {} | {} | {} [0, {:.3g} s] | {} | {} | {} | {} | {:.1f} | {} |\n", value,
-                     st.study_case.dir_name, a.window_end, fixed(a.mean_rbc_count, 0), fixed(a.mean_platelet_count, 0),
-                     fixed(a.cfl_edge.thickness, 2, 1e-6), fixed(a.cfl_profile.thickness, 2, 1e-6),
-                     sci(a.diffusion.diffusivity), a.diffusion.window_end, fixed(a.rheology.relative_viscosity, 3),
-                     fixed(a.tube_hematocrit, 3), fixed(a.discharge_hematocrit, 3), fixed(a.margination_index, 3),
-                     st.wall_s, state_name(st.state));
+    m += fmt::format("| {} | {} |", study.value_text(st.study_case.index), st.study_case.dir_name);
+    for (const auto& o : observables) m += r.analysed ? fmt::format(" {} |", o.format(r.a)) : std::string(" |");
+    const char* status = r.analysed ? state_name(st.state)
+                         : st.state == StudyRunStatus::State::failed ? "failed" : "not analysed";
+    m += fmt::format(" {:.1f} | {} |\n", st.wall_s, status);
   }
   m += "\nThe same as CSV: `summary.csv`. Each run's full analysis: `runs/<run>/analysis.json` "
        "(`hemocosim analyze runs/<run>` prints it as a table).\n";

@@ -1,6 +1,6 @@
 // hemocosim bench [SUITE...] [--out DIR]: run time against error (issue #6).
 //
-// A bench suite (scenes/bench/<name>.toml) is a study file (coordinator/study/study_file.h) with
+// A bench suite (scenes/bench/<name>.toml) is a study file (postprocess/study/study_file.h) with
 // three more top-level keys:
 //
 //   reference = 40                  # the converged value of the swept key: one of sweep.values;

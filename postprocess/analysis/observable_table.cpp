@@ -1,0 +1,107 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "observable_table.h"
+
+#include "analyze.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+namespace hemo::analysis {
+
+namespace {
+
+using Style = Shown::Style;
+constexpr double kUm = 1e-6;
+
+std::string um(double metres) { return std::isfinite(metres) ? fmt::format("{:.2f}", metres / kUm) : "n/a"; }
+
+std::string cfl_edge_detail(const Analysis& a) {
+  return fmt::format("edge method: {} x {} stations, {} samples, {} empty; edge {} ± {} µm", a.stations.axial,
+                     a.stations.sectors, a.cfl_edge.samples, a.cfl_edge.empty_samples, um(a.cfl_edge.edge_mean),
+                     um(a.cfl_edge.edge_std));
+}
+
+std::string cfl_profile_detail(const Analysis& a) {
+  const double core = a.cfl_profile.core_mean_fraction;
+  return fmt::format("profile method: RBC volume fraction < 10% of its core mean {}",
+                     std::isfinite(core) ? fmt::format("{:.3f}", core) : "n/a");
+}
+
+std::string diffusion_detail(const Analysis& a) {
+  return fmt::format("MSD = 2 D t through the origin over [0, D fit end]: {} points, {} platelets; t = 0 at {:.4g} s",
+                     a.diffusion.points, a.msd.empty() ? 0 : a.msd.front().matched, a.msd_reference_time);
+}
+
+std::string viscosity_detail(const Analysis& a) {
+  auto rate = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f}", v) : "n/a"; };
+  return fmt::format("γ̇_w / (8U/d): imposed {} 1/s, apparent {} 1/s; wall shear stress {} Pa (fluid node)",
+                     rate(a.rheology.wall_shear_rate), rate(a.rheology.apparent_wall_shear_rate),
+                     std::isfinite(a.wall_shear_stress) ? fmt::format("{:.4f}", a.wall_shear_stress) : "n/a");
+}
+
+std::string velocity_detail(const Analysis& a) { return fmt::format("{} samples", a.velocity_samples); }
+
+std::string discharge_detail(const Analysis& a) { return fmt::format("H_D = Q_RBC / Q, Q = {}", a.total_flux_source); }
+
+std::string margination_detail(const Analysis&) { return "platelets with r > R − δ, edge-method δ"; }
+
+}  // namespace
+
+std::string Observable::format(const Analysis& a) const {
+  const double v = value(a);
+  if (!std::isfinite(v)) return "n/a";
+  const double x = v / shown.scale;
+  switch (shown.style) {
+    case Style::fixed: return fmt::format("{:.{}f}", x, shown.digits);
+    case Style::scientific: return fmt::format("{:.{}e}", x, shown.digits);
+    case Style::general: return fmt::format("{:.{}g}", x, shown.digits);
+  }
+  return "";
+}
+
+std::string Observable::header() const {
+  return shown.unit.empty() ? std::string(label) : fmt::format("{} ({})", label, shown.unit);
+}
+
+const std::vector<Observable>& observable_table() {
+  static const std::vector<Observable> table = {
+      {"end_time_s", "window.end_s", "t end", "s", "end of the averaging window: the last snapshot",
+       [](const Analysis& a) { return a.window_end; }, {Style::general, 4, 1, "s"}},
+      {"rbc_count", "window.mean_rbc_count", "RBCs", "1", "red blood cells in the vessel, window mean",
+       [](const Analysis& a) { return a.mean_rbc_count; }, {Style::fixed, 0, 1, ""}},
+      {"platelet_count", "window.mean_platelet_count", "PLTs", "1", "platelets in the vessel, window mean",
+       [](const Analysis& a) { return a.mean_platelet_count; }, {Style::fixed, 0, 1, ""}},
+      {"cfl_edge_m", "cfl.edge.thickness_m", "δ edge", "m",
+       "cell-free layer thickness R − <RBC core edge> over stations and snapshots (edge method, docs/model.md §5)",
+       [](const Analysis& a) { return a.cfl_edge.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_edge_detail,
+       "CFL thickness δ", "edge method"},
+      {"cfl_profile_m", "cfl.profile.thickness_m", "δ profile", "m",
+       "cell-free layer thickness where the RBC volume fraction falls below 10 % of its core mean (profile method)",
+       [](const Analysis& a) { return a.cfl_profile.thickness; }, {Style::fixed, 2, kUm, "µm"}, cfl_profile_detail,
+       "CFL thickness δ", "profile method"},
+      {"D_m2_s", "diffusion.D_m2_s", "D", "m^2/s",
+       "platelet radial diffusivity from MSD = 2 D t, least squares through the origin",
+       [](const Analysis& a) { return a.diffusion.diffusivity; }, {Style::scientific, 3, 1, "m²/s"}, diffusion_detail,
+       "platelet D", "radial MSD"},
+      {"D_fit_end_s", "diffusion.window_end_s", "D fit end", "s", "largest MSD lag used in the fit of D",
+       [](const Analysis& a) { return a.diffusion.window_end; }, {Style::general, 3, 1, "s"}},
+      {"relative_apparent_viscosity", "rheology.relative_apparent_viscosity", "µ_app/µ", "1",
+       "apparent viscosity relative to the plasma's: imposed wall shear rate over 8 U / d",
+       [](const Analysis& a) { return a.rheology.relative_viscosity; }, {Style::fixed, 3, 1, ""}, viscosity_detail,
+       "µ_app / µ", "γ̇ / (8Ū/d)"},
+      {"mean_velocity_m_s", "rheology.mean_velocity_m_s", "U", "m/s", "mean plasma velocity, window mean (fluid node)",
+       [](const Analysis& a) { return a.rheology.mean_velocity; }, {Style::scientific, 3, 1, "m/s"}, velocity_detail},
+      {"tube_hematocrit", "hematocrit.tube", "H_T", "1", "tube hematocrit N_RBC V_RBC / (π R² L), window mean",
+       [](const Analysis& a) { return a.tube_hematocrit; }, {Style::fixed, 3, 1, ""}},
+      {"discharge_hematocrit", "hematocrit.discharge", "H_D", "1",
+       "discharge hematocrit Q_RBC / Q: the RBC share of the volume flux",
+       [](const Analysis& a) { return a.discharge_hematocrit; }, {Style::fixed, 3, 1, ""}, discharge_detail},
+      {"margination_index", "margination.index", "margination", "1",
+       "fraction of platelets in the cell-free layer, r > R − δ (edge method), window mean",
+       [](const Analysis& a) { return a.margination_index; }, {Style::fixed, 3, 1, ""}, margination_detail},
+  };
+  return table;
+}
+
+}  // namespace hemo::analysis
