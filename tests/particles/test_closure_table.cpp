@@ -105,10 +105,20 @@ TEST(ClosureTable, EveryRegisteredClosureIsBuiltAndAnswersToItsName) {
   // The name is the table's, handed over by the registry (the classes do not spell it).
   const auto sp = platelet_params();
   for (const auto& n : drag_closure_names()) EXPECT_EQ(make_drag_closure(n, sp)->name(), n);
-  for (const auto& n : lift_closure_names())
-    if (auto c = make_lift_closure(n, sp)) EXPECT_EQ(c->name(), n);
-  for (const auto& n : torque_closure_names())
-    if (auto c = make_torque_closure(n, sp)) EXPECT_EQ(c->name(), n);
+  for (const auto& n : lift_closure_names()) {
+    const auto c = make_lift_closure(n, sp);
+    EXPECT_EQ(c == nullptr, n == "none") << n;
+    if (c) {
+      EXPECT_EQ(c->name(), n);
+    }
+  }
+  for (const auto& n : torque_closure_names()) {
+    const auto c = make_torque_closure(n, sp);
+    EXPECT_EQ(c == nullptr, n == "none") << n;
+    if (c) {
+      EXPECT_EQ(c->name(), n);
+    }
+  }
 }
 
 // load_scene takes every name the registry has, and for any other lists exactly the registry's.
