@@ -105,7 +105,9 @@ struct Received {
   std::string kind;
   envelope_t envelope;
   std::vector<std::uint8_t> bytes;
-  std::shared_ptr<const void> decoded;
+  // Empty until the bus has decoded the bytes; an initializer so that {kind, envelope, bytes}
+  // is a complete Received (-Wmissing-field-initializers).
+  std::shared_ptr<const void> decoded = nullptr;
   std::type_index decoded_type = typeid(void);
 
   template <class Msg>

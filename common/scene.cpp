@@ -3,6 +3,8 @@
 
 #include "units.h"
 
+#include <closure_table.h>
+
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
@@ -26,6 +28,22 @@ std::string SceneProblem::str(const std::string& file) const {
   if (line > 0) return fmt::format("{}:{}: {}: {}", file, line, what, message);
   return fmt::format("{}: {}: {}", file, what, message);
 }
+
+// Only the names: the classes stay with the particle node, which expands the same table.
+#define HEMO_CLOSURE_NAME(name, cls) name,
+const std::vector<std::string>& known_drag_closures() {
+  static const std::vector<std::string> n = {HEMO_DRAG_CLOSURES(HEMO_CLOSURE_NAME)};
+  return n;
+}
+const std::vector<std::string>& known_lift_closures() {
+  static const std::vector<std::string> n = {HEMO_LIFT_CLOSURES(HEMO_CLOSURE_NAME)};
+  return n;
+}
+const std::vector<std::string>& known_torque_closures() {
+  static const std::vector<std::string> n = {HEMO_TORQUE_CLOSURES(HEMO_CLOSURE_NAME)};
+  return n;
+}
+#undef HEMO_CLOSURE_NAME
 
 static std::string join_problems(const std::string& file, const std::vector<SceneProblem>& ps) {
   std::string s;

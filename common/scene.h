@@ -67,19 +67,11 @@ struct Species {
   std::string orientation_integrator = "splitting";
 };
 
-// Names the scene accepts per closure slot (the particle node implements each of them).
-inline const std::vector<std::string>& known_drag_closures() {
-  static const std::vector<std::string> n = {"stokes", "rbc_fit", "oblate", "schiller_naumann"};
-  return n;
-}
-inline const std::vector<std::string>& known_lift_closures() {
-  static const std::vector<std::string> n = {"none", "rbc_lift", "oblate", "shear_lift"};
-  return n;
-}
-inline const std::vector<std::string>& known_torque_closures() {
-  static const std::vector<std::string> n = {"none", "oblate"};
-  return n;
-}
+// Names the scene accepts per closure slot, in the order messages list them: the particle node's
+// closure table (particle-node/closures/table/closure_table.h), the one list of closures.
+const std::vector<std::string>& known_drag_closures();
+const std::vector<std::string>& known_lift_closures();
+const std::vector<std::string>& known_torque_closures();
 
 struct Contact {
   double cell_youngs_modulus = 7.5e5;   // Pa

@@ -3,5 +3,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+# HEMOCOSIM_WERROR=ON (deploy/test.sh, CI) makes a compiler warning fail the build.
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DHEMOCOSIM_WERROR="${HEMOCOSIM_WERROR:-OFF}" >/dev/null
 cmake --build build -j "$jobs"

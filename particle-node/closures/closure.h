@@ -49,10 +49,22 @@ struct ClosureParams {
   double reynolds(const Vec3& slip) const { return diameter * slip.norm() / kinematic_viscosity(); }
 };
 
-class DragClosure {
+class ClosureRegistry;
+
+// Every closure answers to the name it was made under (table/closure_table.h, for logs). Only the
+// registry sets it, so the name is spelled once, in the table, and not again in the class.
+class NamedClosure {
+ public:
+  const std::string& name() const { return name_; }
+
+ private:
+  friend class ClosureRegistry;
+  std::string name_;
+};
+
+class DragClosure : public NamedClosure {
  public:
   virtual ~DragClosure() = default;
-  virtual std::string name() const = 0;
   // beta in N s/m with F = beta u_r; finite and >= 0, also at zero slip.
   virtual double coefficient(const ParticleFlow& flow) const = 0;
   // True when beta depends on nothing (the engine then computes the exponential factor once).
@@ -62,27 +74,26 @@ class DragClosure {
   virtual double max_reynolds() const { return std::numeric_limits<double>::infinity(); }
 };
 
-class LiftClosure {
+class LiftClosure : public NamedClosure {
  public:
   virtual ~LiftClosure() = default;
-  virtual std::string name() const = 0;
   // N, on the particle, finite; zero at zero slip or zero shear as the law says.
   virtual Vec3 force(const ParticleFlow& flow) const = 0;
   virtual bool needs_orientation() const { return false; }
   virtual bool needs_centreline_speed() const { return false; }
 };
 
-class TorqueClosure {
+class TorqueClosure : public NamedClosure {
  public:
   virtual ~TorqueClosure() = default;
-  virtual std::string name() const = 0;
   // N m, on the particle, world frame.
   virtual Vec3 torque(const ParticleFlow& flow) const = 0;
   virtual bool needs_orientation() const { return false; }
 };
 
-// Closures by name; "none" gives nullptr for lift and torque. Throw std::invalid_argument
-// naming the known ones for an unknown name.
+// Closures by name (table/closure_table.h); "none" gives nullptr for lift and torque. Throw
+// std::invalid_argument naming the known ones for an unknown name. The names come in the table's
+// order: the ones scene validation accepts.
 std::unique_ptr<DragClosure> make_drag_closure(const std::string& name, const ClosureParams& params);
 std::unique_ptr<LiftClosure> make_lift_closure(const std::string& name, const ClosureParams& params);
 std::unique_ptr<TorqueClosure> make_torque_closure(const std::string& name, const ClosureParams& params);

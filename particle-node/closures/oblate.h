@@ -46,7 +46,6 @@ double oblate_k90(double lambda);
 class OblateDrag final : public DragClosure {
  public:
   explicit OblateDrag(const ClosureParams& p);
-  std::string name() const override { return "oblate"; }
   double coefficient(const ParticleFlow& flow) const override;
   bool needs_orientation() const override { return true; }
   // f_0 and f_90 at Re (the brackets of C_D,0 and C_D,90).
@@ -62,7 +61,6 @@ class OblateDrag final : public DragClosure {
 class OblateLift final : public LiftClosure {
  public:
   explicit OblateLift(const ClosureParams& p);
-  std::string name() const override { return "oblate"; }
   Vec3 force(const ParticleFlow& flow) const override;
   bool needs_orientation() const override { return true; }
 
@@ -75,7 +73,6 @@ class OblateLift final : public LiftClosure {
 class OblateTorque final : public TorqueClosure {
  public:
   explicit OblateTorque(const ClosureParams& p);
-  std::string name() const override { return "oblate"; }
   Vec3 torque(const ParticleFlow& flow) const override;
   bool needs_orientation() const override { return true; }
 

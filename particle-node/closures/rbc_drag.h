@@ -21,7 +21,6 @@ namespace hemo::particles {
 class RbcFitDrag final : public DragClosure {
  public:
   explicit RbcFitDrag(const ClosureParams& p);
-  std::string name() const override { return "rbc_fit"; }
   double coefficient(const ParticleFlow& flow) const override {
     // Most cells are far inside the Stokes range: no square root for them.
     if (flow.slip.squaredNorm() < stokes_slip_squared_) return beta0_;

@@ -19,7 +19,6 @@ namespace hemo::particles {
 class RbcLift final : public LiftClosure {
  public:
   explicit RbcLift(const ClosureParams& p);
-  std::string name() const override { return "rbc_lift"; }
   Vec3 force(const ParticleFlow& flow) const override;
 
  private:

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// The tables of closures by name. A new closure: its own file, one line here, a test, and its
-// name in the scene's list (common/scene.h).
+// The factories of the closures in table/closure_table.h. A new closure: its own file (CMake
+// picks up closures/*.cpp), its line in the table, its header included here, a test.
 #include "closure.h"
 #include "oblate.h"
 #include "rbc_drag.h"
@@ -8,62 +8,81 @@
 #include "schiller_naumann_drag.h"
 #include "shear_lift.h"
 #include "stokes_drag.h"
+#include "table/closure_table.h"
 
-#include <functional>
+#include <initializer_list>
 #include <map>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
 
 namespace hemo::particles {
+
+// The table's "none": the slot is left empty (no lift, no torque).
+struct NoClosure {};
+
+// Friend of NamedClosure: the one place a closure is given its table name.
+class ClosureRegistry {
+ public:
+  template <class T, class Base>
+  static std::unique_ptr<Base> make(const char* name, const ClosureParams& p) {
+    if constexpr (std::is_same_v<T, NoClosure>) {
+      return nullptr;
+    } else {
+      auto c = std::make_unique<T>(p);
+      c->name_ = name;
+      return c;
+    }
+  }
+};
 
 namespace {
 
 template <class Base>
-using Table = std::map<std::string, std::function<std::unique_ptr<Base>(const ClosureParams&)>>;
+using Factory = std::unique_ptr<Base> (*)(const ClosureParams&);
 
-template <class T, class Base>
-std::unique_ptr<Base> make(const ClosureParams& p) {
-  return std::make_unique<T>(p);
-}
+// In the table's order (for messages), with a map beside it to find a name.
+template <class Base>
+struct Table {
+  std::vector<std::string> names;
+  std::map<std::string, Factory<Base>> factories;
+  Table(std::initializer_list<std::pair<const char*, Factory<Base>>> entries) {
+    for (const auto& [name, f] : entries) {
+      names.push_back(name);
+      factories.emplace(name, f);
+    }
+  }
+};
+
+// A table line as a factory; Base is the slot's closure type, named where the table is expanded.
+#define HEMO_CLOSURE_ENTRY(name, cls) \
+  {name, [](const ClosureParams& p) { return ClosureRegistry::make<cls, Base>(name, p); }},
 
 const Table<DragClosure>& drags() {
-  static const Table<DragClosure> t = {
-      {"stokes", make<StokesDrag, DragClosure>},
-      {"rbc_fit", make<RbcFitDrag, DragClosure>},
-      {"oblate", make<OblateDrag, DragClosure>},
-      {"schiller_naumann", make<SchillerNaumannDrag, DragClosure>},
-  };
+  using Base = DragClosure;
+  static const Table<Base> t = {HEMO_DRAG_CLOSURES(HEMO_CLOSURE_ENTRY)};
   return t;
 }
 const Table<LiftClosure>& lifts() {
-  static const Table<LiftClosure> t = {
-      {"none", [](const ClosureParams&) { return std::unique_ptr<LiftClosure>(); }},
-      {"rbc_lift", make<RbcLift, LiftClosure>},
-      {"oblate", make<OblateLift, LiftClosure>},
-      {"shear_lift", make<ShearLift, LiftClosure>},
-  };
+  using Base = LiftClosure;
+  static const Table<Base> t = {HEMO_LIFT_CLOSURES(HEMO_CLOSURE_ENTRY)};
   return t;
 }
 const Table<TorqueClosure>& torques() {
-  static const Table<TorqueClosure> t = {
-      {"none", [](const ClosureParams&) { return std::unique_ptr<TorqueClosure>(); }},
-      {"oblate", make<OblateTorque, TorqueClosure>},
-  };
+  using Base = TorqueClosure;
+  static const Table<Base> t = {HEMO_TORQUE_CLOSURES(HEMO_CLOSURE_ENTRY)};
   return t;
 }
-
-template <class Base>
-std::vector<std::string> names(const Table<Base>& t) {
-  std::vector<std::string> n;
-  for (const auto& [name, f] : t) n.push_back(name);
-  return n;
-}
+#undef HEMO_CLOSURE_ENTRY
 
 template <class Base>
 std::unique_ptr<Base> find(const Table<Base>& t, const char* kind, const std::string& name, const ClosureParams& p) {
-  const auto it = t.find(name);
-  if (it == t.end()) {
+  const auto it = t.factories.find(name);
+  if (it == t.factories.end()) {
     std::string known;
-    for (const auto& n : names(t)) known += (known.empty() ? "" : ", ") + n;
+    for (const auto& n : t.names) known += (known.empty() ? "" : ", ") + n;
     throw std::invalid_argument(std::string("unknown ") + kind + " closure '" + name + "' (known: " + known + ")");
   }
   return it->second(p);
@@ -71,9 +90,9 @@ std::unique_ptr<Base> find(const Table<Base>& t, const char* kind, const std::st
 
 }  // namespace
 
-std::vector<std::string> drag_closure_names() { return names(drags()); }
-std::vector<std::string> lift_closure_names() { return names(lifts()); }
-std::vector<std::string> torque_closure_names() { return names(torques()); }
+std::vector<std::string> drag_closure_names() { return drags().names; }
+std::vector<std::string> lift_closure_names() { return lifts().names; }
+std::vector<std::string> torque_closure_names() { return torques().names; }
 
 std::unique_ptr<DragClosure> make_drag_closure(const std::string& name, const ClosureParams& p) {
   return find(drags(), "drag", name, p);

@@ -16,7 +16,6 @@ namespace hemo::particles {
 class SchillerNaumannDrag final : public DragClosure {
  public:
   explicit SchillerNaumannDrag(const ClosureParams& p);
-  std::string name() const override { return "schiller_naumann"; }
   double coefficient(const ParticleFlow& flow) const override {
     return stokes_ * (1 + 0.15 * std::pow(params_.reynolds(flow.slip), 0.687));
   }

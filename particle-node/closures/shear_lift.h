@@ -24,7 +24,6 @@ namespace hemo::particles {
 class ShearLift final : public LiftClosure {
  public:
   explicit ShearLift(const ClosureParams& p);
-  std::string name() const override { return "shear_lift"; }
   Vec3 force(const ParticleFlow& flow) const override;
   bool needs_centreline_speed() const override { return true; }
   // C_L at s and Re.

@@ -10,7 +10,6 @@ namespace hemo::particles {
 class StokesDrag final : public DragClosure {
  public:
   explicit StokesDrag(const ClosureParams& p);
-  std::string name() const override { return "stokes"; }
   double coefficient(const ParticleFlow&) const override { return beta_; }
   bool slip_independent() const override { return true; }
 

@@ -55,7 +55,9 @@ TEST(FluidSteadySkip, OneWayRunStopsSolvingOnceSteadyWithTheSameFlow) {
   const auto& solved = ms.at({"fluid", "fluid_solved"});
   for (long k = 1; k <= n; ++k) {
     if (solved.at(k) == 0 && first_skipped < 0) first_skipped = k;
-    if (first_skipped > 0) EXPECT_EQ(solved.at(k), 0) << "once steady, never solved again (step " << k << ")";
+    if (first_skipped > 0) {
+      EXPECT_EQ(solved.at(k), 0) << "once steady, never solved again (step " << k << ")";
+    }
   }
 
   const auto a = read_state(skip.dir + "/state.csv"), b = read_state(every.dir + "/state.csv");

@@ -593,7 +593,9 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
     // Every cause counts the hostile datagrams of that cause: all the single-packet ones, and
     // of the multi-packet ones those LCM could reassemble; none when the kernel lost some.
     auto within = [&](const char* cause, long single, long multi) {
-      if (kernel_drops == 0) EXPECT_GE(got.at(cause), single) << process << ": " << cause;
+      if (kernel_drops == 0) {
+        EXPECT_GE(got.at(cause), single) << process << ": " << cause;
+      }
       EXPECT_LE(got.at(cause), single + multi) << process << ": " << cause;
     };
     within("too short/malformed", want.single.short_or_malformed, want.multi.short_or_malformed);
@@ -601,8 +603,9 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
     within("bad tag", want.single.bad_tag, want.multi.bad_tag);
     // Authentic hostile datagrams (exact replays) are dropped as replays or as older than the
     // process, never accepted (genuine resends may add replays of their own).
-    if (kernel_drops == 0)
+    if (kernel_drops == 0) {
       EXPECT_GE(got.at("replay") + got.at("pre-start"), want.single.authentic) << process;
+    }
   }
   // The monitor lived through it and counted the hostile traffic it saw as drops, not traffic.
   EXPECT_EQ(mon.exit_code, 0) << mon.output;

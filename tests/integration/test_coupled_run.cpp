@@ -47,7 +47,9 @@ void expect_xdmf_matches_h5(const std::string& dir) {
     const std::size_t rows = std::stoul((*it)[1]);
     EXPECT_EQ(rows, s.id.size()) << path;
     const bool quaternion = path.size() > 11 && path.substr(path.size() - 11) == "orientation";
-    if ((*it)[2].matched) EXPECT_EQ(std::stoul((*it)[2]), quaternion ? 4u : 3u) << path;
+    if ((*it)[2].matched) {
+      EXPECT_EQ(std::stoul((*it)[2]), quaternion ? 4u : 3u) << path;
+    }
     ++checked;
   }
   EXPECT_GE(checked, 4 * static_cast<int>(snapshot_names(dir + "/particles.h5").size()));  // + orientation

@@ -63,7 +63,9 @@ TEST(CellPlasma, OneParticleAndItsPlasmaRelaxTogether) {
     EXPECT_NEAR(m * one[0].v.z() + M * plasma.z(), M * u, 1e-12 * M * u) << steps << " steps";
     EXPECT_EQ(one[0].v.x(), 0.0);
     const double error = std::abs(one[0].v.z() - exact) / exact;
-    if (steps == 64) EXPECT_LT(error, 0.01);
+    if (steps == 64) {
+      EXPECT_LT(error, 0.01);
+    }
     if (previous_error > 0) {
       const double order = std::log2(previous_error / error);
       EXPECT_GT(order, 0.8) << steps << " steps";

@@ -48,7 +48,9 @@ TEST(ClosureRegistry, SelectsByNameFromTheScene) {
     if (name == "oblate") p.aspect_ratio = 0.25;
     auto lift = make_lift_closure(name, p);
     EXPECT_EQ(lift == nullptr, name == "none") << name;
-    if (lift) EXPECT_EQ(lift->name(), name);
+    if (lift) {
+      EXPECT_EQ(lift->name(), name);
+    }
   }
   for (const auto& name : hemo::known_torque_closures()) {
     auto p = closure_params(s, scene);

@@ -101,6 +101,8 @@ TEST(DragStepAccuracy, OblatePlateletReleasedAtRestTilted) {
     EXPECT_LT(dv, 1e-5) << ratio;
     // The rotation comes from the start-up transient (slip decaying over ~tau, no rotational
     // damping in the paper's closures): within 10 % up to dt = tau, degrading beyond.
-    if (ratio <= 1) EXPECT_LT(axis, 0.1 * ref.q.angularDistance(start.q)) << ratio;
+    if (ratio <= 1) {
+      EXPECT_LT(axis, 0.1 * ref.q.angularDistance(start.q)) << ratio;
+    }
   }
 }

@@ -387,7 +387,7 @@ TEST(DemEngine, PlateletOrientationTurnsBroadsideAndIsWritten) {
   // A tilted oblate platelet released at rest: the start-up slip (along the flow) turns it
   // toward broadside-on (n along the slip); RBCs keep the identity quaternion.
   Fixture fx(0.02);
-  const double R = 25e-6, L = 100e-6;
+  const double R = 25e-6;
   fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(R, 799 * R / 2)));
   fx.engine.create_particles({{kPlatelet, fx.scene.platelet.diameter, Vec3(5e-6, 0, 20e-6)},
                               {kRbc, fx.scene.rbc.diameter, Vec3(-10e-6, 0, 60e-6)}});
