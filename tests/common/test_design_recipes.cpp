@@ -127,8 +127,11 @@ TEST(DesignRecipes, TheTablesChannelKindsAreTheBuses) {
   for (const auto& list :
        {hemo::channel::heard_by_coordinator(), hemo::channel::heard_by_fluid(), hemo::channel::heard_by_particles()})
     heard.insert(list.begin(), list.end());
-  for (const auto& kind : all)
-    if (kind != hemo::channel::control) EXPECT_TRUE(heard.count(kind)) << kind << " is heard by no process";
+  for (const auto& kind : all) {
+    if (kind != hemo::channel::control) {
+      EXPECT_TRUE(heard.count(kind)) << kind << " is heard by no process";
+    }
+  }
 }
 
 // A CLI command, step 4: every subcommand `hemocosim --help` lists is in README.md's "Using it".
