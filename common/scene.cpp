@@ -65,7 +65,9 @@ class Reader {
   template <class T>
   bool read(const std::string& key, T& out, double scale = 1.0) {
     known_.insert(key);
-    catalogue_.push_back({key, default_text(out, scale)});
+    catalogue_.push_back({key, default_text(out, scale), {}, {}});
+    if (const auto it = bounds().find(key); it != bounds().end())
+      catalogue_.back().rules.push_back(bound_rule(it->second.first, it->second.second));
     auto node = root_.at_path(key);
     if (!node) return false;
     const int line = static_cast<int>(node.node()->source().begin.line);
@@ -116,9 +118,18 @@ class Reader {
     problems_.push_back({key, line, std::move(message), std::move(value)});
   }
   // One problem per key: the first cause found (a value refused as read is not also "must be
-  // positive" with the default it kept).
+  // positive" with the default it kept). The message is also the key's rule in the catalogue:
+  // whether the check passes or not, so that an empty scene lists every rule.
   void check(bool ok, const std::string& key, const std::string& message) {
+    add_rule(key, message);
+    refuse_once(ok, key, message);
+  }
+  // The same without a rule: a refusal that depends on the file, not on the value's range.
+  void refuse_once(bool ok, const std::string& key, const std::string& message) {
     if (!ok && !has_problem(key)) problem(key, line_of(key), message, value_text(key));
+  }
+  void add_names(const std::string& key, const std::vector<std::string>& names) {
+    if (SceneKey* k = entry(key)) k->names = names;
   }
   bool has_problem(const std::string& key) const {
     for (const auto& p : problems_)
@@ -166,11 +177,21 @@ class Reader {
     if (it == bounds().end()) return true;
     const auto [lo, hi] = it->second;
     if (v >= lo && v <= hi) return true;
-    if (lo == -std::numeric_limits<double>::infinity())
-      problem(key, line, fmt::format("must be at most {:g}", hi), value);
-    else
-      problem(key, line, fmt::format("must be in [{:g}, {:g}]", lo, hi), value);
+    problem(key, line, bound_rule(lo, hi), value);
     return false;
+  }
+  static std::string bound_rule(double lo, double hi) {
+    if (lo == -std::numeric_limits<double>::infinity()) return fmt::format("must be at most {:g}", hi);
+    return fmt::format("must be in [{:g}, {:g}]", lo, hi);
+  }
+  SceneKey* entry(const std::string& key) {
+    for (auto it = catalogue_.rbegin(); it != catalogue_.rend(); ++it)
+      if (it->key == key) return &*it;
+    return nullptr;
+  }
+  void add_rule(const std::string& key, const std::string& rule) {
+    SceneKey* k = entry(key);
+    if (k != nullptr && std::find(k->rules.begin(), k->rules.end(), rule) == k->rules.end()) k->rules.push_back(rule);
   }
   static const std::map<std::string, std::pair<double, double>>& bounds() {
     constexpr double ninf = -std::numeric_limits<double>::infinity();
@@ -245,13 +266,14 @@ class Reader {
 
 void read_name(Reader& r, const std::string& key, std::string& out, const std::vector<std::string>& known) {
   r.read(key, out);
+  r.add_names(key, known);
   bool ok = false;
   std::string list;
   for (const auto& k : known) {
     ok |= k == out;
     list += (list.empty() ? "" : ", ") + k;
   }
-  r.check(ok, key, "unknown name '" + out + "' (known: " + list + ")");
+  r.refuse_once(ok, key, "unknown name '" + out + "' (known: " + list + ")");
 }
 
 void read_species(Reader& r, Species& s, bool rbc) {
@@ -548,6 +570,18 @@ Scene load_scene(const std::string& path) {
   return read_scene(parse_scene_file(path), path, unused);
 }
 
+std::string SceneKey::allowed() const {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "one of \"" : ", \"") + n + "\"";
+  for (const auto& r : rules) s += (s.empty() ? "" : "; ") + r;
+  return s;
+}
+
+std::string SceneKey::table_row() const {
+  return fmt::format("| `{}` | {} | {} |", key, default_value.empty() ? "—" : default_value,
+                     allowed().empty() ? "any" : allowed());
+}
+
 std::vector<SceneKey> scene_keys() {
   std::vector<SceneKey> keys;
   toml::table empty;
@@ -594,9 +628,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   // Required, without a default: missing is one problem, not also "must be positive".
   for (auto [key, value] : {std::pair{"vessel.diameter_um", &s.vessel.diameter}, {"vessel.length_um", &s.vessel.length}}) {
     if (!r.read(key, *value, units::um))
-      r.check(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
-    else
-      r.check(*value > 0, key, "must be positive");
+      r.refuse_once(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
+    r.check(*value > 0, key, "must be positive");
   }
 
   r.read("mesh.core_cells", s.mesh.core_cells);

@@ -286,10 +286,18 @@ struct WorkEstimate {
 WorkEstimate estimate_work(const Scene& scene);
 
 // Every key a scene may hold, with its default in the file's units, in reading order
-// (`hemocosim check --keys`; docs/scenes.md is made from it).
+// (`hemocosim check --keys`; docs/scenes.md is made from it). What a key accepts is recorded by
+// the checks that validate it, as they run, so the listing cannot drift from the validation.
 struct SceneKey {
   std::string key;
   std::string default_value;
+  std::vector<std::string> names;  // an enumeration's names, as the validation offers them
+  std::vector<std::string> rules;  // its range and checks, worded as their refusals
+  // One line: one of "a", "b"; must be ...; must be ... ("" when anything of the type goes).
+  std::string allowed() const;
+  // Its row of the table `hemocosim check --keys` prints and docs/scenes.md holds:
+  // | `key` | default | allowed |
+  std::string table_row() const;
 };
 std::vector<SceneKey> scene_keys();
 

@@ -11,8 +11,8 @@
 namespace hemo {
 
 int list_keys_command() {
-  fmt::print("| key | default |\n|---|---|\n");
-  for (const auto& k : scene_keys()) fmt::print("| `{}` | {} |\n", k.key, k.default_value.empty() ? "—" : k.default_value);
+  fmt::print("| key | default | allowed |\n|---|---|---|\n");
+  for (const auto& k : scene_keys()) fmt::print("{}\n", k.table_row());
   return 0;
 }
 

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
   bool list_keys = false;
   check_cmd->add_option("scene", check_scene, "Scene file (TOML)")->check(CLI::ExistingFile);
-  check_cmd->add_flag("--keys", list_keys, "List every scene key with its default instead");
+  check_cmd->add_flag("--keys", list_keys, "List every scene key with its default and the values it allows instead");
 
   hemo::MonitorOptions mon;
   auto* mon_cmd = app.add_subcommand("monitor", "Live view of a run's coupling traffic");

@@ -176,7 +176,9 @@ const PatchInfo& PolyMesh::patch(const std::string& name) const {
   throw std::out_of_range("mesh has no patch " + name);
 }
 
-PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
+namespace {
+
+void check_mesh_request(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
   if (!(vessel.diameter > 0) || !(vessel.length > 0))
     throw std::invalid_argument("vessel diameter and length must be positive");
   if (spec.core_cells < 1 || spec.ring_cells < 1 || spec.axial_cells < 1)
@@ -184,23 +186,30 @@ PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGri
   if (!(shape.core_half_width > 0 && shape.core_half_width < 1 / std::sqrt(2.0)) ||
       !(shape.core_rounding >= 0 && shape.core_rounding <= 1))
     throw std::invalid_argument("O-grid core half-width must be in (0, 1/sqrt 2) R, rounding in [0, 1]");
+}
 
-  const Section sec = make_section(vessel.radius(), spec.core_cells, spec.ring_cells, shape);
-  const int nn = static_cast<int>(sec.nodes.size());
-  const int nq = static_cast<int>(sec.quads.size());
-  const int nz = spec.axial_cells;
-
-  PolyMesh mesh;
-  mesh.n_cells = nq * nz;
-  mesh.points.reserve(static_cast<std::size_t>(nn * (nz + 1)));
+// The section's nodes repeated on nz + 1 layers along the vessel; point (node, layer) is
+// layer * nodes + node.
+void extrude_points(const Section& sec, double length, int nz, PolyMesh& mesh) {
+  mesh.points.reserve(sec.nodes.size() * static_cast<std::size_t>(nz + 1));
   for (int k = 0; k <= nz; ++k) {
-    const double z = (k == nz) ? vessel.length : vessel.length * k / nz;
+    const double z = (k == nz) ? length : length * k / nz;
     for (const auto& n : sec.nodes) mesh.points.push_back({n[0], n[1], z});
   }
-  auto P = [nn](int node, int layer) { return layer * nn + node; };
-  auto cell = [nq](int q, int layer) { return layer * nq + q; };
+}
 
-  // 2D edges: (a, b) in the counter-clockwise order of each quad that has it.
+// An edge (a, b) of the section in the counter-clockwise order of the quad it is taken from.
+using QuadEdge = std::pair<int, std::pair<int, int>>;  // (quad, (a, b))
+
+// How the section's quads meet: per quad, the higher-numbered quads across an edge (with the
+// edge in this quad's order); and the wall edges, sorted.
+struct SectionEdges {
+  std::vector<std::vector<QuadEdge>> upper;
+  std::vector<QuadEdge> wall;
+};
+
+SectionEdges section_edges(const Section& sec) {
+  const int nq = static_cast<int>(sec.quads.size());
   struct EdgeUse {
     int quad, a, b;
   };
@@ -211,52 +220,67 @@ PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGri
       edges[{std::min(a, b), std::max(a, b)}].push_back({q, a, b});
     }
   }
-  // Per quad: the higher-numbered quads across an edge (with the edge in this quad's order),
-  // and the wall edges.
-  std::vector<std::vector<std::pair<int, std::pair<int, int>>>> upper(static_cast<std::size_t>(nq));
-  std::vector<std::pair<int, std::pair<int, int>>> wall_edges;  // (quad, (a, b))
+  SectionEdges out;
+  out.upper.resize(static_cast<std::size_t>(nq));
   for (const auto& [key, uses] : edges) {
     if (uses.size() == 1) {
-      wall_edges.push_back({uses[0].quad, {uses[0].a, uses[0].b}});
+      out.wall.push_back({uses[0].quad, {uses[0].a, uses[0].b}});
     } else if (uses.size() == 2) {
       const EdgeUse& lo = uses[0].quad < uses[1].quad ? uses[0] : uses[1];
       const EdgeUse& hi = uses[0].quad < uses[1].quad ? uses[1] : uses[0];
-      upper[static_cast<std::size_t>(lo.quad)].push_back({hi.quad, {lo.a, lo.b}});
+      out.upper[static_cast<std::size_t>(lo.quad)].push_back({hi.quad, {lo.a, lo.b}});
     } else {
       throw std::logic_error("O-grid edge shared by more than two cells");
     }
   }
-  std::sort(wall_edges.begin(), wall_edges.end());
+  std::sort(out.wall.begin(), out.wall.end());
+  return out;
+}
 
-  // Internal faces, upper-triangular: cell by cell, neighbours in increasing order.
+// Point and cell numbering of the extruded section.
+struct Layers {
+  int nodes, quads;
+  int point(int node, int layer) const { return layer * nodes + node; }
+  int cell(int q, int layer) const { return layer * quads + q; }
+};
+
+// Internal faces, upper-triangular: cell by cell, neighbours in increasing order.
+void add_internal_faces(const Section& sec, const SectionEdges& edges, const Layers& at, int nz, PolyMesh& mesh) {
+  auto P = [&](int node, int layer) { return at.point(node, layer); };
   for (int k = 0; k < nz; ++k) {
-    for (int q = 0; q < nq; ++q) {
+    for (int q = 0; q < at.quads; ++q) {
       std::vector<std::pair<int, std::vector<int>>> faces;  // (neighbour, points)
-      for (const auto& [q2, ab] : upper[static_cast<std::size_t>(q)]) {
+      for (const auto& [q2, ab] : edges.upper[static_cast<std::size_t>(q)]) {
         const auto [a, b] = ab;
-        faces.push_back({cell(q2, k), {P(a, k), P(b, k), P(b, k + 1), P(a, k + 1)}});
+        faces.push_back({at.cell(q2, k), {P(a, k), P(b, k), P(b, k + 1), P(a, k + 1)}});
       }
       if (k + 1 < nz) {
         const auto& n = sec.quads[static_cast<std::size_t>(q)];
-        faces.push_back({cell(q, k + 1), {P(n[0], k + 1), P(n[1], k + 1), P(n[2], k + 1), P(n[3], k + 1)}});
+        faces.push_back({at.cell(q, k + 1), {P(n[0], k + 1), P(n[1], k + 1), P(n[2], k + 1), P(n[3], k + 1)}});
       }
       std::sort(faces.begin(), faces.end());
       for (auto& [nb, pts] : faces) {
         mesh.faces.push_back(std::move(pts));
-        mesh.owner.push_back(cell(q, k));
+        mesh.owner.push_back(at.cell(q, k));
         mesh.neighbour.push_back(nb);
       }
     }
   }
-  // Boundary: the wall, then the cyclic pair. Face i of inlet (z = 0) and face i of outlet
-  // (z = length) are the same quad: same first point, opposite orientation.
-  const double L = vessel.length;
+}
+
+// Boundary: the wall, then the cyclic pair. Face i of inlet (z = 0) and face i of outlet
+// (z = length) are the same quad: same first point, opposite orientation.
+void add_boundary_faces(const Section& sec, const SectionEdges& edges, const Layers& at, int nz, double length,
+                        PolyMesh& mesh) {
+  auto P = [&](int node, int layer) { return at.point(node, layer); };
+  const int nq = at.quads;
+  const double L = length;
   PatchInfo wall{patch_name::wall, "wall", mesh.n_faces(), 0, {}, {0, 0, 0}};
   for (int k = 0; k < nz; ++k) {
-    for (const auto& [q, ab] : wall_edges) {
+    for (const auto& [q, ab] : edges.wall) {
       const auto [a, b] = ab;
       mesh.faces.push_back({P(a, k), P(b, k), P(b, k + 1), P(a, k + 1)});
-      mesh.owner.push_back(cell(q, k));
+      mesh.owner.push_back(at.cell(q, k));
     }
   }
   wall.size = mesh.n_faces() - wall.start;
@@ -264,15 +288,30 @@ PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGri
   for (int q = 0; q < nq; ++q) {
     const auto& n = sec.quads[static_cast<std::size_t>(q)];
     mesh.faces.push_back({P(n[0], 0), P(n[3], 0), P(n[2], 0), P(n[1], 0)});
-    mesh.owner.push_back(cell(q, 0));
+    mesh.owner.push_back(at.cell(q, 0));
   }
   PatchInfo outlet{patch_name::outlet, "cyclic", mesh.n_faces(), nq, patch_name::inlet, {0, 0, -L}};
   for (int q = 0; q < nq; ++q) {
     const auto& n = sec.quads[static_cast<std::size_t>(q)];
     mesh.faces.push_back({P(n[0], nz), P(n[1], nz), P(n[2], nz), P(n[3], nz)});
-    mesh.owner.push_back(cell(q, nz - 1));
+    mesh.owner.push_back(at.cell(q, nz - 1));
   }
   mesh.patches = {wall, inlet, outlet};
+}
+
+}  // namespace
+
+PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
+  check_mesh_request(vessel, spec, shape);
+  const Section sec = make_section(vessel.radius(), spec.core_cells, spec.ring_cells, shape);
+  const Layers at{static_cast<int>(sec.nodes.size()), static_cast<int>(sec.quads.size())};
+  const int nz = spec.axial_cells;
+  PolyMesh mesh;
+  mesh.n_cells = at.quads * nz;
+  extrude_points(sec, vessel.length, nz, mesh);
+  const SectionEdges edges = section_edges(sec);
+  add_internal_faces(sec, edges, at, nz, mesh);
+  add_boundary_faces(sec, edges, at, nz, vessel.length, mesh);
   return mesh;
 }
 

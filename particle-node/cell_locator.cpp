@@ -41,77 +41,34 @@ FaceGeometry face_geometry(const std::vector<Vec3>& pts) {
   throw std::invalid_argument("mesh_t is inconsistent: " + what);
 }
 
-}  // namespace
+// The end of face f's run in face_points.
+int face_end(const mesh_t& mesh, int f) { return f + 1 < mesh.n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points; }
 
-CellLocator::CellLocator(const mesh_t& mesh) {
-  const int n_points = mesh.n_points;
-  const int n_faces = mesh.n_faces;
-  const int n_cells = mesh.n_cells;
-  const int n_internal = mesh.n_internal_faces;
-  if (n_points <= 0 || n_faces <= 0 || n_cells <= 0) bad_mesh("no points, faces or cells");
-  if (static_cast<int>(mesh.points.size()) != n_points ||
-      static_cast<int>(mesh.face_offsets.size()) != n_faces ||
+void check_counts(const mesh_t& mesh) {
+  if (mesh.n_points <= 0 || mesh.n_faces <= 0 || mesh.n_cells <= 0) bad_mesh("no points, faces or cells");
+  if (static_cast<int>(mesh.points.size()) != mesh.n_points ||
+      static_cast<int>(mesh.face_offsets.size()) != mesh.n_faces ||
       static_cast<int>(mesh.face_points.size()) != mesh.n_face_points ||
-      static_cast<int>(mesh.owner.size()) != n_faces ||
-      static_cast<int>(mesh.neighbour.size()) != n_internal || n_internal > n_faces ||
-      static_cast<int>(mesh.cell_centres.size()) != n_cells ||
-      static_cast<int>(mesh.cell_volumes.size()) != n_cells)
+      static_cast<int>(mesh.owner.size()) != mesh.n_faces ||
+      static_cast<int>(mesh.neighbour.size()) != mesh.n_internal_faces || mesh.n_internal_faces > mesh.n_faces ||
+      static_cast<int>(mesh.cell_centres.size()) != mesh.n_cells ||
+      static_cast<int>(mesh.cell_volumes.size()) != mesh.n_cells)
     bad_mesh("array sizes do not match their counts");
+}
 
-  std::vector<Vec3> points(n_points);
-  for (int i = 0; i < n_points; ++i) {
+std::vector<Vec3> read_points(const mesh_t& mesh) {
+  std::vector<Vec3> points(mesh.n_points);
+  for (int i = 0; i < mesh.n_points; ++i) {
     if (mesh.points[i].size() != 3) bad_mesh("a point without 3 coordinates");
     points[i] = Vec3(mesh.points[i][0], mesh.points[i][1], mesh.points[i][2]);
   }
-  centre_.resize(n_cells);
-  volume_.resize(n_cells);
-  for (int c = 0; c < n_cells; ++c) {
-    if (mesh.cell_centres[c].size() != 3) bad_mesh("a cell centre without 3 coordinates");
-    centre_[c] = Vec3(mesh.cell_centres[c][0], mesh.cell_centres[c][1], mesh.cell_centres[c][2]);
-    volume_[c] = mesh.cell_volumes[c];
-    if (!(volume_[c] > 0)) bad_mesh("cell " + std::to_string(c) + " has no positive volume");
-  }
+  return points;
+}
 
-  // Face planes, and for each cell the list of its faces.
-  std::vector<FaceGeometry> faces(n_faces);
-  std::vector<std::vector<int>> cell_faces(n_cells);
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max());
-  Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
-  std::vector<Vec3> cell_lo(n_cells, lo), cell_hi(n_cells, hi);
-  std::vector<Vec3> pts;
-  for (int f = 0; f < n_faces; ++f) {
-    const int start = mesh.face_offsets[f];
-    const int end = f + 1 < n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points;
-    if (start < 0 || end > mesh.n_face_points || end - start < 3)
-      bad_mesh("face " + std::to_string(f) + " has fewer than 3 points or bad offsets");
-    pts.clear();
-    for (int k = start; k < end; ++k) {
-      const int p = mesh.face_points[k];
-      if (p < 0 || p >= n_points) bad_mesh("face " + std::to_string(f) + " names a missing point");
-      pts.push_back(points[p]);
-    }
-    faces[f] = face_geometry(pts);
-    if (!(faces[f].area.norm() > 0)) bad_mesh("face " + std::to_string(f) + " has zero area");
-    const int own = mesh.owner[f];
-    const int nei = f < n_internal ? mesh.neighbour[f] : -1;
-    if (own < 0 || own >= n_cells || (f < n_internal && (nei < 0 || nei >= n_cells)))
-      bad_mesh("face " + std::to_string(f) + " names a missing cell");
-    for (int c : {own, nei}) {
-      if (c < 0) continue;
-      cell_faces[c].push_back(f);
-      for (const auto& p : pts) {
-        cell_lo[c] = cell_lo[c].cwiseMin(p);
-        cell_hi[c] = cell_hi[c].cwiseMax(p);
-      }
-    }
-    for (const auto& p : pts) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-  }
-
-  // Wall faces: boundary faces of patches that are not cyclic (all boundary faces when the
-  // mesh names no patches).
+// Wall faces: boundary faces of patches that are not cyclic (all boundary faces when the
+// mesh names no patches).
+std::vector<char> wall_faces(const mesh_t& mesh) {
+  const int n_faces = mesh.n_faces, n_internal = mesh.n_internal_faces;
   std::vector<char> wall_face(n_faces, 0);
   if (mesh.n_patches > 0 && static_cast<int>(mesh.patch_types.size()) == mesh.n_patches &&
       static_cast<int>(mesh.patch_start.size()) == mesh.n_patches &&
@@ -124,33 +81,121 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   } else {
     for (int f = n_internal; f < n_faces; ++f) wall_face[f] = 1;
   }
+  return wall_face;
+}
 
-  // A wall face leaves a gap to the round vessel only when its corners lie on the vessel's
-  // circle (a chord); other wall faces are taken as the vessel's true boundary.
-  radius_ = mesh.vessel_diameter_m / 2;
-  std::vector<char> on_circle(n_faces, 0);
-  for (int f = n_internal; f < n_faces; ++f) {
-    if (!wall_face[f] || !(radius_ > 0)) continue;
-    const int end = f + 1 < n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points;
+// A wall face leaves a gap to the round vessel only when its corners lie on the vessel's
+// circle (a chord); other wall faces are taken as the vessel's true boundary.
+std::vector<char> chords(const mesh_t& mesh, const std::vector<Vec3>& points, const std::vector<char>& wall_face,
+                         double radius) {
+  std::vector<char> on_circle(mesh.n_faces, 0);
+  for (int f = mesh.n_internal_faces; f < mesh.n_faces; ++f) {
+    if (!wall_face[f] || !(radius > 0)) continue;
+    const int end = face_end(mesh, f);
     bool all = true;
     for (int k = mesh.face_offsets[f]; k < end && all; ++k) {
       const Vec3& p = points[mesh.face_points[k]];
-      all = std::abs(std::hypot(p.x(), p.y()) - radius_) <= 1e-6 * radius_;
+      all = std::abs(std::hypot(p.x(), p.y()) - radius) <= 1e-6 * radius;
     }
     on_circle[f] = all;
   }
+  return on_circle;
+}
 
+}  // namespace
+
+// Every face's geometry, each cell's faces, and the bounding boxes of the cells and the mesh.
+struct CellLocator::Faces {
+  std::vector<FaceGeometry> geometry;
+  std::vector<std::vector<int>> of_cell;
+  std::vector<Vec3> cell_lo, cell_hi;
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max());
+  Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
+};
+
+CellLocator::CellLocator(const mesh_t& mesh) {
+  check_counts(mesh);
+  const std::vector<Vec3> points = read_points(mesh);
+  read_cells(mesh);
+  Faces faces = read_faces(mesh, points);
+  const std::vector<char> wall_face = wall_faces(mesh);
+  radius_ = mesh.vessel_diameter_m / 2;
+  std::vector<char> wall_cell;
+  const std::vector<Vec3> plane_point =
+      build_planes(mesh, faces, wall_face, chords(mesh, points, wall_face, radius_), wall_cell);
+  set_period(mesh, faces.lo, faces.hi);
+  reach_into_wall_gap(wall_cell, faces);
+  build_bins(faces);
+  find_periodic_partners(plane_point);
+}
+
+void CellLocator::read_cells(const mesh_t& mesh) {
+  centre_.resize(mesh.n_cells);
+  volume_.resize(mesh.n_cells);
+  for (int c = 0; c < mesh.n_cells; ++c) {
+    if (mesh.cell_centres[c].size() != 3) bad_mesh("a cell centre without 3 coordinates");
+    centre_[c] = Vec3(mesh.cell_centres[c][0], mesh.cell_centres[c][1], mesh.cell_centres[c][2]);
+    volume_[c] = mesh.cell_volumes[c];
+    if (!(volume_[c] > 0)) bad_mesh("cell " + std::to_string(c) + " has no positive volume");
+  }
+}
+
+CellLocator::Faces CellLocator::read_faces(const mesh_t& mesh, const std::vector<Vec3>& points) {
+  const int n_faces = mesh.n_faces, n_cells = mesh.n_cells, n_internal = mesh.n_internal_faces;
+  Faces faces;
+  faces.geometry.resize(n_faces);
+  faces.of_cell.resize(n_cells);
+  faces.cell_lo.assign(n_cells, faces.lo);
+  faces.cell_hi.assign(n_cells, faces.hi);
+  std::vector<Vec3> pts;
+  for (int f = 0; f < n_faces; ++f) {
+    const int start = mesh.face_offsets[f];
+    const int end = face_end(mesh, f);
+    if (start < 0 || end > mesh.n_face_points || end - start < 3)
+      bad_mesh("face " + std::to_string(f) + " has fewer than 3 points or bad offsets");
+    pts.clear();
+    for (int k = start; k < end; ++k) {
+      const int p = mesh.face_points[k];
+      if (p < 0 || p >= mesh.n_points) bad_mesh("face " + std::to_string(f) + " names a missing point");
+      pts.push_back(points[p]);
+    }
+    faces.geometry[f] = face_geometry(pts);
+    if (!(faces.geometry[f].area.norm() > 0)) bad_mesh("face " + std::to_string(f) + " has zero area");
+    const int own = mesh.owner[f];
+    const int nei = f < n_internal ? mesh.neighbour[f] : -1;
+    if (own < 0 || own >= n_cells || (f < n_internal && (nei < 0 || nei >= n_cells)))
+      bad_mesh("face " + std::to_string(f) + " names a missing cell");
+    for (int c : {own, nei}) {
+      if (c < 0) continue;
+      faces.of_cell[c].push_back(f);
+      for (const auto& p : pts) {
+        faces.cell_lo[c] = faces.cell_lo[c].cwiseMin(p);
+        faces.cell_hi[c] = faces.cell_hi[c].cwiseMax(p);
+      }
+    }
+    for (const auto& p : pts) {
+      faces.lo = faces.lo.cwiseMin(p);
+      faces.hi = faces.hi.cwiseMax(p);
+    }
+  }
+  return faces;
+}
+
+std::vector<Vec3> CellLocator::build_planes(const mesh_t& mesh, const Faces& faces, const std::vector<char>& wall_face,
+                                            const std::vector<char>& on_circle, std::vector<char>& wall_cell) {
+  const int n_cells = mesh.n_cells, n_internal = mesh.n_internal_faces;
   plane_start_.assign(n_cells + 1, 0);
   std::vector<Vec3> plane_point;  // a point on each plane (the face centroid)
-  std::vector<char> wall_cell(n_cells, 0);
+  wall_cell.assign(n_cells, 0);
   tolerance_.resize(n_cells);
   for (int c = 0; c < n_cells; ++c) {
-    if (cell_faces[c].size() < 4) bad_mesh("cell " + std::to_string(c) + " has fewer than 4 faces");
+    if (faces.of_cell[c].size() < 4) bad_mesh("cell " + std::to_string(c) + " has fewer than 4 faces");
     const double h = std::cbrt(volume_[c]);
     tolerance_[c] = 1e-10 * h;
-    for (int f : cell_faces[c]) {
-      const Vec3 n = faces[f].area.normalized();
-      const double side = n.dot(centre_[c] - faces[f].centroid);
+    for (int f : faces.of_cell[c]) {
+      const FaceGeometry& face = faces.geometry[f];
+      const Vec3 n = face.area.normalized();
+      const double side = n.dot(centre_[c] - face.centroid);
       // Outward normal: away from the cell centre. If the centre lies (numerically) on the face
       // plane the cell is degenerate; fall back on OpenFOAM's orientation (out of the owner).
       double sign;
@@ -160,7 +205,7 @@ CellLocator::CellLocator(const mesh_t& mesh) {
         sign = mesh.owner[f] == c ? 1.0 : -1.0;
       Plane plane;
       plane.normal = sign * n;
-      plane.offset = plane.normal.dot(faces[f].centroid);
+      plane.offset = plane.normal.dot(face.centroid);
       plane.across = f < n_internal ? (mesh.owner[f] == c ? mesh.neighbour[f] : mesh.owner[f]) : -1;
       plane.wall = wall_face[f] != 0;
       plane.beyond = plane.across;
@@ -169,35 +214,42 @@ CellLocator::CellLocator(const mesh_t& mesh) {
         plane.gap = std::max(0.0, radius_ * std::hypot(plane.normal.x(), plane.normal.y()) - plane.offset);
       if (plane.gap > 0) wall_cell[c] = 1;
       planes_.push_back(plane);
-      plane_point.push_back(faces[f].centroid);
+      plane_point.push_back(face.centroid);
     }
     plane_start_[c + 1] = static_cast<int>(planes_.size());
   }
+  return plane_point;
+}
 
-  // Periodicity along z.
+void CellLocator::set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi) {
   z0_ = lo.z();
   length_ = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : hi.z() - lo.z();
   if (std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
     bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from vessel_length_m " +
              std::to_string(length_) + " m");
+}
 
+void CellLocator::reach_into_wall_gap(const std::vector<char>& wall_cell, Faces& faces) {
   // The wall gap: how far a point inside the vessel radius can lie behind a wall face.
   for (const Plane& p : planes_) wall_gap_ = std::max(wall_gap_, p.gap);
   // Wall cells reach out to the vessel radius for the gap search.
-  for (int c = 0; c < n_cells; ++c)
+  for (int c = 0; c < n_cells(); ++c)
     if (wall_cell[c]) {
-      cell_lo[c].head<2>() -= Vec3::Constant(wall_gap_).head<2>();
-      cell_hi[c].head<2>() += Vec3::Constant(wall_gap_).head<2>();
+      faces.cell_lo[c].head<2>() -= Vec3::Constant(wall_gap_).head<2>();
+      faces.cell_hi[c].head<2>() += Vec3::Constant(wall_gap_).head<2>();
     }
-  lo.head<2>() -= Vec3::Constant(wall_gap_).head<2>();
-  hi.head<2>() += Vec3::Constant(wall_gap_).head<2>();
+  faces.lo.head<2>() -= Vec3::Constant(wall_gap_).head<2>();
+  faces.hi.head<2>() += Vec3::Constant(wall_gap_).head<2>();
+}
 
+void CellLocator::build_bins(const Faces& faces) {
   // Uniform bins over the mesh's bounding box, about one cell per bin; each bin lists every
   // cell whose bounding box touches it.
-  const Vec3 extent = (hi - lo).cwiseMax(Vec3::Constant(1e-300));
+  const int n_cells = this->n_cells();
+  const Vec3 extent = (faces.hi - faces.lo).cwiseMax(Vec3::Constant(1e-300));
   const double h = std::cbrt(extent.prod() / n_cells);
   for (int d = 0; d < 3; ++d) nbin_[d] = std::max(1, static_cast<int>(std::lround(extent[d] / h)));
-  bin_lo_ = lo;
+  bin_lo_ = faces.lo;
   bin_size_ = Vec3(extent.x() / nbin_[0], extent.y() / nbin_[1], extent.z() / nbin_[2]);
   const int total_bins = nbin_[0] * nbin_[1] * nbin_[2];
   std::vector<std::vector<int>> lists(total_bins);
@@ -208,8 +260,8 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   for (int c = 0; c < n_cells; ++c) {
     int a[3], b[3];
     for (int d = 0; d < 3; ++d) {
-      a[d] = index(cell_lo[c][d] - tolerance_[c], d);
-      b[d] = index(cell_hi[c][d] + tolerance_[c], d);
+      a[d] = index(faces.cell_lo[c][d] - tolerance_[c], d);
+      b[d] = index(faces.cell_hi[c][d] + tolerance_[c], d);
     }
     for (int i = a[0]; i <= b[0]; ++i)
       for (int j = a[1]; j <= b[1]; ++j)
@@ -219,9 +271,11 @@ CellLocator::CellLocator(const mesh_t& mesh) {
   for (int b = 0; b < total_bins; ++b) bin_start_[b + 1] = bin_start_[b] + static_cast<int>(lists[b].size());
   bin_cells_.reserve(bin_start_.back());
   for (auto& l : lists) bin_cells_.insert(bin_cells_.end(), l.begin(), l.end());
+}
 
+void CellLocator::find_periodic_partners(const std::vector<Vec3>& plane_point) {
   // The periodic partner beyond each cyclic face: the cell just across it, after wrapping.
-  for (int c = 0; c < n_cells; ++c)
+  for (int c = 0; c < n_cells(); ++c)
     for (int k = plane_start_[c]; k < plane_start_[c + 1]; ++k) {
       Plane& p = planes_[k];
       if (p.across >= 0 || p.wall) continue;

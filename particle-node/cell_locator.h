@@ -142,6 +142,20 @@ class CellLocator {
   };
 
   double signed_distance(const Plane& p, const Vec3& x) const { return p.normal.dot(x) - p.offset; }
+
+  // The constructor's steps, in order.
+  struct Faces;
+  void read_cells(const mesh_t& mesh);
+  static Faces read_faces(const mesh_t& mesh, const std::vector<Vec3>& points);
+  // The face planes of each cell, their tolerances, which cells have a wall gap; returns a point
+  // on each plane.
+  std::vector<Vec3> build_planes(const mesh_t& mesh, const Faces& faces, const std::vector<char>& wall_face,
+                                 const std::vector<char>& on_circle, std::vector<char>& wall_cell);
+  void set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi);
+  // The deepest wall gap, and the wall cells' boxes widened by it for the bins.
+  void reach_into_wall_gap(const std::vector<char>& wall_cell, Faces& faces);
+  void build_bins(const Faces& faces);
+  void find_periodic_partners(const std::vector<Vec3>& plane_point);
   int bin_of(const Vec3& x) const;
   int search_bins(const Vec3& x) const;
 

@@ -167,8 +167,49 @@ class DemEngine {
   void liggghts(const std::string& line) { command(line); }
 
  private:
+  // ---- set-up and stepping (dem_engine.cpp) ----
+  // The species' closures, orientation integrators, sizes and masses; `physical` is the scene
+  // before dem_scene scaled the masses (the weight stays physical).
+  void set_up_species(const Scene& physical);
+  // The LAMMPS instance and the settings that need no particles yet.
+  void start_liggghts(bool append_log);
+  void command(const std::string& line);
+  // The box, materials, contacts, wall, integrator and our fixes, for the species `used`.
+  void setup_box(const std::array<bool, kSpeciesCount>& used);
+  int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
+  void define_box_and_contacts(int n_types);
+  void find_fixes();
+  double** per_atom(LAMMPS_NS::Fix* fix) const;
+  void start_accumulators(bool carry);
+  // The error of the particle with the smallest id over all ranks, after a run.
+  void note_problem(int tag, std::string what);
+  std::string agree_on_problem();
+  std::string check_lost(long coupling_step);
+  // Per-tag tracking: z unwrapped over periodic crossings, the locate cache.
+  double unwrap_z(int tag, double z);
+  void sync_tracking();
+  // The fluid cell of a particle: exact, else the wall cell whose gap it is in, else -1.
+  int cell_of(int tag, const Vec3& x, bool* in_wall_gap = nullptr);
+
+  // ---- the fluid-force callback and the deposition (dem_fluid_force.cpp) ----
   static void force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
   void on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f);
+  // One force evaluation of a run, the same for every atom.
+  struct ForceStep {
+    std::int64_t ntimestep = 0;
+    double duration = 0;      // how long its force acts in this run (half a step at the run's ends)
+    bool last = false;        // the run's last: its force is kept for the next run's first half kick
+    bool evaluate = false;    // the closures are evaluated (else the held ones apply)
+    bool advance = false;     // the orientations take this step's kick
+    bool drift = false;       // and drift to it first
+    double** held = nullptr;  // the closures held per atom (null: none)
+  };
+  // Atom i's fluid force (into step_forces_, its cell into step_cells_) and its orientation's
+  // kick; `f` zeroed for now.
+  void step_fluid_force(const ForceStep& step, int i, int tag, const double* x, double* f);
+  // The step's fluid forces, after the co-relaxed plasma answered them, onto LIGGGHTS's `f` and
+  // into the impulses.
+  void apply_fluid_forces(const ForceStep& step, int nlocal, double** f);
   // One particle as the force callback sees it.
   struct Particle {
     int tag, species;
@@ -188,21 +229,27 @@ class DemEngine {
   bool holds_closures() const { return closure_every_ > 1 || fluid_force_ != FluidForceUpdate::per_dem_step; }
   // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.
   static void accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last);
+
+  // ---- orientation (dem_orientation.cpp) ----
+  struct Spin {
+    Quat q = Quat::Identity();
+    Vec3 l = Vec3::Zero();  // angular momentum, world frame
+  };
+  // Atom i's orientation at this step: as stored (or as set_orientation asked), drifted from the
+  // step whose kick it took last.
+  Spin spin_at_step(int i, int tag, const OrientationIntegrator& rotation, bool drift) const;
+  // Kicked by the fluid and contact torques (once per step), checked, stored, and its angular
+  // velocity handed to LIGGGHTS.
+  void kick_and_store_spin(const ForceStep& step, int i, int tag, const OrientationIntegrator& rotation, Spin& spin,
+                           const Vec3& fluid_torque);
+  void finish_rotation_step(const ForceStep& step);
+
+  // ---- output (dem_output.cpp) ----
   // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
   double local_max_overlap() const;
-  void command(const std::string& line);
-  void setup_box(const std::array<bool, kSpeciesCount>& used);
-  double unwrap_z(int tag, double z);
-  void sync_tracking();
-  void note_problem(int tag, std::string what);
-  // The fluid cell of a particle: exact, else the wall cell whose gap it is in, else -1.
-  int cell_of(int tag, const Vec3& x, bool* in_wall_gap = nullptr);
-  std::string agree_on_problem();
-  std::string check_lost(long coupling_step);
-  double** per_atom(LAMMPS_NS::Fix* fix);
-  void start_accumulators(bool carry);
 
-  // Checkpoints. A LIGGGHTS set-up without dynamics (`run 0`): periodic wrap, atoms to their
+  // ---- checkpoints (dem_checkpoint.cpp) ----
+  // A LIGGGHTS set-up without dynamics (`run 0`): periodic wrap, atoms to their
   // ranks, ghosts, pair and wall neighbour lists, contact histories onto the new lists. Its
   // forces are thrown away (the callback does nothing meanwhile): the caller puts back what the
   // next run's first half kick needs.

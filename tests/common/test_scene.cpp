@@ -1,13 +1,14 @@
 // Scenes: units are converted once, unknown keys and impossible values are refused with their line.
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "scene.h"
-#include "test_helpers.h"
-#include "units.h"
-
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <map>
 #include <set>
+
+#include "scene.h"
+#include "test_helpers.h"
+#include "units.h"
 
 using namespace hemo;
 
@@ -197,7 +198,8 @@ TEST(Scene, ShippedScenesAreValid) {
   }
 }
 
-// docs/scenes.md lists every key the code reads, with the default the code uses.
+// docs/scenes.md lists every key the code reads, with the default the code uses and the values
+// its validation allows.
 TEST(Scene, DocumentationListsEveryKeyWithItsDefault) {
   std::ifstream in(std::string(HEMO_SCENES_DIR) + "/../docs/scenes.md");
   ASSERT_TRUE(in);
@@ -207,8 +209,70 @@ TEST(Scene, DocumentationListsEveryKeyWithItsDefault) {
   const auto keys = scene_keys();
   ASSERT_GT(keys.size(), 40u);
   for (const auto& k : keys)
-    EXPECT_NE(doc.find("| `" + k.key + "` | " + k.default_value + " |"), std::string::npos)
-        << k.key << " = " << k.default_value << " is not in docs/scenes.md: regenerate with hemocosim check --keys";
+    EXPECT_NE(doc.find(k.table_row() + "\n"), std::string::npos)
+        << k.table_row() << " is not in docs/scenes.md: regenerate with hemocosim check --keys";
+}
+
+// kMinimal's keys, with `key = value` set too (dotted keys, so that any key can join).
+static std::string minimal_with(const std::string& key, const std::string& value) {
+  std::map<std::string, std::string> lines = {
+      {"vessel.diameter_um", "100"}, {"vessel.length_um", "600"}, {"driving.wall_shear_rate_per_s", "799"}};
+  if (key == "driving.pressure_drop_Pa") lines.erase("driving.wall_shear_rate_per_s");
+  lines[key] = value;
+  std::string text;
+  for (const auto& [k, v] : lines) text += k + " = " + v + "\n";
+  return text;
+}
+
+// docs/design.md, "Extending hemocosim": the key listing is the parser's own. Every key it lists
+// is read (a scene giving it its default loads), and any other is refused.
+TEST(SceneKeys, EveryListedKeyIsReadAndAnUnknownOneRefused) {
+  for (const auto& k : scene_keys()) {
+    if (k.default_value.rfind("required", 0) == 0) continue;  // minimal_with gives them
+    const auto ps = problems_of(minimal_with(k.key, k.default_value));
+    EXPECT_TRUE(ps.empty()) << k.key << " = " << k.default_value << ": " << (ps.empty() ? "" : ps[0].message);
+  }
+  const auto ps = problems_of(minimal_with("run.no_such_key", "1"));
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "run.no_such_key");
+  EXPECT_EQ(ps[0].message, "unknown key");
+}
+
+// The names a key lists are the ones its validation offers when a name is wrong.
+TEST(SceneKeys, ListedNamesAreTheValidationsNames) {
+  int enumerations = 0;
+  for (const auto& k : scene_keys()) {
+    if (k.names.empty()) continue;
+    ++enumerations;
+    std::string known;
+    for (const auto& n : k.names) known += (known.empty() ? "" : ", ") + n;
+    const auto ps = problems_of(minimal_with(k.key, "\"no_such_name\""));
+    ASSERT_FALSE(ps.empty()) << k.key;
+    EXPECT_EQ(ps[0].key, k.key);
+    EXPECT_EQ(ps[0].message, "unknown name 'no_such_name' (known: " + known + ")");
+    EXPECT_EQ(k.allowed().rfind("one of \"" + k.names[0] + "\"", 0), 0u) << k.allowed();
+  }
+  EXPECT_GE(enumerations, 10);
+}
+
+// A listed range is the one the validation refuses a value beyond, in the same words.
+TEST(SceneKeys, ListedRangesAreTheValidationsRanges) {
+  int ranges = 0;
+  for (const auto& k : scene_keys()) {
+    for (const auto& rule : k.rules) {
+      const auto at_most = rule.rfind("must be at most ", 0) == 0;
+      const auto in = rule.rfind("must be in [", 0) == 0 && rule.back() == ']';
+      if (!at_most && !in) continue;
+      ++ranges;
+      const double hi = std::stod(rule.substr(at_most ? rule.rfind(' ') + 1 : rule.rfind(", ") + 2));
+      const std::string beyond = fmt::format("{:.0f}", hi + 1);
+      const auto ps = problems_of(minimal_with(k.key, beyond));
+      ASSERT_FALSE(ps.empty()) << k.key << " = " << beyond;
+      EXPECT_EQ(ps[0].key, k.key);
+      EXPECT_EQ(ps[0].message, rule) << k.key << " = " << beyond;
+    }
+  }
+  EXPECT_GE(ranges, 40);
 }
 
 TEST(Scene, MissingRequiredKeyIsOneProblem) {

@@ -150,3 +150,30 @@ TEST(ClosureTable, HemocosimCheckOffersTheRegistrysNames) {
     EXPECT_EQ(known_list(line), slot.registry) << line;
   }
 }
+
+// docs/design.md, "Extending hemocosim": `hemocosim check --keys` lists each closure key with
+// exactly the registry's names (the RBC's rows too: its refusal of "oblate" is a rule beside them).
+TEST(ClosureTable, CheckKeysListsTheRegistrysNames) {
+  const std::string hemocosim = hemo::test::bin("hemocosim");
+  ASSERT_TRUE(std::filesystem::exists(hemocosim)) << hemocosim;
+  const auto r = hemo::test::run("timeout -s KILL 60 " + hemocosim + " check --keys 2>&1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // | `platelet.drag` | "oblate" | one of "oblate", "schiller_naumann", "stokes" |  ->  {oblate, ...}
+  auto listed = [&](const std::string& key) {
+    const auto row = r.output.find("| `" + key + "` |");
+    if (row == std::string::npos) return std::vector<std::string>{};
+    const auto line = r.output.substr(row, r.output.find('\n', row) - row);
+    const auto start = line.find("one of ");
+    if (start == std::string::npos) return std::vector<std::string>{};
+    std::vector<std::string> names;
+    for (auto q = line.find('"', start); q != std::string::npos && q < line.find_first_of(";|", start);
+         q = line.find('"', line.find('"', q + 1) + 1)) {
+      const auto end = line.find('"', q + 1);
+      names.push_back(line.substr(q + 1, end - q - 1));
+    }
+    return names;
+  };
+  for (const auto& slot : slots())
+    for (const std::string species : {"rbc", "platelet"})
+      EXPECT_EQ(listed(species + "." + slot.key), slot.registry) << species << "." << slot.key << "\n" << r.output;
+}

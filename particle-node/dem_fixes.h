@@ -1,0 +1,47 @@
+// The LIGGGHTS fixes DemEngine defines and the per-atom values they carry, and the engine's
+// reductions over ranks. Private to the engine's units (dem_engine.cpp defines the fixes,
+// dem_fluid_force.cpp fills them every DEM step): a column's meaning is spelled once, here.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <mpi.h>
+
+namespace hemo::particles::dem {
+
+constexpr const char* kFluidFix = "hemo_fluid";
+constexpr const char* kImpulseFix = "hemo_impulse";
+constexpr const char* kRotationFix = "hemo_rotation";
+constexpr const char* kClosureFix = "hemo_closures";
+constexpr const char* kWallFix = "hemo_wall";
+// LIGGGHTS's name of the fix property/atom where fix wall/gran keeps a primitive wall's contact
+// history per atom (checkpoints save it).
+constexpr const char* kWallHistoryFix = "history_hemo_wall";
+
+// The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1, or
+// a held coupling.fluid_force). kCell: the fluid cell they were evaluated in (where the
+// co-relaxed plasma answers), which moves with the atom to another rank as the per-tag locate
+// cache does not. kDrag: the drag held as a constant (coupling.fluid_force = "held").
+enum ClosureSlot {
+  kBeta = 0,
+  kRatio = 1,
+  kVelocity = 2,
+  kLift = 5,
+  kTorque = 8,
+  kCell = 11,
+  kDrag = 12,
+  kPressure = 15,
+  kClosureSlots = 18
+};
+constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
+constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
+
+inline double sum_all(double v, MPI_Comm comm) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, comm);
+  return v;
+}
+inline double max_all(double v, MPI_Comm comm) {
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, comm);
+  return v;
+}
+
+}  // namespace hemo::particles::dem

@@ -1,0 +1,135 @@
+// What DemEngine reports between runs (collective): every particle for particles.h5, and the
+// step's diagnostics (see dem_engine.h).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include <atom.h>
+#include <force.h>
+#include <neigh_list.h>
+#include <neighbor.h>
+#include <pair.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "dem_engine.h"
+#include "dem_fixes.h"
+
+namespace hemo::particles {
+
+using namespace dem;
+
+EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
+  EngineDiagnostics d;
+  d.particles = n_particles_;
+  d.outside_mesh = outside_total_;
+  const double core_r = 0.5 * locator_->radius();
+  const int nlocal = lmp_->atom->nlocal;
+  const int* tag = lmp_->atom->tag;
+  double** x = lmp_->atom->x;
+  double** v = lmp_->atom->v;
+  double sums[4] = {0, 0, 0, 0};  // count, particle v_z, fluid u_z, particles in the wall gap
+  double max_speed = 0;
+  for (int i = 0; i < nlocal; ++i) {
+    const Vec3 xi(x[i][0], x[i][1], x[i][2]);
+    max_speed = std::max(max_speed, Vec3(v[i][0], v[i][1], v[i][2]).norm());
+    bool in_gap = false;
+    const int cell = cell_of(tag[i], xi, &in_gap);
+    sums[3] += in_gap;
+    if (cell < 0 || std::hypot(xi.x(), xi.y()) >= core_r) continue;
+    sums[0] += 1;
+    sums[1] += v[i][2];
+    if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_->wrap(xi)).z();
+  }
+  MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
+  d.core_particles = static_cast<long>(sums[0]);
+  d.in_wall_gap = static_cast<long>(sums[3]);
+  if (sums[0] > 0) {
+    d.core_particle_axial_velocity = sums[1] / sums[0];
+    d.core_fluid_axial_velocity = sums[2] / sums[0];
+  }
+  d.max_speed = max_all(max_speed, comm_);
+  d.max_reynolds[0] = max_re_[0];
+  d.max_reynolds[1] = max_re_[1];
+  d.lost = lost_;
+
+  d.max_overlap = max_all(local_max_overlap(), comm_);
+  return d;
+}
+
+double DemEngine::local_max_overlap() const {
+  // The pairs LIGGGHTS keeps for its contacts: every pair that touches is in the neighbour list
+  // (atoms move less than half the skin between builds) and ghosts carry this step's positions,
+  // so one pass over the list finds what measure_overlaps finds with a grid of all particles.
+  // Before the first run there is no list; placement leaves no overlaps (test_placement).
+  const double* r = lmp_->atom->radius;
+  double** x = lmp_->atom->x;
+  const int nlocal = lmp_->atom->nlocal;
+  double worst = 0;
+  for (int i = 0; i < nlocal; ++i)
+    worst = std::max(worst, (std::hypot(x[i][0], x[i][1]) + r[i] - locator_->radius()) / (2 * r[i]));
+  const LAMMPS_NS::NeighList* list = lmp_->force->pair != nullptr ? lmp_->force->pair->list : nullptr;
+  if (list == nullptr || lmp_->neighbor->ncalls == 0) return worst;
+  for (int k = 0; k < list->inum; ++k) {
+    const int i = list->ilist[k];
+    const int* neighbours = list->firstneigh[i];
+    for (int n = 0; n < list->numneigh[i]; ++n) {
+      const int j = neighbours[n] & NEIGHMASK;
+      const double gap =
+          std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
+                    (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]));
+      worst = std::max(worst, (r[i] + r[j] - gap) / (2 * std::min(r[i], r[j])));
+    }
+  }
+  return worst;
+}
+
+ParticleSnapshot DemEngine::snapshot(long step, double time_s) {
+  const std::size_t n = static_cast<std::size_t>(n_particles_);
+  // Per tag: species, position (3), velocity (3), orientation (4); summed over ranks (each atom
+  // on one rank). A tag no rank has (lost) keeps zeros.
+  constexpr int kPer = 11;
+  std::vector<double> buf(kPer * n, 0.0);
+  const int nlocal = lmp_->atom->nlocal;
+  const int* tag = lmp_->atom->tag;
+  const int* type = lmp_->atom->type;
+  double** x = lmp_->atom->x;
+  double** v = lmp_->atom->v;
+  double** rot = per_atom(rotation_fix_);
+  for (int i = 0; i < nlocal; ++i) {
+    const std::size_t k = kPer * static_cast<std::size_t>(tag[i] - 1);
+    const int sp = species_of_type_[type[i]];
+    buf[k] = sp;
+    buf[k + 1] = x[i][0];
+    buf[k + 2] = x[i][1];
+    buf[k + 3] = unwrap_z(tag[i], x[i][2]);
+    buf[k + 4] = v[i][0];
+    buf[k + 5] = v[i][1];
+    buf[k + 6] = v[i][2];
+    if (rotation_[sp])
+      for (int d = 0; d < 4; ++d) buf[k + 7 + d] = rot[i][d];
+    else
+      buf[k + 7] = 1;
+  }
+  int size = 1;
+  MPI_Comm_size(comm_, &size);
+  if (size > 1) MPI_Allreduce(MPI_IN_PLACE, buf.data(), static_cast<int>(buf.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  ParticleSnapshot s;
+  s.step = step;
+  s.time_s = time_s;
+  s.id.resize(n);
+  s.species.resize(n);
+  s.position.resize(3 * n);
+  s.velocity.resize(3 * n);
+  s.orientation.resize(4 * n);
+  for (std::size_t t = 0; t < n; ++t) {
+    s.id[t] = static_cast<std::int64_t>(t + 1);
+    s.species[t] = static_cast<std::int8_t>(buf[kPer * t]);
+    for (int d = 0; d < 3; ++d) {
+      s.position[3 * t + d] = buf[kPer * t + 1 + d];
+      s.velocity[3 * t + d] = buf[kPer * t + 4 + d];
+    }
+    for (int d = 0; d < 4; ++d) s.orientation[4 * t + d] = buf[kPer * t + 7 + d];
+  }
+  return s;
+}
+
+}  // namespace hemo::particles
