@@ -61,7 +61,8 @@ void MonitorStats::message(const std::string& kind, const std::string& sender, s
   if (resendable(kind) && !seen_.insert({kind, sender, step}).second) ++repeats_;
   if (sent_unix_ns > 0 && received_unix_us > 0) {
     auto& l = latency_[kind];
-    const double ms = (double(received_unix_us) * 1e3 - double(sent_unix_ns)) * 1e-6;
+    // In integers first: as doubles, nanoseconds since 1970 keep only about 256 ns.
+    const double ms = double(received_unix_us * 1000 - sent_unix_ns) * 1e-6;
     l.max_ms = l.n ? std::max(l.max_ms, ms) : ms;
     ++l.n;
     l.sum_ms += ms;
