@@ -1,39 +1,34 @@
 // hemocosim monitor: a live view of a run's coupling traffic, as a table, JSON lines or a page
 // with time plots (issue #23). What it shows is computed in monitor_stats.h.
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include <fmt/format.h>
+#include <httplib.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <hemo/heartbeat_t.hpp>
+#include <hemo/step_done_t.hpp>
+#include <hemo/step_order_t.hpp>
+#include <map>
+#include <mutex>
+#include <thread>
+
 #include "commands.h"
 #include "monitor_page.h"
 #include "monitor_stats.h"
 #include "run_directory.h"
 #include "scene.h"
 
-#include <hemo/heartbeat_t.hpp>
-#include <hemo/step_done_t.hpp>
-#include <hemo/step_order_t.hpp>
-
-#include <fmt/format.h>
-#include <httplib.h>
-
-#include <chrono>
-#include <csignal>
-#include <cstdio>
-#include <deque>
-#include <map>
-#include <mutex>
-#include <thread>
-#include <unistd.h>
-
 namespace hemo {
 
 namespace {
 volatile std::sig_atomic_t stop_monitor = 0;
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 ProcessCounts counts_of(const heartbeat_t& hb) {
   return {hb.accepted,          hb.rejected_short,  hb.rejected_foreign,    hb.rejected_auth,
@@ -41,8 +36,8 @@ ProcessCounts counts_of(const heartbeat_t& hb) {
 }
 
 ProcessCounts counts_of(const BusCounters& k) {
-  return {static_cast<std::int64_t>(k.accepted),         static_cast<std::int64_t>(k.rejected_short),
-          static_cast<std::int64_t>(k.rejected_foreign), static_cast<std::int64_t>(k.rejected_auth),
+  return {static_cast<std::int64_t>(k.accepted),          static_cast<std::int64_t>(k.rejected_short),
+          static_cast<std::int64_t>(k.rejected_foreign),  static_cast<std::int64_t>(k.rejected_auth),
           static_cast<std::int64_t>(k.rejected_prestart), static_cast<std::int64_t>(k.rejected_replay),
           static_cast<std::int64_t>(k.rejected_corrupt)};
 }
@@ -98,8 +93,8 @@ class PageServer {
     });
     port_ = port == 0 ? server_.bind_to_any_port(bind) : (server_.bind_to_port(bind, port) ? port : -1);
     if (port_ <= 0)
-      throw std::runtime_error(fmt::format("cannot serve the monitor's page on {}:{} (address in use or not ours?)",
-                                           bind, port));
+      throw std::runtime_error(
+          fmt::format("cannot serve the monitor's page on {}:{} (address in use or not ours?)", bind, port));
     thread_ = std::thread([this] { server_.listen_after_bind(); });
   }
   ~PageServer() {

@@ -242,16 +242,16 @@ std::string duration(double s) {
 std::string counts_row(const std::string& who, const json& c) {
   const auto& r = c["rejected"];
   return fmt::format("{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", who, c["accepted"].get<long>(),
-                     r["short"].get<long>(), r["foreign"].get<long>(), r["auth"].get<long>(),
-                     r["prestart"].get<long>(), r["replay"].get<long>(), r["undecodable"].get<long>());
+                     r["short"].get<long>(), r["foreign"].get<long>(), r["auth"].get<long>(), r["prestart"].get<long>(),
+                     r["replay"].get<long>(), r["undecodable"].get<long>());
 }
 }  // namespace
 
 std::string format_monitor_table(const json& row, const std::string& lcm_url) {
   std::string out;
   const auto total = row["total_steps"];
-  out += fmt::format("run {}  bus {}  step {}{}  t = {:.6g} s  (monitoring {:.0f} s)\n", row["run_id"].get<std::string>(),
-                     lcm_url, row["completed_step"].get<long>(),
+  out += fmt::format("run {}  bus {}  step {}{}  t = {:.6g} s  (monitoring {:.0f} s)\n",
+                     row["run_id"].get<std::string>(), lcm_url, row["completed_step"].get<long>(),
                      total.is_number() ? fmt::format(" of {}", total.get<long>()) : std::string(),
                      row["time_s"].get<double>(), row["elapsed_s"].get<double>());
   const auto& eta = row["eta_s"];
@@ -261,23 +261,22 @@ std::string format_monitor_table(const json& row, const std::string& lcm_url) {
                      "bytes/msg", "last step", "sender");
   for (const auto& [name, c] : row["channels"].items())
     out += fmt::format("{:<20} {:>10} {:>10.1f} {:>12.0f} {:>12.0f} {:>10}  {}\n", name, c["msgs"].get<long>(),
-                       c["msgs_per_s"].get<double>(), c["bytes_per_s"].get<double>(),
-                       c["bytes_per_msg"].get<double>(), c["last_step"].get<long>(),
-                       c["last_sender"].get<std::string>());
+                       c["msgs_per_s"].get<double>(), c["bytes_per_s"].get<double>(), c["bytes_per_msg"].get<double>(),
+                       c["last_step"].get<long>(), c["last_sender"].get<std::string>());
   out += "latency, publish to receipt here (ms; across hosts as good as the clocks' agreement)\n";
   out += fmt::format("{:<20} {:<22} {:>6} {:>9} {:>9}\n", "channel", "direction", "msgs", "mean", "max");
   for (const auto& [name, l] : row["latency_ms"].items())
-    out += fmt::format("{:<20} {:<22} {:>6} {:>9} {:>9}\n", name, l["from_to"].get<std::string>(),
-                       l["n"].get<long>(), num(l["mean"], "{:.3f}"), num(l["max"], "{:.3f}"));
+    out += fmt::format("{:<20} {:<22} {:>6} {:>9} {:>9}\n", name, l["from_to"].get<std::string>(), l["n"].get<long>(),
+                       num(l["mean"], "{:.3f}"), num(l["max"], "{:.3f}"));
   out += fmt::format("{:<20} {:>10} {:>12} {:>12}\n", "node", "step", "compute s", "wait s");
   for (const auto& [name, n] : row["nodes"].items())
     out += fmt::format("{:<20} {:>10} {:>12} {:>12}{}\n", name, n["step"].get<long>(), num(n["compute_s"], "{:.4g}"),
                        num(n["wait_s"], "{:.4g}"), n.contains("error") ? "  failed" : "");
   out += "nodes:";
   for (const auto& [sender, p] : row["processes"].items())
-    out += fmt::format("  {} {}", sender,
-                       p["alive"].get<bool>() ? std::string("alive")
-                                              : fmt::format("silent {:.0f} s", p["silent_s"].get<double>()));
+    out += fmt::format(
+        "  {} {}", sender,
+        p["alive"].get<bool>() ? std::string("alive") : fmt::format("silent {:.0f} s", p["silent_s"].get<double>()));
   // What each process dropped (from its heartbeat), and the monitor itself: only accepted
   // messages are in the tables above (replays and recordings from before it started are not).
   out += fmt::format("\n{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", "dropped by", "accepted", "short",
@@ -286,9 +285,9 @@ std::string format_monitor_table(const json& row, const std::string& lcm_url) {
     if (p["counts_known"].get<bool>()) out += counts_row(sender, p);
   if (row.contains("monitor")) out += counts_row("(this monitor)", row["monitor"]);
   const auto& r = row["resends"];
-  out += fmt::format("resend requests seen {} ({} in this interval); messages seen again {}\n",
-                     r["requests"].get<long>(), r["requests_in_interval"].get<long>(),
-                     r["repeated_messages"].get<long>());
+  out +=
+      fmt::format("resend requests seen {} ({} in this interval); messages seen again {}\n", r["requests"].get<long>(),
+                  r["requests_in_interval"].get<long>(), r["repeated_messages"].get<long>());
   for (const auto& [name, n] : row["nodes"].items())
     if (n.contains("error")) out += fmt::format("{} reported: {}\n", name, n["error"].get<std::string>());
   return out;

@@ -8,11 +8,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
@@ -25,8 +24,8 @@ namespace hemo {
 // A process's bus counters as its heartbeat carries them (heartbeat_t).
 struct ProcessCounts {
   std::int64_t accepted = 0;
-  std::int64_t rejected_short = 0, rejected_foreign = 0, rejected_auth = 0, rejected_prestart = 0,
-               rejected_replay = 0, rejected_undecodable = 0;
+  std::int64_t rejected_short = 0, rejected_foreign = 0, rejected_auth = 0, rejected_prestart = 0, rejected_replay = 0,
+               rejected_undecodable = 0;
 };
 
 // The four exchanges of a coupling step and which way each goes; the latency is kept per channel.

@@ -1,11 +1,11 @@
 // The monitor's bookkeeping without a run (issue #23): latency per direction, compute and wait,
 // rate and ETA, bytes/s, resends and rejection counts, as the JSON row and the table show them.
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "monitor_stats.h"
-
 #include <gtest/gtest.h>
 
 #include <regex>
+
+#include "monitor_stats.h"
 
 using namespace hemo;
 using nlohmann::json;
@@ -93,7 +93,7 @@ TEST(MonitorStats, DiagnosticsAreTheLatestStepsAndAFailureIsShown) {
   EXPECT_EQ(d["step"], 2);
   EXPECT_DOUBLE_EQ(d["values"]["courant_max"].get<double>(), 0.4);
   EXPECT_FALSE(d["values"].contains("momentum_budget_residual_z_N"));  // not sent with step 2
-  EXPECT_TRUE(d["values"]["bad"].is_null());                          // NaN is no JSON number
+  EXPECT_TRUE(d["values"]["bad"].is_null());                           // NaN is no JSON number
   EXPECT_EQ(row["nodes"]["particles"]["ok"], false);
   EXPECT_EQ(row["nodes"]["particles"]["error"], "a particle left the mesh");
   EXPECT_NE(format_monitor_table(row, "udpm://x").find("particles reported: a particle left the mesh"),
@@ -186,9 +186,9 @@ TEST(MonitorStats, BytesPerSecondResendsAndRejections) {
 TEST(MonitorStats, EveryDocumentedKeyIsInTheRow) {
   MonitorStats s("run1", 10);
   const auto row = json::parse(s.close_interval(1, 1).dump());
-  for (const char* key : {"schema", "run_id", "unix_time_s", "elapsed_s", "interval_s", "ordered_step", "completed_step",
-                          "total_steps", "time_s", "steps_per_s", "steps_per_s_smoothed", "eta_s", "latency_ms",
-                          "channels", "nodes", "diagnostics", "resends", "processes"})
+  for (const char* key : {"schema", "run_id", "unix_time_s", "elapsed_s", "interval_s", "ordered_step",
+                          "completed_step", "total_steps", "time_s", "steps_per_s", "steps_per_s_smoothed", "eta_s",
+                          "latency_ms", "channels", "nodes", "diagnostics", "resends", "processes"})
     EXPECT_TRUE(row.contains(key)) << key;
   EXPECT_EQ(row["schema"], kMonitorSchema);
 }

@@ -2,23 +2,21 @@
 // the run wrote, its live page drawn by a real headless browser (Debian's chromium), and a run's
 // traffic recorded by lcm-logger and played back at a monitor, which refuses it.
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "run_helpers.h"
-
-#include <nlohmann/json.hpp>
-
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 #include <thread>
 
 #include "bus.h"
+#include "run_helpers.h"
 
 using namespace hemo::test;
 using nlohmann::json;
@@ -65,7 +63,8 @@ struct LiveRun {
   std::future<CommandResult> result;
   explicit LiveRun(const std::string& name, long steps, const std::string& run_keys = "") : dir(fresh_run_dir(name)) {
     std::ofstream(dir + ".toml") << small_scene_text(steps, run_keys);
-    result = std::async(std::launch::async, [d = dir] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d); });
+    result =
+        std::async(std::launch::async, [d = dir] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d); });
     for (int i = 0; i < 1200 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
@@ -91,8 +90,9 @@ std::string chromium() {
 
 // Chromium without a sandbox (tests may run as root) and with a profile of its own.
 std::string chromium_command(const std::string& profile, const std::string& what, const std::string& url) {
-  return "timeout 120 " + chromium() + " --headless=new --no-sandbox --disable-gpu --no-first-run --user-data-dir=" +
-         profile + " --window-size=1400,1250 --virtual-time-budget=6000 " + what + " " + url;
+  return "timeout 120 " + chromium() +
+         " --headless=new --no-sandbox --disable-gpu --no-first-run --user-data-dir=" + profile +
+         " --window-size=1400,1250 --virtual-time-budget=6000 " + what + " " + url;
 }
 
 long attribute(const std::string& dom, const std::string& pattern) {
@@ -109,8 +109,8 @@ TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
   LiveRun r("monitor-json", steps, "drop_every = 7\n");
   ASSERT_TRUE(std::filesystem::exists(r.dir + "/metrics.csv"));
   // stdout only: the JSON lines, nothing else.
-  const auto mon = run("(" + bin("hemocosim") + " monitor " + r.dir + " --json --interval 0.5 --duration 8 2> " + r.dir +
-                       "-monitor.err)");
+  const auto mon = run("(" + bin("hemocosim") + " monitor " + r.dir + " --json --interval 0.5 --duration 8 2> " +
+                       r.dir + "-monitor.err)");
   r.interrupt();
   const auto ran = r.result.get();
   ASSERT_EQ(mon.exit_code, 0) << mon.output;
@@ -223,8 +223,8 @@ TEST(Monitor, LivePageDrawsTheRunInAHeadlessBrowser) {
   EXPECT_LE(step, final_step) << live.output;
   // Every plot drew points, the run's physical diagnostics among them.
   EXPECT_EQ(attribute(live.output, "<body[^>]* data-plots-with-data=\"([0-9]+)\""), 10) << live.output;
-  for (const char* plot : {"latency", "compute", "rate", "bytes", "rejections", "resends", "courant", "overlap",
-                           "velocity", "momentum"})
+  for (const char* plot :
+       {"latency", "compute", "rate", "bytes", "rejections", "resends", "courant", "overlap", "velocity", "momentum"})
     EXPECT_GT(attribute(live.output, std::string("id=\"plot-") + plot + "\" data-points=\"([0-9]+)\""), 0) << plot;
   // The screenshot is a picture (docs/figures/monitor.png is one of these).
   ASSERT_TRUE(std::filesystem::exists(shot)) << png.output;
@@ -250,7 +250,8 @@ TEST(Monitor, LcmLoggerRecordsARunAndAPlayedBackRecordingIsRefused) {
   const std::string dir = fresh_run_dir("logged");
   std::ofstream(dir + ".toml") << small_scene_text(30);
   // The run's bus is known once run.toml exists: the logger starts then, the nodes a moment later.
-  auto ran = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  auto ran =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/run.toml"); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(std::filesystem::exists(dir + "/run.toml"));
