@@ -373,16 +373,19 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   for (const auto& msg : batch) {
     if (msg.kind == channel::resend) {
       const auto req = msg.as<resend_request_t>();  // decoded on arrival
-      auto kind = kept_.find(req.channel);
-      if (kind == kept_.end()) continue;
-      auto it = kind->second.find(req.wanted_step);
-      if (it == kind->second.end()) continue;
-      // Publish the same content again with a fresh sequence number and tag.
-      auto buf = it->second;
-      write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
-      publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
-      count(&BusCounters::resent);
-      continue;
+      const auto kind = kept_.find(req.channel);
+      if (kind != kept_.end()) {
+        const auto it = kind->second.find(req.wanted_step);
+        if (it != kind->second.end()) {
+          // Publish the same content again with a fresh sequence number and tag.
+          auto buf = it->second;
+          write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
+          publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
+          count(&BusCounters::resent);
+          continue;
+        }
+      }
+      // Someone else's to answer: passed on like any message (the monitor counts them).
     }
     on_message(msg);
     ++handled;

@@ -122,6 +122,27 @@ TEST(Bus, KeptMessageIsPublishedAgainOnRequest) {
   EXPECT_EQ(alice.counters().resent, 1u);
 }
 
+// A request is answered by the bus that kept the message and passed on by every other (so that
+// `hemocosim monitor` sees the requests; it used to swallow them and always showed 0).
+TEST(Bus, ARequestSomeoneElseKeepsIsPassedOn) {
+  auto ctx = test::make_context("passon");
+  Bus alice(ctx, "alice"), bob(ctx, "bob"), carol(ctx, "carol");
+  step_order_t o{};
+  alice.publish(channel::step, o, 5, /*keep=*/true);
+  collect(bob, 1, 1);
+  collect(carol, 1, 1);
+  bob.request_resend(channel::step, 5);
+  const auto at_alice = collect(alice, 1, 1);
+  EXPECT_TRUE(at_alice.empty());  // answered, not handed to alice's code
+  EXPECT_EQ(alice.counters().resent, 1u);
+  const auto at_carol = collect(carol, 2, 2);
+  ASSERT_EQ(at_carol.size(), 2u);
+  EXPECT_EQ(at_carol[0].kind, channel::resend);
+  EXPECT_EQ(at_carol[0].envelope.sender, "bob");
+  EXPECT_EQ(at_carol[1].kind, channel::step);  // and the answer
+  EXPECT_EQ(carol.counters().resent, 0u);
+}
+
 namespace {
 std::int64_t unix_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())

@@ -55,9 +55,15 @@ struct Background {
   void signal(int sig) const {
     if (pid > 0) kill(static_cast<pid_t>(pid), sig);
   }
+  ~Background() {
+    if (!done.valid()) return;
+    signal(SIGINT);
+    done.wait();
+  }
 };
 
-// The run, started in the background once its metrics exist (the nodes are up).
+// The run, started in the background; the constructor returns once the nodes have reported a
+// step (metrics.csv has rows: about 60 a step), so a monitor started then sees steps at once.
 struct LiveRun {
   std::string dir;
   std::future<CommandResult> result;
@@ -65,8 +71,19 @@ struct LiveRun {
     std::ofstream(dir + ".toml") << small_scene_text(steps, run_keys);
     result =
         std::async(std::launch::async, [d = dir] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d); });
-    for (int i = 0; i < 1200 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    for (int i = 0; i < 1200; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      std::ifstream m(dir + "/metrics.csv");
+      int lines = 0;
+      for (std::string line; std::getline(m, line);) ++lines;
+      if (lines > 100) break;
+    }
+  }
+  // A test that stops early must not leave the run going (nor wait for its 100,000 steps).
+  ~LiveRun() {
+    if (!result.valid()) return;
+    interrupt();
+    result.wait();
   }
   void interrupt() const {
     long pid = 0;
@@ -105,7 +122,7 @@ long attribute(const std::string& dom, const std::string& pattern) {
 // A real run with every 7th received message dropped (the nodes ask again): the monitor's JSON
 // lines parse, and carry what the run itself wrote to metrics.csv.
 TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
-  const long steps = 400;
+  const long steps = 5000;
   LiveRun r("monitor-json", steps, "drop_every = 7\n");
   ASSERT_TRUE(std::filesystem::exists(r.dir + "/metrics.csv"));
   // stdout only: the JSON lines, nothing else.
