@@ -3,6 +3,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <fmt/format.h>
 #include <httplib.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -119,6 +121,9 @@ long scene_steps(const std::string& scene_copy) {
 }  // namespace
 
 int monitor_command(const MonitorOptions& opt) {
+  // stdout is the view (with --json, a script's input); the bus's warnings and its closing
+  // count of drops go to stderr.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("monitor"));
   RunContext ctx;
   long total = opt.total_steps;
   if (!opt.run_dir.empty()) {

@@ -310,6 +310,9 @@ TEST(Monitor, LcmLoggerRecordsARunAndAPlayedBackRecordingIsRefused) {
   EXPECT_EQ(authentic, events);
 
   // Played back (fast) at a monitor of the run: nothing accepted, everything refused as pre-start.
+  // A listener allows 1 s of clock skew between hosts (kClockSkewAllowanceUs): a recording
+  // younger than that when it starts would pass; this one is older.
+  std::this_thread::sleep_for(std::chrono::microseconds(hemo::kClockSkewAllowanceUs + 1'000'000));
   Background monitor(bin("hemocosim") + " monitor " + dir + " --json --interval 0.5", dir + "-replay");
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   const auto played = run("lcm-logplayer --speed=10 --lcm-url='" + url + "' " + log);
