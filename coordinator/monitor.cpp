@@ -98,6 +98,9 @@ class PageServer {
       throw std::runtime_error(
           fmt::format("cannot serve the monitor's page on {}:{} (address in use or not ours?)", bind, port));
     thread_ = std::thread([this] { server_.listen_after_bind(); });
+    // stop() does nothing to a server that is not listening yet, and the join would then wait for
+    // ever: a monitor told to stop at once must find it listening.
+    for (int i = 0; i < 2000 && !server_.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   ~PageServer() {
     server_.stop();
