@@ -38,6 +38,11 @@ std::int64_t wall_clock_us() {
       .count();
 }
 
+std::int64_t wall_clock_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 // Sequence numbers are the wall clock in microseconds, and strictly increasing: a restarted
 // process never reuses a number its predecessor sent (receivers would take it for a replay),
 // and a receiver refuses what was sent before it listened (bus.h, kClockSkewAllowanceUs).
@@ -105,10 +110,11 @@ std::optional<RawEnvelope> parse_envelope(const std::uint8_t* buf, std::size_t l
       field->assign(reinterpret_cast<const char*>(buf + pos), static_cast<std::size_t>(n) - 1);
       pos += static_cast<std::size_t>(n);
     }
-    if (len - pos < 16 + kTagBytes) return std::nullopt;
+    if (len - pos < 24 + kTagBytes) return std::nullopt;
     raw.envelope.step = read_be64(buf + pos);
     raw.envelope.seq = read_be64(buf + pos + 8);
-    pos += 16;
+    raw.envelope.sent_unix_ns = read_be64(buf + pos + 16);
+    pos += 24;
     raw.tag_offset = pos;
     std::memcpy(raw.envelope.tag, buf + pos, kTagBytes);
     return raw;
@@ -148,6 +154,14 @@ void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secre
   const auto off = tag_offset(buf.data(), buf.size());
   const auto tag = compute_tag(buf.data(), buf.size(), off, secret);
   std::memcpy(buf.data() + off, tag.data(), kTagBytes);
+}
+
+// The send time is written into the encoded bytes rather than set before encoding: a large
+// message takes a while to encode, and that is the sender's work, not the exchange's latency.
+void stamp_and_sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+  const auto off = tag_offset(buf.data(), buf.size());
+  write_be64(buf.data() + off - 8, wall_clock_ns());
+  sign(buf, secret);
 }
 
 bool verify(const std::uint8_t* buf, std::size_t len, const std::vector<std::uint8_t>& secret) noexcept {
@@ -274,7 +288,7 @@ void Bus::log_counters(bool even_if_clean) {
 }
 
 void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
-  sign(buf, ctx_.secret);
+  stamp_and_sign(buf, ctx_.secret);
   {
     std::lock_guard<std::mutex> lock(publish_mutex_);
     lcm_.publish(topic(kind), buf.data(), static_cast<unsigned>(buf.size()));
@@ -311,14 +325,14 @@ bool Bus::accept_seq(const std::string& sender, std::int64_t seq) {
 // lcm_ringbuf_dealloc; issue #21).
 void Bus::on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
   try {
-    handle_raw(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, chan);
+    handle_raw(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, chan, rbuf->recv_utime);
   } catch (...) {
     count(&BusCounters::rejected_corrupt);
   }
 }
 
 // Every check on the raw bytes first; only an authentic, fresh message is decoded.
-void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::string& chan) {
+void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::string& chan, std::int64_t recv_utime) {
   count(&BusCounters::received);
   auto raw = parse_envelope(data, len);
   if (!raw) return count(&BusCounters::rejected_short);
@@ -337,6 +351,7 @@ void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::strin
   if (!decoded) return count(&BusCounters::rejected_corrupt);
   msg.decoded = std::move(decoded);
   msg.decoded_type = type;
+  msg.received_unix_us = recv_utime;
   count(&BusCounters::accepted);
   inbox_.push_back(std::move(msg));
 }
@@ -358,16 +373,19 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   for (const auto& msg : batch) {
     if (msg.kind == channel::resend) {
       const auto req = msg.as<resend_request_t>();  // decoded on arrival
-      auto kind = kept_.find(req.channel);
-      if (kind == kept_.end()) continue;
-      auto it = kind->second.find(req.wanted_step);
-      if (it == kind->second.end()) continue;
-      // Publish the same content again with a fresh sequence number and tag.
-      auto buf = it->second;
-      write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 8, next_seq());
-      publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
-      count(&BusCounters::resent);
-      continue;
+      const auto kind = kept_.find(req.channel);
+      if (kind != kept_.end()) {
+        const auto it = kind->second.find(req.wanted_step);
+        if (it != kind->second.end()) {
+          // Publish the same content again with a fresh sequence number and tag.
+          auto buf = it->second;
+          write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
+          publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
+          count(&BusCounters::resent);
+          continue;
+        }
+      }
+      // Someone else's to answer: passed on like any message (the monitor counts them).
     }
     on_message(msg);
     ++handled;
@@ -402,6 +420,7 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       hb.envelope.sender = sender;
       hb.envelope.step = -1;
       hb.envelope.seq = Bus::next_seq();
+      hb.envelope.sent_unix_ns = 0;
       std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
       hb.uptime_s = std::chrono::duration<double>(Clock::now() - start).count();
       if (counters) {
@@ -419,7 +438,7 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       }
       std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
       hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      sign(buf, ctx.secret);
+      stamp_and_sign(buf, ctx.secret);
       if (lcm.good()) lcm.publish(ctx.run_id + "/" + channel::heartbeat, buf.data(), static_cast<unsigned>(buf.size()));
       for (double t = 0; t < period_s && !impl_->stop.load(); t += 0.05)
         std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -109,6 +109,10 @@ struct Received {
   // is a complete Received (-Wmissing-field-initializers).
   std::shared_ptr<const void> decoded = nullptr;
   std::type_index decoded_type = typeid(void);
+  // When this host received it (LCM's receive time: the kernel's timestamp of the datagram, the
+  // last one of a fragmented message; wall clock, µs). With envelope.sent_unix_ns it gives the
+  // exchange's latency, meaningful across hosts only as far as their clocks agree.
+  std::int64_t received_unix_us = 0;
 
   template <class Msg>
   Msg as() const {
@@ -148,6 +152,7 @@ class Bus {
     msg.envelope.step = step;
     std::vector<std::uint8_t> buf;
     msg.envelope.seq = next_seq();
+    msg.envelope.sent_unix_ns = 0;  // stamped in the encoded bytes at the last moment
     std::fill(std::begin(msg.envelope.tag), std::end(msg.envelope.tag), 0);
     buf.resize(static_cast<std::size_t>(msg.getEncodedSize()));
     msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
@@ -180,7 +185,7 @@ class Bus {
   void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf,
                        bool keep);
   void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);  // never throws
-  void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel);
+  void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel, std::int64_t recv_utime);
   bool accept_seq(const std::string& sender, std::int64_t seq);
 
   RunContext ctx_;
@@ -204,8 +209,8 @@ class Bus {
 inline constexpr std::int64_t kClockSkewAllowanceUs = 1'000'000;
 
 // The envelope read from the raw bytes of an encoded message, by its fixed layout alone (LCM:
-// 8-byte fingerprint, run_id and sender as int32 length with the NUL + bytes + NUL, step and
-// seq as int64, the 32-byte tag), every length checked against the bytes: no LCM decoding.
+// 8-byte fingerprint, run_id and sender as int32 length with the NUL + bytes + NUL, step, seq
+// and sent_unix_ns as int64, the 32-byte tag), every length checked against the bytes: no LCM decoding.
 struct RawEnvelope {
   envelope_t envelope;
   std::size_t tag_offset = 0;
@@ -217,6 +222,8 @@ std::optional<RawEnvelope> parse_envelope(const std::uint8_t* buf, std::size_t l
 // The tag sits at a fixed place after the envelope's variable-length strings.
 std::size_t tag_offset(const std::uint8_t* buf, std::size_t len);  // throws if malformed
 void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
+// Writes the wall clock into the envelope's sent_unix_ns, then signs: what a publish does.
+void stamp_and_sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
 bool verify(const std::uint8_t* buf, std::size_t len, const std::vector<std::uint8_t>& secret) noexcept;
 bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
 std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len);

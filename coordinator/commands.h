@@ -36,11 +36,21 @@ int control_command(const std::string& action, const ControlOptions& opt);
 int check_command(const std::string& scene_path);
 int list_keys_command();  // every scene key with its default, as a Markdown table
 
+// A live view of a run's bus (docs/design.md "Monitoring"): from the run directory, or, on a
+// host without it, from the bus URL, run id and a copy of the secret file (never the secret on
+// the command line, where `ps` shows it).
 struct MonitorOptions {
   std::string run_dir;
-  double duration_s = 0;   // 0: until the run ends or Ctrl-C
+  std::string url;          // overrides run.toml's
+  std::string run_id;       // overrides run.toml's
+  std::string secret_file;  // overrides RUN_DIR/secret
+  long total_steps = 0;     // for the ETA; 0: the run's scene copy
+  double duration_s = 0;    // 0: until Ctrl-C
   double interval_s = 1;
-  bool plain = false;      // no screen clearing (logs, tests)
+  bool plain = false;       // no screen clearing (logs, tests)
+  bool json = false;        // one JSON object per interval instead of the table
+  int http_port = -1;       // >= 0: serve the live page (0: any free port)
+  std::string bind = "127.0.0.1";
 };
 int monitor_command(const MonitorOptions& opt);
 

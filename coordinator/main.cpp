@@ -57,11 +57,39 @@ int main(int argc, char** argv) {
   check_cmd->add_flag("--keys", list_keys, "List every scene key with its default and the values it allows instead");
 
   hemo::MonitorOptions mon;
-  auto* mon_cmd = app.add_subcommand("monitor", "Live view of a run's coupling traffic");
-  mon_cmd->add_option("run_dir", mon.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
-  mon_cmd->add_option("--duration", mon.duration_s, "Stop after this many seconds (0: until Ctrl-C)");
-  mon_cmd->add_option("--interval", mon.interval_s, "Seconds between refreshes")->capture_default_str();
+  auto* mon_cmd = app.add_subcommand(
+      "monitor",
+      "Live view of a run's coupling traffic: latency, compute and wait, rate and ETA, bytes/s, resends, "
+      "rejections, the nodes' diagnostics; a table, JSON lines or a page with time plots");
+  mon_cmd
+      ->add_option("run_dir", mon.run_dir, "Run directory of a running run (or give --url, --run-id and --secret-file)")
+      ->check(CLI::ExistingDirectory);
+  mon_cmd->add_option("--url", mon.url, "LCM URL of the run's bus (default: RUN_DIR/run.toml's lcm_url)");
+  mon_cmd->add_option("--run-id", mon.run_id, "The run's id (default: RUN_DIR/run.toml's run_id)");
+  mon_cmd
+      ->add_option(
+          "--secret-file", mon.secret_file,
+          "A copy of the run's secret file (default: RUN_DIR/secret); the secret itself never goes on a command line")
+      ->check(CLI::ExistingFile);
+  mon_cmd
+      ->add_option("--steps", mon.total_steps, "The run's coupling steps, for the ETA (default: RUN_DIR/scene.toml's)")
+      ->check(CLI::PositiveNumber);
+  mon_cmd->add_option("--duration", mon.duration_s, "Stop after this many seconds (0: until Ctrl-C)")
+      ->check(CLI::NonNegativeNumber);
+  mon_cmd->add_option("--interval", mon.interval_s, "Seconds between refreshes")
+      ->capture_default_str()
+      ->check(CLI::Range(0.05, 3600.0));
   mon_cmd->add_flag("--plain", mon.plain, "Append tables instead of redrawing the screen");
+  mon_cmd->add_flag("--json", mon.json,
+                    "Print one JSON object per interval instead of the table (schema: docs/design.md, Monitoring)");
+  mon_cmd
+      ->add_option("--http", mon.http_port,
+                   "Also serve a live page with time plots on this port (0: any free one; its address goes to stderr)")
+      ->check(CLI::Range(0, 65535));
+  mon_cmd
+      ->add_option("--bind", mon.bind,
+                   "Address the page is served on (read-only and unauthenticated: loopback by default)")
+      ->capture_default_str();
 
   hemo::AnalyzeOptions ana;
   auto* ana_cmd = app.add_subcommand("analyze", "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit");

@@ -1,96 +1,196 @@
-// hemocosim monitor: a live view of a run's coupling traffic.
+// hemocosim monitor: a live view of a run's coupling traffic, as a table, JSON lines or a page
+// with time plots (issue #23). What it shows is computed in monitor_stats.h.
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "commands.h"
-#include "run_directory.h"
-
-#include <hemo/heartbeat_t.hpp>
-#include <hemo/step_done_t.hpp>
-
 #include <fmt/format.h>
+#include <httplib.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <csignal>
+#include <cstdio>
+#include <deque>
+#include <hemo/heartbeat_t.hpp>
+#include <hemo/step_done_t.hpp>
+#include <hemo/step_order_t.hpp>
 #include <map>
-#include <unistd.h>
+#include <mutex>
+#include <thread>
+
+#include "commands.h"
+#include "monitor_page.h"
+#include "monitor_stats.h"
+#include "run_directory.h"
+#include "scene.h"
 
 namespace hemo {
 
 namespace {
 volatile std::sig_atomic_t stop_monitor = 0;
 
-struct ChannelStats {
-  std::uint64_t count = 0, bytes = 0;
-  std::uint64_t window_count = 0, window_bytes = 0;
-  std::int64_t last_step = -1;
-  std::string last_sender;
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+
+ProcessCounts counts_of(const heartbeat_t& hb) {
+  return {hb.accepted,          hb.rejected_short,  hb.rejected_foreign,    hb.rejected_auth,
+          hb.rejected_prestart, hb.rejected_replay, hb.rejected_undecodable};
+}
+
+ProcessCounts counts_of(const BusCounters& k) {
+  return {static_cast<std::int64_t>(k.accepted),          static_cast<std::int64_t>(k.rejected_short),
+          static_cast<std::int64_t>(k.rejected_foreign),  static_cast<std::int64_t>(k.rejected_auth),
+          static_cast<std::int64_t>(k.rejected_prestart), static_cast<std::int64_t>(k.rejected_replay),
+          static_cast<std::int64_t>(k.rejected_corrupt)};
+}
+
+// The rows the page has not fetched yet are kept here, serialised once; the oldest go when
+// there are too many (hours of one-second rows), and the page learns so from "first".
+class RowLog {
+ public:
+  void add(std::string row) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rows_.push_back(std::move(row));
+    if (rows_.size() > kMaxRows) rows_.pop_front(), ++first_;
+  }
+  // {"first": index of the oldest kept row, "next": index after the newest, "rows": [since...]}
+  std::string since(std::size_t since) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::size_t next = first_ + rows_.size();
+    std::string out = fmt::format("{{\"first\":{},\"next\":{},\"rows\":[", first_, next);
+    for (std::size_t i = std::max(since, first_); i < next; ++i) {
+      if (i > std::max(since, first_)) out += ',';
+      out += rows_[i - first_];
+    }
+    return out + "]}";
+  }
+
+ private:
+  static constexpr std::size_t kMaxRows = 20000;
+  mutable std::mutex mutex_;
+  std::deque<std::string> rows_;
+  std::size_t first_ = 0;
 };
 
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+// The page and its data, on a thread of their own; read-only, and bound to loopback unless told.
+class PageServer {
+ public:
+  PageServer(const RowLog& log, const std::string& bind, int port) {
+    server_.new_task_queue = [] { return new httplib::ThreadPool(2); };
+    server_.Get("/", [](const httplib::Request&, httplib::Response& res) {
+      res.set_content(monitor_page_html(), "text/html; charset=utf-8");
+    });
+    server_.Get("/rows", [&log](const httplib::Request& req, httplib::Response& res) {
+      std::size_t since = 0;
+      if (req.has_param("since")) {
+        try {
+          since = std::stoul(req.get_param_value("since"));
+        } catch (const std::exception&) {
+          res.status = 400;
+          return;
+        }
+      }
+      res.set_header("Cache-Control", "no-store");
+      res.set_content(log.since(since), "application/json");
+    });
+    port_ = port == 0 ? server_.bind_to_any_port(bind) : (server_.bind_to_port(bind, port) ? port : -1);
+    if (port_ <= 0)
+      throw std::runtime_error(
+          fmt::format("cannot serve the monitor's page on {}:{} (address in use or not ours?)", bind, port));
+    thread_ = std::thread([this] { server_.listen_after_bind(); });
+    // stop() does nothing to a server that is not listening yet, and the join would then wait for
+    // ever: a monitor told to stop at once must find it listening.
+    for (int i = 0; i < 2000 && !server_.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ~PageServer() {
+    server_.stop();
+    if (thread_.joinable()) thread_.join();
+  }
+  int port() const { return port_; }
+
+ private:
+  httplib::Server server_;
+  std::thread thread_;
+  int port_ = -1;
+};
+
+long scene_steps(const std::string& scene_copy) {
+  try {
+    return load_scene(scene_copy).time.coupling_steps;
+  } catch (const std::exception&) {
+    return 0;  // the monitor still shows everything else; the ETA needs --steps then
+  }
 }
 }  // namespace
 
 int monitor_command(const MonitorOptions& opt) {
-  auto [dir, ctx] = RunDirectory::open(opt.run_dir);
+  // stdout is the view (with --json, a script's input); the bus's warnings and its closing
+  // count of drops go to stderr.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("monitor"));
+  RunContext ctx;
+  long total = opt.total_steps;
+  if (!opt.run_dir.empty()) {
+    auto [dir, c] = RunDirectory::open(opt.run_dir);
+    ctx = c;
+    if (total <= 0) total = scene_steps(dir.scene_copy());
+  } else if (opt.url.empty() || opt.run_id.empty() || opt.secret_file.empty()) {
+    throw std::runtime_error("monitor needs a run directory, or --url, --run-id and --secret-file");
+  }
+  if (!opt.url.empty()) ctx.lcm_url = opt.url;
+  if (!opt.run_id.empty()) ctx.run_id = opt.run_id;
+  if (!opt.secret_file.empty()) {
+    ctx.secret_file = opt.secret_file;
+    ctx.load_secret();
+  }
+
   Bus bus(ctx, "monitor");
   std::signal(SIGINT, [](int) { stop_monitor = 1; });
-  const bool clear = !opt.plain && isatty(STDOUT_FILENO);
+  std::signal(SIGTERM, [](int) { stop_monitor = 1; });
+  const bool clear = !opt.plain && !opt.json && isatty(STDOUT_FILENO);
 
-  std::map<std::string, ChannelStats> channels;
-  std::map<std::string, double> last_seen;  // sender -> time
-  std::map<std::string, std::string> last_error;
-  std::map<std::string, heartbeat_t> last_heartbeat;  // sender -> its latest, with its bus counters
-  std::int64_t step = -1;
+  RowLog rows;
+  std::unique_ptr<PageServer> page;
+  if (opt.http_port >= 0) {
+    page = std::make_unique<PageServer>(rows, opt.bind, opt.http_port);
+    // On stderr: stdout may be JSON lines for a script.
+    fmt::print(stderr, "monitor: live page at http://{}:{}/\n", opt.bind, page->port());
+    std::fflush(stderr);
+  }
+
+  MonitorStats stats(ctx.run_id, total);
   const double start = now();
   double window_start = start;
+  stats.close_interval(start, unix_now());  // the first interval starts now, not at the first message
 
   while (!stop_monitor && (opt.duration_s <= 0 || now() - start < opt.duration_s)) {
     bus.poll(0.05, [&](const Received& msg) {
-      auto& c = channels[msg.kind];
-      ++c.count, ++c.window_count;
-      c.bytes += msg.bytes.size(), c.window_bytes += msg.bytes.size();
-      c.last_step = msg.envelope.step;
-      c.last_sender = msg.envelope.sender;
-      last_seen[msg.envelope.sender] = now();
-      if (msg.kind == channel::heartbeat) last_heartbeat[msg.envelope.sender] = msg.as<heartbeat_t>();
-      if (msg.kind == channel::step_done) {
-        step = std::max<std::int64_t>(step, msg.envelope.step);
-        auto done = msg.as<step_done_t>();
-        if (!done.ok) last_error[done.node] = done.error;
+      const double t = now();
+      stats.message(msg.kind, msg.envelope.sender, msg.envelope.step, msg.bytes.size(), msg.envelope.sent_unix_ns,
+                    msg.received_unix_us, t);
+      if (msg.kind == channel::heartbeat) {
+        const auto hb = msg.as<heartbeat_t>();
+        stats.heartbeat(msg.envelope.sender, hb.uptime_s, counts_of(hb));
+      } else if (msg.kind == channel::step) {
+        stats.step_order(msg.envelope.step, msg.as<step_order_t>().time_s);
+      } else if (msg.kind == channel::step_done) {
+        const auto d = msg.as<step_done_t>();
+        if (d.node == msg.envelope.sender)  // a node reports for itself only
+          stats.step_done(d.node, msg.envelope.step, d.ok, d.error, d.compute_s, d.wait_s, d.names, d.values);
       }
     });
     const double t = now();
     if (t - window_start < opt.interval_s) continue;
-    const double span = t - window_start;
-    std::string out = clear ? "\033[H\033[2J" : "";
-    out += fmt::format("run {}  bus {}  step {}  (monitoring {:.0f} s)\n", ctx.run_id, ctx.lcm_url, step, t - start);
-    out += fmt::format("{:<20} {:>10} {:>10} {:>12} {:>10}  {}\n", "channel", "msgs", "msgs/s", "bytes/msg", "last step",
-                       "sender");
-    for (auto& [name, c] : channels) {
-      out += fmt::format("{:<20} {:>10} {:>10.1f} {:>12.0f} {:>10}  {}\n", name, c.count, c.window_count / span,
-                         c.count ? double(c.bytes) / c.count : 0.0, c.last_step, c.last_sender);
-      c.window_count = c.window_bytes = 0;
-    }
-    out += "nodes:";
-    for (const auto& [sender, seen] : last_seen)
-      out += fmt::format("  {} {}", sender, t - seen < 2.0 ? "alive" : fmt::format("silent {:.0f} s", t - seen));
-    // What each process dropped (from its heartbeat), and the monitor itself: only accepted
-    // messages are in the table above (replays and recordings from before it started are not).
-    out += fmt::format("\n{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", "dropped by", "accepted", "short",
-                       "foreign", "bad tag", "pre-start", "replay", "undecodable");
-    for (const auto& [sender, hb] : last_heartbeat)
-      out += fmt::format("{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", sender, hb.accepted, hb.rejected_short,
-                         hb.rejected_foreign, hb.rejected_auth, hb.rejected_prestart, hb.rejected_replay,
-                         hb.rejected_undecodable);
-    const auto k = bus.counters();
-    out += fmt::format("{:<20} {:>10} {:>8} {:>8} {:>8} {:>9} {:>8} {:>11}\n", "(this monitor)", k.accepted,
-                       k.rejected_short, k.rejected_foreign, k.rejected_auth, k.rejected_prestart, k.rejected_replay,
-                       k.rejected_corrupt);
-    out += fmt::format("resend requests seen {}\n", channels.count(channel::resend) ? channels[channel::resend].count : 0);
-    for (const auto& [node, err] : last_error) out += fmt::format("{} reported: {}\n", node, err);
-    fmt::print("{}", out);
-    std::fflush(stdout);
     window_start = t;
+    stats.own_counts(counts_of(bus.counters()));
+    const auto row = stats.close_interval(t, unix_now());
+    // Node error lines and sender names are bytes from the bus: never let one stop the monitor.
+    const auto line = row.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (page) rows.add(line);
+    if (opt.json)
+      fmt::print("{}\n", line);
+    else
+      fmt::print("{}{}", clear ? "\033[H\033[2J" : "", format_monitor_table(row, ctx.lcm_url));
+    std::fflush(stdout);
   }
   return 0;
 }

@@ -122,6 +122,62 @@ TEST(Bus, KeptMessageIsPublishedAgainOnRequest) {
   EXPECT_EQ(alice.counters().resent, 1u);
 }
 
+// A request is answered by the bus that kept the message and passed on by every other (so that
+// `hemocosim monitor` sees the requests; it used to swallow them and always showed 0).
+TEST(Bus, ARequestSomeoneElseKeepsIsPassedOn) {
+  auto ctx = test::make_context("passon");
+  Bus alice(ctx, "alice"), bob(ctx, "bob"), carol(ctx, "carol");
+  step_order_t o{};
+  alice.publish(channel::step, o, 5, /*keep=*/true);
+  collect(bob, 1, 1);
+  collect(carol, 1, 1);
+  bob.request_resend(channel::step, 5);
+  const auto at_alice = collect(alice, 1, 1);
+  EXPECT_TRUE(at_alice.empty());  // answered, not handed to alice's code
+  EXPECT_EQ(alice.counters().resent, 1u);
+  const auto at_carol = collect(carol, 2, 2);
+  ASSERT_EQ(at_carol.size(), 2u);
+  EXPECT_EQ(at_carol[0].kind, channel::resend);
+  EXPECT_EQ(at_carol[0].envelope.sender, "bob");
+  EXPECT_EQ(at_carol[1].kind, channel::step);  // and the answer
+  EXPECT_EQ(carol.counters().resent, 0u);
+}
+
+namespace {
+std::int64_t unix_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+}  // namespace
+
+// The envelope carries the wall clock of the publish and the receiver the time it got the
+// datagram: together the exchange latency `hemocosim monitor` shows (issue #23). A resend is a
+// new publish, with a new send time.
+TEST(Bus, StampsSendAndReceiptTimesAResendAgain) {
+  auto ctx = test::make_context("stamp");
+  Bus alice(ctx, "alice"), bob(ctx, "bob");
+  step_order_t o{};
+  const auto before = unix_ns();
+  alice.publish(channel::step, o, 2, /*keep=*/true);
+  const auto after = unix_ns();
+  auto got = collect(bob, 3, 1);
+  const auto received_by = unix_ns();
+  ASSERT_EQ(got.size(), 1u);
+  const auto sent = got[0].envelope.sent_unix_ns;
+  EXPECT_GE(sent, before);
+  EXPECT_LE(sent, after);
+  // LCM's receive time has microseconds: one host's clock, so never before the send.
+  EXPECT_GE(got[0].received_unix_us, sent / 1000);
+  EXPECT_LE(got[0].received_unix_us, received_by / 1000 + 1);
+
+  bob.request_resend(channel::step, 2);
+  collect(alice, 1, 1);
+  auto again = collect(bob, 3, 1);
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_GT(again[0].envelope.sent_unix_ns, sent);
+  EXPECT_GE(again[0].received_unix_us, again[0].envelope.sent_unix_ns / 1000);
+}
+
 // Each process hears only its channels: the coordinator is not woken by the large fluid state
 // (nor made to check its tag), the particle node hears it. LCM drops the datagrams of channels
 // a process does not listen to before they reach the bus, so they are not even counted.
