@@ -438,7 +438,8 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
     lcm::LCM lcm(ctx.lcm_url);
     const std::string channel = ctx.run_id + "/" + channel::heartbeat;
     lcm::Subscription* subscription = nullptr;
-    std::size_t reported = 0;
+    std::size_t reported = 0;  // heard senders in the file so far
+    bool written = false;
     struct Listener {
       Impl* impl;
       const RunContext* ctx;
@@ -487,8 +488,9 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       if (lcm.good()) lcm.publish(channel, buf.data(), static_cast<unsigned>(buf.size()));
       if (!report.file.empty()) {
         const auto heard = this->heard();
-        if (reported == 0 || heard.size() != reported) write_heard_report(report.file, heard);
-        reported = std::max<std::size_t>(heard.size(), 1);
+        if (!written || heard.size() != reported) write_heard_report(report.file, heard);
+        written = true;
+        reported = heard.size();
       }
       const auto next = Clock::now() + std::chrono::duration<double>(period_s);
       while (!impl_->stop.load() && Clock::now() < next) {
