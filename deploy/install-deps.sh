@@ -28,6 +28,7 @@ PACKAGES=(
   libssl-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-numpy python3-h5py python3-matplotlib
   procps iproute2
+  openssh-server openssh-client iptables  # the tests across simulated hosts (tests/hosts)
 )
 
 missing=()
