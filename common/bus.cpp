@@ -23,9 +23,12 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <thread>
+#include <unistd.h>
 
 namespace hemo {
 
@@ -79,6 +82,8 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option("--timeout", timeout_s, "Seconds without any message from the run before giving up")
       ->capture_default_str();
   app.add_option("--ranks", ranks, "MPI ranks to run this node on")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--mpi-hosts", mpi_hosts,
+                 "Hosts and ranks on each for the node's MPI job, as mpirun --host takes them (b:2,c:2; docs/hosts.md)");
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
   app.add_option("--resume-step", resume_step,
@@ -406,13 +411,73 @@ std::int64_t Bus::next_seq() {
 struct Heartbeat::Impl {
   std::atomic<bool> stop{false};
   std::thread thread;
+  mutable std::mutex heard_mutex;
+  std::set<std::string> heard;
 };
 
+std::string heard_report_file(const RunContext& ctx, const std::string& sender) {
+  if (ctx.secret_file.empty()) return "";
+  const auto slash = ctx.secret_file.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : ctx.secret_file.substr(0, slash);
+  return dir + "/bus-check/" + sender;
+}
+
+std::optional<HeardReportLine> read_heard_report(const std::string& file) {
+  std::ifstream in(file);
+  std::string host, heard;
+  if (!(in >> host >> heard) || host.rfind("host=", 0) != 0 || heard.rfind("heard=", 0) != 0) return std::nullopt;
+  HeardReportLine r;
+  r.host = host.substr(5);
+  std::istringstream list(heard.substr(6));
+  for (std::string s; std::getline(list, s, ',');)
+    if (!s.empty()) r.heard.insert(s);
+  return r;
+}
+
+namespace {
+// Atomically (a reader on another host never sees half a file): written aside, then renamed.
+void write_heard_report(const std::string& file, const std::set<std::string>& heard) {
+  std::error_code ec;
+  std::filesystem::create_directories(std::filesystem::path(file).parent_path(), ec);
+  char host[256] = "?";
+  ::gethostname(host, sizeof host - 1);
+  std::string list;
+  for (const auto& s : heard) list += (list.empty() ? "" : ",") + s;
+  const std::string tmp = file + ".tmp";
+  std::ofstream(tmp) << "host=" << host << " heard=" << list << "\n";
+  std::filesystem::rename(tmp, file, ec);
+}
+}  // namespace
+
 Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
-                     std::function<BusCounters()> counters)
+                     std::function<BusCounters()> counters, HeardReport report)
     : impl_(new Impl) {
-  impl_->thread = std::thread([this, ctx, sender, period_s, counters] {
+  impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
     lcm::LCM lcm(ctx.lcm_url);
+    const std::string channel = ctx.run_id + "/" + channel::heartbeat;
+    lcm::Subscription* subscription = nullptr;
+    std::size_t reported = 0;  // heard senders in the file so far
+    bool written = false;
+    struct Listener {
+      Impl* impl;
+      const RunContext* ctx;
+      const std::string* self;
+    } listener{impl_, &ctx, &sender};
+    if (report.listen && lcm.good()) {
+      // Authentic heartbeats of this run only: a forger without the secret cannot make a
+      // broken bus look whole.
+      subscription = lcm.subscribeFunction(
+          channel,
+          +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Listener* l) {
+            const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
+            const auto raw = parse_envelope(data, rbuf->data_size);
+            if (!raw || raw->envelope.run_id != l->ctx->run_id || raw->envelope.sender == *l->self) return;
+            if (!verify(data, rbuf->data_size, l->ctx->secret)) return;
+            std::lock_guard<std::mutex> lock(l->impl->heard_mutex);
+            l->impl->heard.insert(raw->envelope.sender);
+          },
+          &listener);
+    }
     const auto start = Clock::now();
     while (!impl_->stop.load()) {
       heartbeat_t hb;
@@ -439,11 +504,29 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
       hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
       stamp_and_sign(buf, ctx.secret);
-      if (lcm.good()) lcm.publish(ctx.run_id + "/" + channel::heartbeat, buf.data(), static_cast<unsigned>(buf.size()));
-      for (double t = 0; t < period_s && !impl_->stop.load(); t += 0.05)
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      if (lcm.good()) lcm.publish(channel, buf.data(), static_cast<unsigned>(buf.size()));
+      if (!report.file.empty()) {
+        const auto heard = this->heard();
+        if (!written || heard.size() != reported) write_heard_report(report.file, heard);
+        written = true;
+        reported = heard.size();
+      }
+      const auto next = Clock::now() + std::chrono::duration<double>(period_s);
+      while (!impl_->stop.load() && Clock::now() < next) {
+        if (subscription)
+          lcm.handleTimeout(50);
+        else
+          std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
     }
+    if (subscription) lcm.unsubscribe(subscription);
   });
+}
+
+std::set<std::string> Heartbeat::heard() const {
+  std::lock_guard<std::mutex> lock(impl_->heard_mutex);
+  auto heard = impl_->heard;
+  return heard;
 }
 
 Heartbeat::~Heartbeat() {

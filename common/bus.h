@@ -37,9 +37,10 @@ struct RunContext {
   double retry_s = 0.5;               // ask again for a missing message after this long
   int drop_every = 0;                 // fault injection: drop every n-th received message (0: none)
   int ranks = 1;                      // MPI ranks the node should run on (it launches them itself)
+  std::string mpi_hosts;              // where Open MPI places them ("b:2,c:2"; empty: here)
   long resume_step = 0;               // > 0: start from the run's checkpoint of this step
 
-  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --drop-every --resume-step
+  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --drop-every --resume-step
   void load_secret();                 // reads secret_file; throws with a one-line reason
 };
 
@@ -228,15 +229,34 @@ bool verify(const std::uint8_t* buf, std::size_t len, const std::vector<std::uin
 bool verify(const std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret);
 std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len);
 
+// Which processes' heartbeats a process hears: the bus check at start-up (docs/hosts.md). The
+// heartbeat thread listens itself, so the report does not wait for the process to poll its bus
+// (a node may be setting up its engine), and the report travels as a file in the run directory,
+// which every host shares, so that it reaches the coordinator when the bus does not.
+struct HeardReport {
+  bool listen = false;
+  std::string file;  // rewritten whenever the set grows: "host=H heard=a,b" (empty: no file)
+};
+// The file in which `sender` reports what it hears: RUN_DIR/bus-check/<sender> (the run
+// directory is where the secret file is).
+std::string heard_report_file(const RunContext& ctx, const std::string& sender);
+struct HeardReportLine {
+  std::string host;
+  std::set<std::string> heard;
+};
+std::optional<HeardReportLine> read_heard_report(const std::string& file);
+
 // Publishes a heartbeat on its own LCM instance from a background thread while alive.
 class Heartbeat {
  public:
   // With `counters`, each heartbeat carries what they return (the process's bus counters).
   Heartbeat(const RunContext& ctx, std::string sender, double period_s = 0.5,
-            std::function<BusCounters()> counters = {});
+            std::function<BusCounters()> counters = {}, HeardReport report = {});
   ~Heartbeat();
   Heartbeat(const Heartbeat&) = delete;
   Heartbeat& operator=(const Heartbeat&) = delete;
+  // The senders whose authentic heartbeats of this run it heard (with report.listen).
+  std::set<std::string> heard() const;
 
  private:
   struct Impl;

@@ -25,6 +25,7 @@ using Env = std::vector<std::pair<std::string, std::string>>;
 // Where the child's stdout and stderr go: descriptors dup'ed onto them (-1: left as they are).
 struct Plumbing {
   int out = -1, err = -1;
+  int in = -1;
   int close_in_child = -1;  // the read end of a pipe
 };
 
@@ -71,6 +72,7 @@ pid_t spawn(const std::vector<std::string>& argv, const Env& env, const Plumbing
       // A parent that died before the line above is no longer ours: the signal will not come.
       if (::getppid() != parent) ::_exit(125);
     }
+    if (io.in >= 0) ::dup2(io.in, STDIN_FILENO);
     if (io.out >= 0) ::dup2(io.out, STDOUT_FILENO);
     if (io.err >= 0) ::dup2(io.err, STDERR_FILENO);
     if (io.out > STDERR_FILENO) ::close(io.out);
@@ -118,7 +120,8 @@ pid_t start_child(const std::vector<std::string>& argv, const StartOptions& opt)
     log.fd = ::open(opt.log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
     if (log.fd < 0) throw std::runtime_error(fmt::format("cannot open {}: {}", opt.log_path, std::strerror(errno)));
   }
-  return spawn(argv, opt.env, {log.fd, log.fd, -1}, opt.own_process_group, opt.die_with_parent);
+  Plumbing io{log.fd, log.fd, opt.stdin_fd, -1};
+  return spawn(argv, opt.env, io, opt.own_process_group, opt.die_with_parent);
 }
 
 ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& opt) {

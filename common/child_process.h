@@ -51,6 +51,9 @@ struct StartOptions {
   // The child gets SIGTERM when the thread that started it ends, however it ends (SIGKILL
   // included). It is kept across exec, and mpirun passes it on to its ranks.
   bool die_with_parent = false;
+  // When >= 0, the child's stdin (e.g. the read end of a pipe whose write end only the caller
+  // holds: the child sees end of file when the caller closes it or dies). Else this process's.
+  int stdin_fd = -1;
 };
 
 // Starts argv[0] (searched in PATH when it has no '/') and returns its pid without waiting; the

@@ -19,7 +19,10 @@ double NodePort::now() {
 NodePort::NodePort(const RunContext& ctx, std::string role, std::string program, int ranks,
                    const std::vector<std::string>& kinds)
     : bus_(std::make_unique<Bus>(ctx, role, kinds)),
-      heartbeat_(std::make_unique<Heartbeat>(ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); })),
+      // It also tells, in the run directory, whose heartbeats it hears: the coordinator's bus
+      // check at start-up (docs/hosts.md).
+      heartbeat_(std::make_unique<Heartbeat>(ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); },
+                                             HeardReport{true, heard_report_file(ctx, role)})),
       role_(std::move(role)),
       step_(ctx.resume_step),
       step_started_(now()) {

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "scene.h"
 
+#include "hosts.h"
+
 #include "units.h"
 
 #include <closure_table.h>
@@ -13,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <tuple>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -202,6 +205,7 @@ class Reader {
         {"run.max_restarts", {ninf, 1000}},
         {"run.fluid_ranks", {ninf, 4096}},
         {"run.particle_ranks", {ninf, 4096}},
+        {"run.bus_check_s", {ninf, 3600}},
         {"run.max_courant", {ninf, 1000}},
         {"vessel.diameter_um", {5, 1e4}},   // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
@@ -597,6 +601,29 @@ std::vector<SceneKey> scene_keys() {
   return keys;
 }
 
+// [hosts]: each list parsed as `hemocosim run --*-hosts` parses it; a node's ranks become its
+// hosts' sum, and a run.*_ranks that says otherwise is refused.
+static void read_hosts(Reader& r, Scene& s) {
+  auto& h = s.hosts;
+  for (auto [key, list, ranks_key, ranks] :
+       {std::tuple{"hosts.fluid", &h.fluid, "run.fluid_ranks", &s.run.fluid_ranks},
+        std::tuple{"hosts.particles", &h.particles, "run.particle_ranks", &s.run.particle_ranks}}) {
+    if (!r.read(key, *list)) continue;
+    try {
+      *ranks = ranks_for_hosts(parse_host_list(*list), *ranks, ranks_key);
+    } catch (const std::invalid_argument& e) {
+      r.check(false, key, e.what());
+    }
+  }
+  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local"});
+  r.read("hosts.launch_command", h.launch_command);
+  try {
+    check_launch_command(h.launch_command);
+  } catch (const std::invalid_argument& e) {
+    r.check(false, "hosts.launch_command", e.what());
+  }
+}
+
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue) {
   Scene s;
   s.source_path = path;
@@ -621,6 +648,12 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.run.max_overlap > 0 && s.run.max_overlap <= 1, "run.max_overlap", "must be in (0, 1]");
   r.read("run.fluid_command", s.run.fluid_command);
   r.read("run.particle_command", s.run.particle_command);
+  r.read("run.bus_ttl", s.run.bus_ttl);
+  r.check(s.run.bus_ttl >= -1 && s.run.bus_ttl <= 255, "run.bus_ttl",
+          "must be -1 (0 on one host, 1 across hosts) or a TTL from 0 to 255");
+  r.read("run.bus_check_s", s.run.bus_check_s);
+  r.check(s.run.bus_check_s > 0, "run.bus_check_s", "must be positive");
+  read_hosts(r, s);
   r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");
   r.check(s.run.startup_timeout > 0, "run.startup_timeout_s", "must be positive");
   r.check(s.run.step_timeout > 0, "run.step_timeout_s", "must be positive");

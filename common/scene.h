@@ -3,6 +3,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "hosts.h"
+
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -156,11 +158,27 @@ struct RunSettings {
   double max_overlap = 0.25;        // deepest contact overlap / the smaller diameter (wall: the cell's)
   std::string fluid_command;        // empty: the built-in fluid node
   std::string particle_command;     // empty: the built-in particle node
+  // The bus across hosts (docs/hosts.md): the multicast TTL (-1: 0 on one host, 1 with
+  // [hosts]) and the seconds after every process joined the bus within which each must have
+  // heard every other, or the run stops naming the pair that does not hear each other.
+  int bus_ttl = -1;
+  double bus_check_s = 10;
+};
+
+// Where the nodes run (docs/hosts.md): host lists as "a" or "b:2,c:2" (common/hosts.h); a node
+// without hosts runs on the coordinator's host. A node with hosts runs on their ranks' sum.
+struct HostPlacement {
+  std::string fluid;
+  std::string particles;
+  std::string launcher = "ssh";  // "ssh": started on its first host by launch_command; "local": here
+  std::string launch_command = kDefaultLaunchCommand;
+  bool any() const { return !fluid.empty() || !particles.empty(); }
 };
 
 struct Scene {
   std::string source_path;
   RunSettings run;
+  HostPlacement hosts;
   Vessel vessel;
   MeshSpec mesh;
   Plasma plasma;

@@ -12,6 +12,10 @@ struct RunOptions {
   int fluid_ranks = 0;     // 0: as the scene says
   int particle_ranks = 0;
   long stop_after_step = 0;  // > 0: stop after this step, writing a checkpoint there
+  // Placement across hosts (docs/hosts.md); empty: as the scene's [hosts] says.
+  std::string fluid_hosts, particle_hosts;
+  std::string launcher, launch_command;
+  int bus_ttl = -1;  // -1: as the scene says (run.bus_ttl)
 };
 int run_command(const RunOptions& opt);
 

@@ -2,6 +2,7 @@
 #include "lockstep.h"
 
 #include "checkpoint.h"
+#include "hosts.h"
 #include "stability_guard.h"
 
 #include <hemo/heartbeat_t.hpp>
@@ -28,6 +29,10 @@ std::string self_dir() {
   return std::filesystem::read_symlink("/proc/self/exe").parent_path().string();
 }
 
+std::string who(const std::string& process) {
+  return process == "coordinator" ? "the coordinator" : "the " + process + " node";
+}
+
 std::vector<std::string> split(const std::string& s) {
   std::istringstream in(s);
   std::vector<std::string> out;
@@ -40,7 +45,11 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
                    long first_step)
     : scene_(scene), dir_(std::move(dir)), ctx_(ctx), launcher_(launcher), first_step_(first_step) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator", channel::heard_by_coordinator());
-  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); });
+  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); },
+                                           HeardReport{true, ""});
+  // Reports of nodes from before (a restart) would pass the bus check for the new ones.
+  std::error_code ec;
+  std::filesystem::remove_all(std::filesystem::path(heard_report_file(ctx_, "coordinator")).parent_path(), ec);
   if (first_step > 0) {
     metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
   } else {
@@ -68,6 +77,11 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
                         fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
                         fmt::format("{}", ctx_.drop_every), std::string("--ranks"), fmt::format("{}", ranks)})
     argv.push_back(a);
+  const std::string& hosts = node == "fluid" ? scene_.hosts.fluid : scene_.hosts.particles;
+  if (!hosts.empty()) {
+    argv.push_back("--mpi-hosts");
+    argv.push_back(host_list_text(parse_host_list(hosts)));
+  }
   if (first_step > 0) {
     argv.push_back("--resume-step");
     argv.push_back(fmt::format("{}", first_step));
@@ -172,6 +186,42 @@ void Lockstep::check_health(long step) {
   }
 }
 
+void Lockstep::check_bus() {
+  if (bus_checked_ || now() - bus_checked_at_ < 0.25) return;
+  bus_checked_at_ = now();
+  char own_host[256] = "?";
+  ::gethostname(own_host, sizeof own_host - 1);
+  std::map<std::string, HeardReportLine> report;
+  report["coordinator"] = {own_host, heartbeat_->heard()};
+  for (const auto& [name, node] : nodes_) {
+    const auto line = read_heard_report(heard_report_file(ctx_, name));
+    // A node that reports nothing (another program swapped in, or one still starting: the
+    // start-up allowance covers that) is not judged.
+    if (!line) return;
+    report[name] = *line;
+    reported_at_.emplace(name, now());
+  }
+  std::vector<std::string> unheard;
+  for (const auto& [listener, r] : report)
+    for (const auto& [speaker, other] : report)
+      if (speaker != listener && !r.heard.count(speaker))
+        unheard.push_back(fmt::format("{} (on {}) does not hear {} (on {})", who(listener), r.host, who(speaker), other.host));
+  if (unheard.empty()) {
+    bus_checked_ = true;
+    return;
+  }
+  double last_report = 0;
+  for (const auto& [name, at] : reported_at_) last_report = std::max(last_report, at);
+  if (now() - last_report < scene_.run.bus_check_s) return;
+  std::string also;
+  for (std::size_t i = 1; i < unheard.size(); ++i) also += (i == 1 ? "; also " : ", ") + unheard[i];
+  throw std::runtime_error(fmt::format(
+      "bus check: {} within {:g} s on {}{}; likely multicast is not routed between the hosts (a route for "
+      "224.0.0.0/4 on the interface that joins them, run.bus_ttl), a firewall drops UDP to that group and port, "
+      "or a receive buffer is too small (docs/hosts.md)",
+      unheard.front(), scene_.run.bus_check_s, ctx_.lcm_url, also));
+}
+
 void Lockstep::await(long step, double timeout_s) {
   const double start = now();
   double last_asked = start;
@@ -190,6 +240,7 @@ void Lockstep::await(long step, double timeout_s) {
       if (msg.kind == channel::step_done) record(msg);
     });
     if (!unstable_.empty()) throw UnstableRun(unstable_);
+    check_bus();
     check_health(step);
     if (now() - last_asked > ctx_.retry_s) {
       bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again

@@ -72,6 +72,10 @@ class Lockstep {
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
               long first_step);
   void check_health(long step);
+  // The bus check at start-up (docs/hosts.md): once both nodes reported whose heartbeats they
+  // hear, every process must hear every other within run.bus_check_s, or the run stops with one
+  // line naming who does not hear whom.
+  void check_bus();
   void record(const Received& msg);
   // Appends the reports recorded so far to RUN_DIR/metrics.csv. Called once the next step is
   // ordered (the coordinator would otherwise keep the nodes waiting while it formats them), at
@@ -100,6 +104,9 @@ class Lockstep {
   double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time
   double overhead_s_ = 0;       // the part of it no node spent computing (see profile_report)
   std::string unstable_;        // the first broken stability guard, if any
+  bool bus_checked_ = false;    // every process heard every other
+  double bus_checked_at_ = 0;   // when check_bus last looked
+  std::map<std::string, double> reported_at_;  // when a node's heard report first appeared
 };
 
 }  // namespace hemo

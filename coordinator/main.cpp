@@ -26,6 +26,21 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--stop-after-step", run.stop_after_step,
                       "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
       ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--fluid-hosts", run.fluid_hosts,
+                      "Hosts of the fluid node's MPI job and ranks on each, e.g. a or a:2,b:2; its ranks are their sum "
+                      "(overrides hosts.fluid; docs/hosts.md)");
+  run_cmd->add_option("--particle-hosts", run.particle_hosts,
+                      "Hosts of the particle node's MPI job and ranks on each, e.g. b:2,c:2 (overrides hosts.particles)");
+  run_cmd->add_option("--launcher", run.launcher,
+                      "How a node with hosts starts: ssh (on its first host, by the launch command) or local (here; "
+                      "Open MPI places its ranks) (overrides hosts.launcher)")
+      ->check(CLI::IsMember({"ssh", "local"}));
+  run_cmd->add_option("--launch-command", run.launch_command,
+                      "The command that starts a node on a host, with {host} {command} {node} {run_dir} (default \"ssh -o "
+                      "BatchMode=yes {host} {command}\"; overrides hosts.launch_command)");
+  run_cmd->add_option("--bus-ttl", run.bus_ttl,
+                      "Multicast TTL of the run's bus (default 0 on one host, 1 with hosts; overrides run.bus_ttl)")
+      ->check(CLI::Range(0, 255));
 
   hemo::ResumeOptions resume;
   auto* resume_cmd = app.add_subcommand(

@@ -4,10 +4,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <sys/types.h>
+
 #include <memory>
 #include <string>
-#include <sys/types.h>
 #include <vector>
+
+#include "scene.h"
 
 namespace hemo {
 
@@ -42,6 +45,26 @@ class ProcessLauncher : public NodeLauncher {
  public:
   std::unique_ptr<NodeHandle> launch(const std::string& node, const std::vector<std::string>& argv,
                                      const std::string& log_path) override;
+};
+
+// Nodes placed on hosts (docs/hosts.md, scene [hosts]): a node with hosts and the ssh launcher
+// is started on its first host by the site's launch command (hosts.launch_command), and Open MPI
+// starts its other ranks; a node without hosts, or with the local launcher, is a child process
+// here. The node ends when the launch command's connection closes: when it is terminated and
+// when the coordinator dies.
+class HostLauncher : public NodeLauncher {
+ public:
+  HostLauncher(HostPlacement placement, std::string run_dir);
+  // Before any node starts: every host of the ssh launcher answers through the launch command
+  // and sees the run directory (a token written here is read back there). Throws one line naming
+  // the host.
+  void check_hosts() const;
+  std::unique_ptr<NodeHandle> launch(const std::string& node, const std::vector<std::string>& argv,
+                                     const std::string& log_path) override;
+
+ private:
+  HostPlacement placement_;
+  std::string run_dir_;
 };
 
 }  // namespace hemo

@@ -15,7 +15,7 @@
 
 namespace hemo {
 
-NodeProcess::NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path)
+NodeProcess::NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path, int stdin_fd)
     : name_(std::move(name)), log_path_(std::move(log_path)) {
   if (argv.empty()) throw std::runtime_error(name_ + " node: empty command");
   StartOptions opt;
@@ -23,6 +23,7 @@ NodeProcess::NodeProcess(std::string name, std::vector<std::string> argv, std::s
   opt.own_process_group = true;  // terminate() signals the group: mpirun's ranks go with the node
   // A coordinator killed with SIGKILL cannot terminate() its nodes: they end with it instead.
   opt.die_with_parent = true;
+  opt.stdin_fd = stdin_fd;
   pid_ = start_child(argv, opt);
 }
 

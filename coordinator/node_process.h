@@ -10,7 +10,8 @@ namespace hemo {
 
 class NodeProcess {
  public:
-  NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path);
+  // `stdin_fd` >= 0: the child's stdin (StartOptions::stdin_fd).
+  NodeProcess(std::string name, std::vector<std::string> argv, std::string log_path, int stdin_fd = -1);
   ~NodeProcess();  // terminates the process if it still runs
   NodeProcess(const NodeProcess&) = delete;
   NodeProcess& operator=(const NodeProcess&) = delete;

@@ -1,6 +1,7 @@
 // hemocosim run: launch both nodes and drive the lockstep to the end.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
+#include "hosts.h"
 #include "run_driver.h"
 #include "scene.h"
 #include "xdmf.h"
@@ -12,6 +13,8 @@
 #include <ctime>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
+#include <tuple>
 #include <unistd.h>
 
 namespace hemo {
@@ -38,11 +41,12 @@ std::string default_run_dir(const Scene& scene) {
 
 // Drives the run, then makes what the nodes wrote openable in ParaView, also after a failure.
 int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& ctx, const Span span) {
+  HostLauncher launcher(scene.hosts, dir.path);
+  launcher.check_hosts();
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   Reached reached;
   try {
-    ProcessLauncher launcher;
     reached = drive(scene, dir, ctx, span, launcher, [] { return interrupted != 0; });
   } catch (const std::exception& e) {
     // The nodes are stopped by now.
@@ -65,14 +69,43 @@ long last_step(const Scene& scene, long stop_after_step) {
   const long end = scene.time.adaptive_interval() ? std::numeric_limits<long>::max() : scene.time.coupling_steps;
   return stop_after_step > 0 ? std::min(stop_after_step, end) : end;
 }
+
+// The command line's placement over the scene's: hosts given there replace the scene's (and the
+// ranks they imply); --np-* must agree with the hosts a node ends up with.
+void place_nodes(Scene& scene, const RunOptions& opt) {
+  auto& h = scene.hosts;
+  if (!opt.launcher.empty()) h.launcher = opt.launcher;
+  if (!opt.launch_command.empty()) {
+    check_launch_command(opt.launch_command);
+    h.launch_command = opt.launch_command;
+  }
+  for (auto [given, list, np, ranks, option] :
+       {std::tuple{&opt.fluid_hosts, &h.fluid, opt.fluid_ranks, &scene.run.fluid_ranks, "--np-fluid"},
+        std::tuple{&opt.particle_hosts, &h.particles, opt.particle_ranks, &scene.run.particle_ranks,
+                   "--np-particles"}}) {
+    if (!given->empty()) {
+      parse_host_list(*given);  // refused here, with the option's name, rather than mid-run
+      *list = *given;
+      *ranks = ranks_for_hosts(parse_host_list(*list), np > 0 ? np : 1, option);
+    } else if (np > 0) {
+      *ranks = ranks_for_hosts(parse_host_list(*list), np, option);
+    }
+  }
+  if (opt.bus_ttl >= 0) scene.run.bus_ttl = opt.bus_ttl;
+}
 }  // namespace
 
 int run_command(const RunOptions& opt) {
   Scene scene = load_scene(opt.scene);
-  if (opt.fluid_ranks > 0) scene.run.fluid_ranks = opt.fluid_ranks;
-  if (opt.particle_ranks > 0) scene.run.particle_ranks = opt.particle_ranks;
-  auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene);
+  try {
+    place_nodes(scene, opt);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(e.what());
+  }
+  auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene,
+                                         bus_ttl(scene.run.bus_ttl, scene.hosts.any()));
   dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
+  dir.record_placement(scene.hosts);
   ctx.drop_every = scene.run.drop_every;
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
@@ -85,6 +118,7 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
+  if (dir.placement.any()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   const long last = last_step(scene, opt.stop_after_step);

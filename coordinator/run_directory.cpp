@@ -2,6 +2,7 @@
 #include "run_directory.h"
 
 #include "checkpoint.h"
+#include "hosts.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -15,7 +16,8 @@ namespace fs = std::filesystem;
 
 namespace hemo {
 
-std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path, const std::string& scene_path) {
+std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path, const std::string& scene_path,
+                                                         int ttl) {
   if (fs::exists(path) && !fs::is_empty(path))
     throw std::runtime_error("run directory " + path + " exists and is not empty; choose another --out");
   fs::create_directories(path);
@@ -29,7 +31,8 @@ std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path
   ctx.run_id = fmt::format("hc{:08x}", static_cast<std::uint32_t>(rng()));
   // A multicast group and port of the run's own, loopback-only (ttl=0) unless hosts say otherwise:
   // two runs on one machine never read each other's traffic.
-  ctx.lcm_url = fmt::format("udpm://239.255.{}.{}:{}?ttl=0", 1 + rng() % 254, 1 + rng() % 254, 20000 + rng() % 40000);
+  const int a = static_cast<int>(1 + rng() % 254), b = static_cast<int>(1 + rng() % 254);
+  ctx.lcm_url = bus_url(a, b, static_cast<int>(20000 + rng() % 40000), ttl);
   ctx.secret_file = dir.secret_file();
   ctx.secret.resize(32);
   for (auto& b : ctx.secret) b = static_cast<std::uint8_t>(rng());
@@ -63,6 +66,13 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
   dir.particle_ranks = info["particle_ranks"].value_or(0);
   dir.fluid_command = info["fluid_command"].value_or(std::string());
   dir.particle_command = info["particle_command"].value_or(std::string());
+  if (const auto* hosts = info["hosts"].as_table()) {
+    auto& p = dir.placement;
+    p.fluid = (*hosts)["fluid"].value_or(std::string());
+    p.particles = (*hosts)["particles"].value_or(std::string());
+    p.launcher = (*hosts)["launcher"].value_or(p.launcher);
+    p.launch_command = (*hosts)["launch_command"].value_or(p.launch_command);
+  }
   return {dir, ctx};
 }
 
@@ -72,6 +82,17 @@ void RunDirectory::record_ranks(int fluid, int particles) {
   toml::table info = toml::parse_file(info_file());
   info.insert_or_assign("fluid_ranks", fluid);
   info.insert_or_assign("particle_ranks", particles);
+  std::ofstream(info_file()) << info << "\n";
+}
+
+void RunDirectory::record_placement(const HostPlacement& hosts) {
+  placement = hosts;
+  if (!hosts.any()) return;  // one host: run.toml as it always was
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("hosts", toml::table{{"fluid", hosts.fluid},
+                                             {"particles", hosts.particles},
+                                             {"launcher", hosts.launcher},
+                                             {"launch_command", hosts.launch_command}});
   std::ofstream(info_file()) << info << "\n";
 }
 

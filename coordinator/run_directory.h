@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bus.h"
+#include "scene.h"
 
 #include <optional>
 #include <string>
@@ -20,9 +21,12 @@ struct RunDirectory {
   int particle_ranks = 0;
   std::string fluid_command;     // a node swapped in (`hemocosim swap`); empty: the scene's
   std::string particle_command;
+  HostPlacement placement;  // where the nodes run (docs/hosts.md); a resumed run uses it again
 
   // Remembers the ranks the nodes run on: a resumed run must use the same decomposition.
   void record_ranks(int fluid, int particles);
+  // Remembers where the nodes run (`hemocosim resume` places them the same way).
+  void record_placement(const HostPlacement& hosts);
   // Remembers the program a node was swapped for: a resumed run goes on with it.
   void record_command(const std::string& node, const std::string& command);
   // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h).
@@ -35,8 +39,10 @@ struct RunDirectory {
   void drop_metrics_after(long step) const;
 
   // Creates a fresh run directory (refusing to reuse a non-empty one), copies the scene,
-  // and draws a run id, a bus URL of its own and a secret readable by the user only.
-  static std::pair<RunDirectory, RunContext> create(const std::string& path, const std::string& scene_path);
+  // and draws a run id, a bus URL of its own (multicast TTL `bus_ttl`: 0 keeps it on this host)
+  // and a secret readable by the user only.
+  static std::pair<RunDirectory, RunContext> create(const std::string& path, const std::string& scene_path,
+                                                    int bus_ttl = 0);
   // Reads the identity of an existing run (for the monitor and resume).
   static std::pair<RunDirectory, RunContext> open(const std::string& path);
 };

@@ -29,7 +29,8 @@ PACKAGES=(
   libcpp-httplib-dev chromium fonts-dejavu-core
   python3 python3-numpy python3-h5py python3-matplotlib
   procps iproute2
-  slurm-wlm munge
+  slurm-wlm munge  # deploy/slurm and its test (tests/deploy)
+  openssh-server openssh-client iptables  # the tests across simulated hosts (tests/hosts)
 )
 
 missing=()

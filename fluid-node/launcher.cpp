@@ -11,7 +11,8 @@
 // RUN_DIR/fluid/log.decomposePar), then exec()s
 //   mpirun -np N -x WM_PROJECT_DIR -x FOAM_ETC hemocosim-fluid-solver ARGS --parallel
 // with Open MPI's root, oversubscription and yield settings in the environment
-// (HEMOCOSIM_MPIRUN overrides the mpirun program; HEMOCOSIM_MPIRUN_ARGS adds options).
+// (HEMOCOSIM_MPIRUN overrides the mpirun program; HEMOCOSIM_MPIRUN_ARGS adds options), placed
+// with `--host H` on the hosts of --mpi-hosts H when the coordinator gives them.
 //
 // With --resume-step K (passed on to the solver, which restores checkpoint K) the case and its
 // decomposition are those the run already has: they hold its output up to step K, and
@@ -148,6 +149,12 @@ int main(int argc, char* argv[]) {
   ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
   const char* mpirun = std::getenv("HEMOCOSIM_MPIRUN");
   std::vector<std::string> args{mpirun && *mpirun ? mpirun : "mpirun", "-np", std::to_string(ranks)};
+  // The coordinator's placement across hosts (docs/hosts.md): Open MPI starts the ranks there.
+  const std::string hosts = option(argc, argv, "--mpi-hosts");
+  if (!hosts.empty()) {
+    args.emplace_back("--host");
+    args.emplace_back(hosts);
+  }
   for (const char* var : {"WM_PROJECT_DIR", "FOAM_ETC"}) {
     args.emplace_back("-x");
     args.emplace_back(var);

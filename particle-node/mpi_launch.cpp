@@ -34,10 +34,27 @@ bool inside_mpi_job() {
   return false;
 }
 
-std::vector<std::string> mpirun_command(int ranks, const std::string& program, const std::vector<std::string>& args) {
+std::string requested_hosts(int argc, char** argv) {
+  std::string hosts;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--mpi-hosts" && i + 1 < argc) hosts = argv[i + 1];
+    else if (a.rfind("--mpi-hosts=", 0) == 0) hosts = a.substr(12);
+  }
+  return hosts;
+}
+
+std::vector<std::string> mpirun_command(int ranks, const std::string& program, const std::vector<std::string>& args,
+                                        const std::string& hosts) {
   std::vector<std::string> cmd = {"mpirun", "-np", std::to_string(ranks)};
   if (::geteuid() == 0) cmd.push_back("--allow-run-as-root");
-  cmd.push_back("--oversubscribe");  // ranks beyond the cores: slower, but the run goes on
+  if (!hosts.empty()) {
+    // The coordinator's placement: exactly these hosts and slots, so no oversubscription.
+    cmd.push_back("--host");
+    cmd.push_back(hosts);
+  } else {
+    cmd.push_back("--oversubscribe");  // ranks beyond the cores: slower, but the run goes on
+  }
   cmd.push_back(program);
   cmd.insert(cmd.end(), args.begin(), args.end());
   return cmd;
@@ -49,7 +66,8 @@ int relaunch_under_mpirun(int argc, char** argv) {
   std::error_code ec;
   const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
   const std::string program = ec ? std::string(argv[0]) : self.string();
-  const auto cmd = mpirun_command(ranks, program, std::vector<std::string>(argv + 1, argv + argc));
+  const auto cmd =
+      mpirun_command(ranks, program, std::vector<std::string>(argv + 1, argv + argc), requested_hosts(argc, argv));
   // A rank waiting for the other (or, on rank 1, for rank 0's bus traffic) yields its core
   // instead of spinning on it: the fluid node and the coordinator share the machine (the fluid
   // launcher does the same). A setting of the user's wins.

@@ -16,8 +16,13 @@ int requested_ranks(int argc, char** argv);
 // True when this process was started by an MPI launcher (Open MPI, MPICH/Hydra, PMIx, Slurm).
 bool inside_mpi_job();
 
-// The mpirun command line that runs `program` with `args` on `ranks` ranks.
-std::vector<std::string> mpirun_command(int ranks, const std::string& program, const std::vector<std::string>& args);
+// The value of `--mpi-hosts H` / `--mpi-hosts=H` in argv (empty when absent).
+std::string requested_hosts(int argc, char** argv);
+
+// The mpirun command line that runs `program` with `args` on `ranks` ranks, placed on `hosts`
+// ("b:2,c:2", docs/hosts.md) when given.
+std::vector<std::string> mpirun_command(int ranks, const std::string& program, const std::vector<std::string>& args,
+                                        const std::string& hosts = "");
 
 // Execs mpirun when more than one rank is requested outside an MPI job; returns only when it
 // does not (nothing to do: 0) or cannot (exit code 127, after a message on stderr).

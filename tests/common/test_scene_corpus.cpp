@@ -86,13 +86,15 @@ const std::set<std::string> kIntegerKeys = {
     "run.seed",           "run.drop_every",          "run.max_restarts",       "run.fluid_ranks",
     "run.particle_ranks", "mesh.core_cells",         "mesh.ring_cells",        "mesh.axial_cells",
     "time.coupling_steps", "time.dem_substeps",      "time.closure_every_dem_steps", "output.every_steps",
-    "output.checkpoint_every_steps", "fluid.min_correctors", "fluid.max_correctors"};
+    "output.checkpoint_every_steps", "fluid.min_correctors", "fluid.max_correctors", "run.bus_ttl"};
+// -1 is "chosen for you" (run.bus_ttl: 0 on one host, 1 across hosts); below it is refused.
+const std::set<std::string> kMinusOneIsAuto = {"run.bus_ttl"};
 // Numbers that may be negative; numbers and integers that may be zero.
 const std::set<std::string> kMayBeNegative = {"gravity.x_m_s2", "gravity.y_m_s2", "gravity.z_m_s2",
                                               "contact.cell_poisson_ratio", "contact.wall_poisson_ratio"};
 const std::set<std::string> kMayBeZero = {
     "run.seed", "run.drop_every", "run.max_restarts", "driving.pressure_drop_Pa", "driving.wall_shear_rate_per_s",
-    "rbc.hematocrit", "rbc.mass_scaling", "platelet.number_density_per_ul", "platelet.mass_scaling",
+    "run.bus_ttl", "rbc.hematocrit", "rbc.mass_scaling", "platelet.number_density_per_ul", "platelet.mass_scaling",
     "contact.cell_poisson_ratio", "contact.wall_poisson_ratio", "contact.friction", "time.dem_substeps",
     "time.dem_step_max_relaxation_times", "time.coupling_relaxation_times", "output.checkpoint_every_steps",
     "gravity.x_m_s2", "gravity.y_m_s2", "gravity.z_m_s2", "fluid.pressure_relative_tolerance"};
@@ -120,7 +122,7 @@ std::vector<Case> key_cases() {
       case Kind::boolean: bad = {"1", "0", "\"true\"", "1.0", "[true]"}; break;
       case Kind::integer:
         bad = {"\"3\"", "1.5", "true", "4294967299", "-4294967293", "9223372036854775807", "-9223372036854775808",
-               "nan", "inf", "-1"};
+               "nan", "inf", kMinusOneIsAuto.count(k.key) ? "-2" : "-1"};
         if (!kMayBeZero.count(k.key)) bad.push_back("0");
         break;
       case Kind::number:
