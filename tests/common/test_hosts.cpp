@@ -9,21 +9,13 @@
 
 #include "child_process.h"
 #include "hosts.h"
+#include "minimal_scene.h"
 #include "scene.h"
 #include "test_helpers.h"
 
 using namespace hemo;
 
 namespace {
-const char* kMinimal = R"(
-[vessel]
-diameter_um = 100
-length_um = 600
-
-[driving]
-wall_shear_rate_per_s = 799
-)";
-
 std::string temp_dir() {
   char name[] = "/tmp/hemo_hosts_XXXXXX";
   return ::mkdtemp(name);
@@ -131,7 +123,7 @@ TEST(Hosts, RemoteCommandRunsInTheRunDirectoryAndEndsWithItsStdin) {
 }
 
 TEST(Hosts, SceneTableIsReadAndValidated) {
-  const Scene s = load_scene(test::write_temp(std::string(kMinimal) + R"(
+  const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) + R"(
 [hosts]
 fluid = "a"
 particles = "b:2,c:2"
@@ -144,17 +136,17 @@ launcher = "local"
   EXPECT_EQ(s.hosts.launch_command, kDefaultLaunchCommand);
   EXPECT_EQ(s.run.bus_ttl, -1);
 
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[run]\nparticle_ranks = 3\n[hosts]\nparticles = \"b:2,c:2\"\n")
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nparticle_ranks = 3\n[hosts]\nparticles = \"b:2,c:2\"\n")
                 .find("run.particle_ranks = 3 but the hosts b:2,c:2 give 4 ranks"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[hosts]\nparticles = \"b:0\"\n").find("hosts.particles"),
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nparticles = \"b:0\"\n").find("hosts.particles"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[hosts]\nlauncher = \"slurm\"\n").find("hosts.launcher"),
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlauncher = \"slurm\"\n").find("hosts.launcher"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[hosts]\nlaunch_command = \"ssh {host}\"\n").find("{command}"),
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlaunch_command = \"ssh {host}\"\n").find("{command}"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[run]\nbus_ttl = 300\n").find("run.bus_ttl"), std::string::npos);
-  EXPECT_NE(first_problem(std::string(kMinimal) + "[run]\nbus_check_s = 0\n").find("run.bus_check_s"),
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nbus_ttl = 300\n").find("run.bus_ttl"), std::string::npos);
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nbus_check_s = 0\n").find("run.bus_check_s"),
             std::string::npos);
 }
 

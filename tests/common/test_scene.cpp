@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 
+#include "minimal_scene.h"
 #include "scene.h"
 #include "test_helpers.h"
 #include "units.h"
@@ -13,15 +14,6 @@
 using namespace hemo;
 
 namespace {
-const char* kMinimal = R"(
-[vessel]
-diameter_um = 100
-length_um = 600
-
-[driving]
-wall_shear_rate_per_s = 799
-)";
-
 std::vector<SceneProblem> problems_of(const std::string& text) {
   try {
     load_scene(test::write_temp(text));
@@ -33,7 +25,7 @@ std::vector<SceneProblem> problems_of(const std::string& text) {
 }  // namespace
 
 TEST(Scene, MinimalSceneTakesModelDefaultsInSI) {
-  const Scene s = load_scene(test::write_temp(kMinimal));
+  const Scene s = load_scene(test::write_temp(test::kMinimalScene));
   EXPECT_DOUBLE_EQ(s.vessel.diameter, 100e-6);
   EXPECT_DOUBLE_EQ(s.vessel.length, 600e-6);
   EXPECT_EQ(s.mesh.cells(), 1536);  // the paper's mesh
@@ -57,7 +49,7 @@ pressure_drop_Pa = 23.0112
 }
 
 TEST(Scene, UnknownKeyIsNamedWithItsLine) {
-  auto ps = problems_of(std::string(kMinimal) + "\n[vessel2]\nx = 1\n");
+  auto ps = problems_of(std::string(test::kMinimalScene) + "\n[vessel2]\nx = 1\n");
   ASSERT_EQ(ps.size(), 1u);
   EXPECT_EQ(ps[0].key, "vessel2");
   EXPECT_EQ(ps[0].message, "unknown key");
@@ -104,7 +96,7 @@ mass_scaling = 0.5
 }
 
 TEST(Scene, WrongTypeAndSyntaxErrorsAreProblemsNotCrashes) {
-  auto ps = problems_of(std::string(kMinimal) + "[mesh]\naxial_cells = \"many\"\n");
+  auto ps = problems_of(std::string(test::kMinimalScene) + "[mesh]\naxial_cells = \"many\"\n");
   ASSERT_EQ(ps.size(), 1u);
   EXPECT_EQ(ps[0].key, "mesh.axial_cells");
   ps = problems_of("[vessel\ndiameter_um = 1\n");
@@ -113,7 +105,7 @@ TEST(Scene, WrongTypeAndSyntaxErrorsAreProblemsNotCrashes) {
 }
 
 TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
-  const Scene s = load_scene(test::write_temp(kMinimal));
+  const Scene s = load_scene(test::write_temp(test::kMinimalScene));
   EXPECT_EQ(s.rbc.drag, "rbc_fit");
   EXPECT_EQ(s.rbc.lift, "rbc_lift");
   EXPECT_EQ(s.rbc.torque, "none");
@@ -130,7 +122,7 @@ TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
   EXPECT_EQ(s.time.relaxation_factor, 0);
   EXPECT_EQ(s.gravity.z, 0);
 
-  const Scene t = load_scene(test::write_temp(std::string(kMinimal) + R"(
+  const Scene t = load_scene(test::write_temp(std::string(test::kMinimalScene) + R"(
 [platelet]
 drag = "schiller_naumann"
 lift = "shear_lift"
@@ -170,7 +162,7 @@ mass_scaling = 10
 }
 
 TEST(Scene, UnknownClosureNamesAndImpossibleShapesAreNamed) {
-  auto ps = problems_of(std::string(kMinimal) + R"(
+  auto ps = problems_of(std::string(test::kMinimalScene) + R"(
 [rbc]
 hematocrit = 0.1
 lift = "oblate"
@@ -189,7 +181,7 @@ implicit_drag = "explicit"
   EXPECT_TRUE(by_key.count("coupling.solid_fraction"));
   EXPECT_NE(by_key["coupling.implicit_drag"].find("interval_response"), std::string::npos);
   EXPECT_NE(by_key["coupling.implicit_drag"].find("co_relaxed"), std::string::npos);
-  EXPECT_TRUE(problems_of(std::string(kMinimal) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
+  EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
 }
 
 TEST(Scene, ShippedScenesAreValid) {
@@ -213,7 +205,7 @@ TEST(Scene, DocumentationListsEveryKeyWithItsDefault) {
         << k.table_row() << " is not in docs/scenes.md: regenerate with hemocosim check --keys";
 }
 
-// kMinimal's keys, with `key = value` set too (dotted keys, so that any key can join).
+// test::kMinimalScene's keys, with `key = value` set too (dotted keys, so that any key can join).
 static std::string minimal_with(const std::string& key, const std::string& value) {
   std::map<std::string, std::string> lines = {
       {"vessel.diameter_um", "100"}, {"vessel.length_um", "600"}, {"driving.wall_shear_rate_per_s", "799"}};
@@ -285,7 +277,7 @@ TEST(Scene, MissingRequiredKeyIsOneProblem) {
 // The numerical readings the paper leaves open: ours by default, CFDEM's by name, each listed
 // by `hemocosim check` with whose reading it is.
 TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
-  const Scene ours = load_scene(test::write_temp(std::string(kMinimal) + "[platelet]\nnumber_density_per_ul = 1000\n"));
+  const Scene ours = load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
   EXPECT_EQ(ours.fluid_velocity, "reconstructed");
   EXPECT_EQ(ours.fluid_force, "per_dem_step");
   EXPECT_FALSE(ours.pressure_gradient_force);
@@ -306,15 +298,15 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   EXPECT_NE(numerical_readings(paper).back().reading.find("Algorithm 1"), std::string::npos);
 
   std::map<std::string, std::string> by_key;
-  for (auto& p : problems_of(std::string(kMinimal) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
+  for (auto& p : problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
                                                      "\"explicit\"\npressure_gradient_force = \"yes\"\n"))
     by_key[p.key] = p.message;
   EXPECT_NE(by_key["coupling.fluid_velocity"].find("reconstructed, cell"), std::string::npos);
   EXPECT_NE(by_key["coupling.fluid_force"].find("per_dem_step, held_implicit_drag, held"), std::string::npos);
   EXPECT_TRUE(by_key.count("coupling.pressure_gradient_force"));
-  EXPECT_TRUE(problems_of(std::string(kMinimal) + "[coupling]\nplasma_velocity = \"face_flux\"\n").empty());
-  EXPECT_FALSE(problems_of(std::string(kMinimal) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());
+  EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"face_flux\"\n").empty());
+  EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());
   // A held force has nothing to co-relax within the interval.
-  EXPECT_FALSE(problems_of(std::string(kMinimal) + "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
+  EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
                    .empty());
 }

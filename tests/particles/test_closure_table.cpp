@@ -2,6 +2,7 @@
 // The closures a scene may name are exactly the ones the registry builds: scene validation
 // (hemocommon, and through it `hemocosim check`) and the particle node's registry read one table.
 #include "closures/closure.h"
+#include "minimal_scene.h"
 #include "run_command.h"
 
 #include <scene.h>
@@ -17,15 +18,6 @@
 using namespace hemo::particles;
 
 namespace {
-
-const char* kVessel = R"(
-[vessel]
-diameter_um = 100
-length_um = 600
-
-[driving]
-wall_shear_rate_per_s = 799
-)";
 
 ClosureParams platelet_params() {
   ClosureParams p;
@@ -58,7 +50,7 @@ std::string write_scene(const std::string& name, const std::string& text) {
 }
 
 std::string platelet_scene(const std::string& slot, const std::string& closure) {
-  return std::string(kVessel) + "\n[platelet]\n" + slot + " = \"" + closure + "\"\n";
+  return std::string(hemo::test::kMinimalScene) + "\n[platelet]\n" + slot + " = \"" + closure + "\"\n";
 }
 
 // The problems load_scene finds in a scene (none when it loads).
