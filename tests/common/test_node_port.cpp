@@ -11,6 +11,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <thread>
 
@@ -166,16 +167,19 @@ TEST(NodePort, LostDatagramsDoNotChangeTheResult) {
 TEST(NodePort, HeartbeatStopsWithTheLastWord) {
   const auto ctx = test::make_context("last-word");
   Bus coordinator(ctx, "coordinator");
-  auto heartbeats_within = [&](double seconds) {
+  // Heartbeats seen within `seconds`, or as soon as `enough` were.
+  auto heartbeats_within = [&](double seconds, int enough = std::numeric_limits<int>::max()) {
     int n = 0;
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (std::chrono::steady_clock::now() < end)
+    while (std::chrono::steady_clock::now() < end && n < enough)
       coordinator.poll(0.05, [&](const Received& m) { n += m.kind == channel::heartbeat; });
     return n;
   };
   for (const bool ok : {true, false}) {
     FluidPort port(ctx, "fluid", "test fluid");
-    EXPECT_GE(heartbeats_within(1.2), 1) << "a live node beats (period 0.5 s)";
+    // Its first beat may wait for the node's bus to open, which on a loaded machine took over a
+    // second once (CI with two builds and a study beside it).
+    EXPECT_GE(heartbeats_within(10.0, 2), 2) << "a live node beats (period 0.5 s)";
     if (ok)
       port.finalize();
     else
