@@ -11,14 +11,15 @@
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
+#include <openssl/core_names.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
-#include <openssl/core_names.h>
 #include <openssl/params.h>
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
@@ -28,7 +29,6 @@
 #include <iterator>
 #include <sstream>
 #include <thread>
-#include <unistd.h>
 
 namespace hemo {
 
@@ -65,11 +65,14 @@ std::int64_t read_be64(const std::uint8_t* p) {
 }
 
 void write_be64(std::uint8_t* p, std::int64_t v) {
-  for (int i = 7; i >= 0; --i) { p[i] = static_cast<std::uint8_t>(v & 0xff); v >>= 8; }
+  for (int i = 7; i >= 0; --i) {
+    p[i] = static_cast<std::uint8_t>(v & 0xff);
+    v >>= 8;
+  }
 }
 
-constexpr std::size_t kHashBytes = 8;     // LCM type fingerprint before the fields
-constexpr std::size_t kTagBytes = 32;     // HMAC-SHA256
+constexpr std::size_t kHashBytes = 8;  // LCM type fingerprint before the fields
+constexpr std::size_t kTagBytes = 32;  // HMAC-SHA256
 // Sequence numbers are microseconds: remember a sender's for 10 s behind its newest.
 constexpr std::int64_t kReplayWindow = 10'000'000;
 
@@ -82,8 +85,9 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option("--timeout", timeout_s, "Seconds without any message from the run before giving up")
       ->capture_default_str();
   app.add_option("--ranks", ranks, "MPI ranks to run this node on")->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--mpi-hosts", mpi_hosts,
-                 "Hosts and ranks on each for the node's MPI job, as mpirun --host takes them (b:2,c:2; docs/hosts.md)");
+  app.add_option(
+      "--mpi-hosts", mpi_hosts,
+      "Hosts and ranks on each for the node's MPI job, as mpirun --host takes them (b:2,c:2; docs/hosts.md)");
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
   app.add_option("--resume-step", resume_step,
@@ -142,13 +146,16 @@ static std::array<std::uint8_t, kTagBytes> compute_tag(const std::uint8_t* buf, 
   struct Ctx {
     EVP_MAC* mac = EVP_MAC_fetch(nullptr, "HMAC", nullptr);
     EVP_MAC_CTX* ctx = mac ? EVP_MAC_CTX_new(mac) : nullptr;
-    ~Ctx() { EVP_MAC_CTX_free(ctx); EVP_MAC_free(mac); }
+    ~Ctx() {
+      EVP_MAC_CTX_free(ctx);
+      EVP_MAC_free(mac);
+    }
   } c;
   char digest[] = "SHA256";
   OSSL_PARAM params[] = {OSSL_PARAM_construct_utf8_string("digest", digest, 0), OSSL_PARAM_construct_end()};
   std::size_t n = 0;
-  if (!c.ctx || !EVP_MAC_init(c.ctx, secret.data(), secret.size(), params) ||
-      !EVP_MAC_update(c.ctx, buf, off) || !EVP_MAC_update(c.ctx, zeros, kTagBytes) ||
+  if (!c.ctx || !EVP_MAC_init(c.ctx, secret.data(), secret.size(), params) || !EVP_MAC_update(c.ctx, buf, off) ||
+      !EVP_MAC_update(c.ctx, zeros, kTagBytes) ||
       !EVP_MAC_update(c.ctx, buf + off + kTagBytes, len - off - kTagBytes) ||
       !EVP_MAC_final(c.ctx, tag.data(), &n, tag.size()))
     throw std::runtime_error("HMAC-SHA256 unavailable from OpenSSL");
@@ -191,11 +198,12 @@ std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len
 }
 
 std::string BusCounters::str() const {
-  return fmt::format("received {}, accepted {}; dropped: too short/malformed {}, other run {}, bad tag {}, "
-                     "pre-start {}, replay {}, undecodable {} (own echoes {}, injected drops {}); resent {}, "
-                     "asked again {}",
-                     received, accepted, rejected_short, rejected_foreign, rejected_auth, rejected_prestart,
-                     rejected_replay, rejected_corrupt, own, injected_drops, resent, resend_requests);
+  return fmt::format(
+      "received {}, accepted {}; dropped: too short/malformed {}, other run {}, bad tag {}, "
+      "pre-start {}, replay {}, undecodable {} (own echoes {}, injected drops {}); resent {}, "
+      "asked again {}",
+      received, accepted, rejected_short, rejected_foreign, rejected_auth, rejected_prestart, rejected_replay,
+      rejected_corrupt, own, injected_drops, resent, resend_requests);
 }
 
 namespace {
@@ -239,9 +247,10 @@ static void warn_if_small_receive_buffer(const std::string& url) {
   long bytes = 0;
   if (!(in >> bytes) || bytes >= (2L << 20) || warned) return;
   warned = true;
-  spdlog::warn("net.core.rmem_max is {} bytes; LCM over UDP may drop large messages (they are asked for again, "
-               "at a cost in time). Raise it: sysctl -w net.core.rmem_max=8388608 net.core.rmem_default=8388608",
-               bytes);
+  spdlog::warn(
+      "net.core.rmem_max is {} bytes; LCM over UDP may drop large messages (they are asked for again, "
+      "at a cost in time). Raise it: sysctl -w net.core.rmem_max=8388608 net.core.rmem_default=8388608",
+      bytes);
 }
 
 namespace channel {
@@ -371,7 +380,8 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
       throw std::runtime_error("LCM receive failed on " + ctx_.lcm_url);
     }
   }
-  while (lcm_.handleTimeout(0) > 0) {}  // drain what is already queued
+  while (lcm_.handleTimeout(0) > 0) {
+  }  // drain what is already queued
   std::vector<Received> batch;
   batch.swap(inbox_);
   int handled = 0;
@@ -449,8 +459,8 @@ void write_heard_report(const std::string& file, const std::set<std::string>& he
 }
 }  // namespace
 
-Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
-                     std::function<BusCounters()> counters, HeardReport report)
+Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s, std::function<BusCounters()> counters,
+                     HeardReport report)
     : impl_(new Impl) {
   impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
     lcm::LCM lcm(ctx.lcm_url);

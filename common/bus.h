@@ -22,7 +22,9 @@
 #include <typeinfo>
 #include <vector>
 
-namespace CLI { class App; }
+namespace CLI {
+class App;
+}
 
 namespace hemo {
 
@@ -32,16 +34,17 @@ struct RunContext {
   std::string run_id;
   std::string lcm_url;
   std::string secret_file;
-  std::vector<std::uint8_t> secret;   // loaded from secret_file
-  double timeout_s = 30;              // give up waiting for peers after this long
-  double retry_s = 0.5;               // ask again for a missing message after this long
-  int drop_every = 0;                 // fault injection: drop every n-th received message (0: none)
-  int ranks = 1;                      // MPI ranks the node should run on (it launches them itself)
-  std::string mpi_hosts;              // where Open MPI places them ("b:2,c:2"; empty: here)
-  long resume_step = 0;               // > 0: start from the run's checkpoint of this step
+  std::vector<std::uint8_t> secret;  // loaded from secret_file
+  double timeout_s = 30;             // give up waiting for peers after this long
+  double retry_s = 0.5;              // ask again for a missing message after this long
+  int drop_every = 0;                // fault injection: drop every n-th received message (0: none)
+  int ranks = 1;                     // MPI ranks the node should run on (it launches them itself)
+  std::string mpi_hosts;             // where Open MPI places them ("b:2,c:2"; empty: here)
+  long resume_step = 0;              // > 0: start from the run's checkpoint of this step
 
-  void add_options(CLI::App& app);    // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --drop-every --resume-step
-  void load_secret();                 // reads secret_file; throws with a one-line reason
+  void add_options(
+      CLI::App& app);  // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --drop-every --resume-step
+  void load_secret();  // reads secret_file; throws with a one-line reason
 };
 
 // Channel names: "<run-id>/<KIND>".
@@ -82,22 +85,22 @@ std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, he
 //   replay       sequence number already seen from that sender
 //   undecodable  authentic, but does not decode as its channel's type
 struct BusCounters {
-  std::uint64_t received = 0;          // datagrams handed to the bus by LCM
+  std::uint64_t received = 0;  // datagrams handed to the bus by LCM
   std::uint64_t accepted = 0;
-  std::uint64_t own = 0;               // our own messages, looped back
-  std::uint64_t injected_drops = 0;    // run.drop_every
-  std::uint64_t rejected_short = 0;    // no well-formed envelope
-  std::uint64_t rejected_foreign = 0;  // another run's id
-  std::uint64_t rejected_auth = 0;     // HMAC did not verify
-  std::uint64_t rejected_prestart = 0; // sent before this bus was opened (a replayed recording)
-  std::uint64_t rejected_replay = 0;   // sequence number already seen
-  std::uint64_t rejected_corrupt = 0;  // authentic but undecodable as its channel's type
-  std::uint64_t resent = 0;            // messages we published again on request
-  std::uint64_t resend_requests = 0;   // times we asked a peer again
+  std::uint64_t own = 0;                // our own messages, looped back
+  std::uint64_t injected_drops = 0;     // run.drop_every
+  std::uint64_t rejected_short = 0;     // no well-formed envelope
+  std::uint64_t rejected_foreign = 0;   // another run's id
+  std::uint64_t rejected_auth = 0;      // HMAC did not verify
+  std::uint64_t rejected_prestart = 0;  // sent before this bus was opened (a replayed recording)
+  std::uint64_t rejected_replay = 0;    // sequence number already seen
+  std::uint64_t rejected_corrupt = 0;   // authentic but undecodable as its channel's type
+  std::uint64_t resent = 0;             // messages we published again on request
+  std::uint64_t resend_requests = 0;    // times we asked a peer again
   std::uint64_t rejected() const {
     return rejected_short + rejected_foreign + rejected_auth + rejected_prestart + rejected_replay + rejected_corrupt;
   }
-  std::string str() const;             // one line for a log
+  std::string str() const;  // one line for a log
 };
 
 // A received message: channel kind, envelope and raw bytes (tag verified) and, set by the bus,
@@ -183,8 +186,7 @@ class Bus {
 
  private:
   void count(std::uint64_t BusCounters::*field);
-  void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf,
-                       bool keep);
+  void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep);
   void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);  // never throws
   void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel, std::int64_t recv_utime);
   bool accept_seq(const std::string& sender, std::int64_t seq);

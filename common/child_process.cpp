@@ -3,18 +3,18 @@
 
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fcntl.h>
-#include <poll.h>
 #include <filesystem>
 #include <stdexcept>
-#include <sys/prctl.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace hemo {
 
@@ -182,7 +182,8 @@ ChildResult run_child(const std::vector<std::string>& argv, const ChildOptions& 
   for (;;) {
     const pid_t r = ::waitpid(pid, &status, opt.stop_flag ? WNOHANG : 0);
     if (r == pid) break;
-    if (r < 0 && errno != EINTR) throw std::runtime_error(fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
+    if (r < 0 && errno != EINTR)
+      throw std::runtime_error(fmt::format("waiting for {}: {}", argv[0], std::strerror(errno)));
     if (r == 0) {
       forward_stop();
       ::usleep(100 * 1000);

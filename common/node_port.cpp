@@ -21,8 +21,9 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
     : bus_(std::make_unique<Bus>(ctx, role, kinds)),
       // It also tells, in the run directory, whose heartbeats it hears: the coordinator's bus
       // check at start-up (docs/hosts.md).
-      heartbeat_(std::make_unique<Heartbeat>(ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); },
-                                             HeardReport{true, heard_report_file(ctx, role)})),
+      heartbeat_(std::make_unique<Heartbeat>(
+          ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); },
+          HeardReport{true, heard_report_file(ctx, role)})),
       role_(std::move(role)),
       step_(ctx.resume_step),
       step_started_(now()) {
@@ -63,8 +64,9 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
       last_asked = now();
     }
     if (now() - last_heard > ctx.timeout_s)
-      throw std::runtime_error(fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {})",
-                                           role_, ctx.timeout_s, what, step));
+      throw std::runtime_error(
+          fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {})", role_,
+                      ctx.timeout_s, what, step));
   }
 }
 
@@ -106,9 +108,7 @@ std::optional<FluidStep> FluidPort::advance(fluid_state_t& state, const Diagnost
   return FluidStep{next->first, next->second.as<particle_feedback_t>()};
 }
 
-mesh_t ParticlePort::initialize() {
-  return wait_for(channel::mesh, 0, "the fluid mesh").as<mesh_t>();
-}
+mesh_t ParticlePort::initialize() { return wait_for(channel::mesh, 0, "the fluid mesh").as<mesh_t>(); }
 
 std::optional<ParticleStep> ParticlePort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
   auto next = advance_with(channel::particle_feedback, feedback, channel::fluid_state, -fluid_lag_, diag,

@@ -78,10 +78,8 @@ class NodePort {
   // `order.step + input_offset`.
   template <class Out>
   std::optional<std::pair<step_order_t, Received>> advance_with(const std::string& out_kind, Out& out,
-                                                                const std::string& input_kind,
-                                                                int input_offset,
-                                                                const Diagnostics& diag,
-                                                                bool report_first) {
+                                                                const std::string& input_kind, int input_offset,
+                                                                const Diagnostics& diag, bool report_first) {
     times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
     if (report_first) report_done(true, "", diag);
     bus_->publish(out_kind, out, step_, /*keep=*/true);
@@ -130,8 +128,7 @@ class ParticlePort : public NodePort {
   // fluid has computed it. Parallel (Jacobi, `lagged_fluid`): step k runs in the state of step
   // k - 1, so both nodes compute step k at once. The fluid node is the same for both: it always
   // uses the feedback of step k - 1.
-  ParticlePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1,
-               bool lagged_fluid = false)
+  ParticlePort(const RunContext& ctx, std::string role, std::string program, int ranks = 1, bool lagged_fluid = false)
       : NodePort(ctx, std::move(role), std::move(program), ranks, channel::heard_by_particles()),
         fluid_lag_(lagged_fluid ? 1 : 0) {}
   // Says hello and waits for the fluid mesh.

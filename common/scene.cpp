@@ -15,7 +15,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <tuple>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -23,6 +22,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <tuple>
 
 namespace hemo {
 
@@ -76,18 +76,25 @@ class Reader {
     const int line = static_cast<int>(node.node()->source().begin.line);
     const std::string value = value_text(node);
     if constexpr (std::is_same_v<T, std::string>) {
-      if (auto v = node.value_exact<std::string>()) { out = *v; return true; }
+      if (auto v = node.value_exact<std::string>()) {
+        out = *v;
+        return true;
+      }
       problem(key, line, "expected a string", value);
     } else if constexpr (std::is_same_v<T, bool>) {
       // value<bool>() would take the integer 1 for true: only a TOML boolean is one.
-      if (auto v = node.value_exact<bool>()) { out = *v; return true; }
+      if (auto v = node.value_exact<bool>()) {
+        out = *v;
+        return true;
+      }
       problem(key, line, "expected true or false", value);
     } else if constexpr (std::is_integral_v<T>) {
       if (auto v = node.value_exact<int64_t>()) {
         // Read wide, refuse what the field cannot hold: no silent narrowing.
         using L = std::numeric_limits<T>;
         if (*v < static_cast<int64_t>(L::min()) ||
-            (static_cast<uint64_t>(L::max()) < static_cast<uint64_t>(INT64_MAX) && *v > static_cast<int64_t>(L::max()))) {
+            (static_cast<uint64_t>(L::max()) < static_cast<uint64_t>(INT64_MAX) &&
+             *v > static_cast<int64_t>(L::max()))) {
           problem(key, line, fmt::format("out of range: must be an integer from {} to {}", L::min(), L::max()), value);
           return false;
         }
@@ -99,7 +106,10 @@ class Reader {
     } else {
       if (node.is_number()) {
         const double v = *node.value<double>();
-        if (!std::isfinite(v)) { problem(key, line, "must be a finite number", value); return false; }
+        if (!std::isfinite(v)) {
+          problem(key, line, "must be a finite number", value);
+          return false;
+        }
         if (!within_bounds(key, line, v, value)) return false;
         out = v * scale;
         return true;
@@ -151,10 +161,12 @@ class Reader {
       if (const auto* sub = v.as_table()) {
         bool any_known = false;
         for (const auto& kk : known_) any_known |= kk.rfind(key + ".", 0) == 0;
-        if (any_known) { walk(*sub, key); continue; }
+        if (any_known) {
+          walk(*sub, key);
+          continue;
+        }
       }
-      if (!known_.count(key))
-        problem(key, static_cast<int>(v.source().begin.line), "unknown key");
+      if (!known_.count(key)) problem(key, static_cast<int>(v.source().begin.line), "unknown key");
     }
   }
 
@@ -207,7 +219,7 @@ class Reader {
         {"run.particle_ranks", {ninf, 4096}},
         {"run.bus_check_s", {ninf, 3600}},
         {"run.max_courant", {ninf, 1000}},
-        {"vessel.diameter_um", {5, 1e4}},   // a capillary to a 10-mm artery
+        {"vessel.diameter_um", {5, 1e4}},  // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
         {"mesh.core_cells", {ninf, 200}},
         {"mesh.ring_cells", {ninf, 200}},
@@ -256,10 +268,14 @@ class Reader {
   // The value a key has before the file is read, in the file's units.
   template <class T>
   static std::string default_text(const T& v, double scale) {
-    if constexpr (std::is_same_v<T, std::string>) return "\"" + v + "\"";
-    else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
-    else if constexpr (std::is_integral_v<T>) return std::to_string(v);
-    else return fmt::format("{:g}", v / scale);
+    if constexpr (std::is_same_v<T, std::string>)
+      return "\"" + v + "\"";
+    else if constexpr (std::is_same_v<T, bool>)
+      return v ? "true" : "false";
+    else if constexpr (std::is_integral_v<T>)
+      return std::to_string(v);
+    else
+      return fmt::format("{:g}", v / scale);
   }
 
   const toml::table& root_;
@@ -355,11 +371,15 @@ WorkEstimate estimate_work(const Scene& s) {
   const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
   w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
                 (s.platelet.present ? s.platelet.number_density * volume : 0);
-  struct Body { const Species* sp; double mass, r; };
+  struct Body {
+    const Species* sp;
+    double mass, r;
+  };
   std::vector<Body> bodies;
   for (const Species* sp : {&s.rbc, &s.platelet})
     if (sp->present && sp->diameter > 0 && sp->mass > 0)
-      bodies.push_back({sp, sp->mass * (sp->mass_scaling > 0 ? sp->mass_scaling : s.time.mass_scaling), sp->diameter / 2});
+      bodies.push_back(
+          {sp, sp->mass * (sp->mass_scaling > 0 ? sp->mass_scaling : s.time.mass_scaling), sp->diameter / 2});
   const double inf = std::numeric_limits<double>::infinity();
   const auto& c = s.contact;
   const double shear = s.driving.wall_shear_rate;
@@ -369,17 +389,19 @@ WorkEstimate estimate_work(const Scene& s) {
     const auto& a = bodies[i];
     for (std::size_t j = i; j < bodies.size(); ++j) {
       const auto& b = bodies[j];
-      w.contact_time = std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, b.mass,
-                                                           b.r, c.cell_youngs_modulus, c.cell_poisson_ratio,
-                                                           impact(2 * std::max(a.r, b.r))));
+      w.contact_time = std::min(
+          w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, b.mass, b.r,
+                                     c.cell_youngs_modulus, c.cell_poisson_ratio, impact(2 * std::max(a.r, b.r))));
     }
-    w.contact_time = std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, inf, inf,
-                                                         c.wall_youngs_modulus, c.wall_poisson_ratio, impact(2 * a.r)));
+    w.contact_time =
+        std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, inf, inf,
+                                            c.wall_youngs_modulus, c.wall_poisson_ratio, impact(2 * a.r)));
   }
   if (s.time.dem_substeps > 0)
     w.substeps = s.time.dem_substeps;
   else if (std::isfinite(w.contact_time))
-    w.substeps = std::max(1.0, std::ceil(s.time.coupling_interval / (w.contact_time / s.time.steps_per_contact) * (1 - 1e-12)));
+    w.substeps =
+        std::max(1.0, std::ceil(s.time.coupling_interval / (w.contact_time / s.time.steps_per_contact) * (1 - 1e-12)));
   else
     w.substeps = 0;  // no particles: no DEM
   w.particle_steps = w.substeps * static_cast<double>(s.time.coupling_steps) * std::ceil(w.particles);
@@ -401,8 +423,9 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   const double d_vessel = s.vessel.diameter;
   // The mesh's cell size: the edge of a cube of the mean cell volume (the O-grid's cells differ
   // little in volume; postprocess/study/study_file.h uses the same measure).
-  const double cells = std::max(1.0, (1.0 * s.mesh.core_cells * s.mesh.core_cells + 4.0 * s.mesh.core_cells * s.mesh.ring_cells) *
-                                         s.mesh.axial_cells);
+  const double cells =
+      std::max(1.0, (1.0 * s.mesh.core_cells * s.mesh.core_cells + 4.0 * s.mesh.core_cells * s.mesh.ring_cells) *
+                        s.mesh.axial_cells);
   const double cell = std::cbrt(units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length / cells);
   for (const Species* sp : {&s.rbc, &s.platelet}) {
     if (!sp->present) continue;
@@ -433,10 +456,11 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
                        sp->name, d / units::um, cell / units::um, d / cell));
     }
   }
-  if (std::max<long long>(1, 1LL * s.mesh.core_cells * s.mesh.core_cells + 4LL * s.mesh.core_cells * s.mesh.ring_cells) *
-          s.mesh.axial_cells > 20'000'000)
-    fail("mesh.axial_cells", r.value_text("mesh.axial_cells"),
-         "the mesh would have more than 20,000,000 cells");
+  if (std::max<long long>(1,
+                          1LL * s.mesh.core_cells * s.mesh.core_cells + 4LL * s.mesh.core_cells * s.mesh.ring_cells) *
+          s.mesh.axial_cells >
+      20'000'000)
+    fail("mesh.axial_cells", r.value_text("mesh.axial_cells"), "the mesh would have more than 20,000,000 cells");
   if (!r.problems().empty()) return;
 
   const auto w = estimate_work(s);
@@ -477,28 +501,44 @@ static int nesting_depth(const std::string& text) {
           line_start = false;
           header_line = ch == '[' && brackets == 0;
         }
-        if (ch == '#') state = comment;
-        else if (triple_quote) state = ml_basic, i += 2;
-        else if (triple_apos) state = ml_literal, i += 2;
-        else if (ch == '"') state = basic;
-        else if (ch == '\'') state = literal;
-        else if (ch == '[' || ch == '{') ++brackets;
-        else if (ch == ']' || ch == '}') brackets = std::max(0, brackets - 1);
-        else if (ch == '.') ++dots;
-        else if (ch == '\n') end_line();
+        if (ch == '#')
+          state = comment;
+        else if (triple_quote)
+          state = ml_basic, i += 2;
+        else if (triple_apos)
+          state = ml_literal, i += 2;
+        else if (ch == '"')
+          state = basic;
+        else if (ch == '\'')
+          state = literal;
+        else if (ch == '[' || ch == '{')
+          ++brackets;
+        else if (ch == ']' || ch == '}')
+          brackets = std::max(0, brackets - 1);
+        else if (ch == '.')
+          ++dots;
+        else if (ch == '\n')
+          end_line();
         break;
       case basic:
-        if (ch == '\\') ++i;
-        else if (ch == '"') state = code;
-        else if (ch == '\n') state = code, end_line();
+        if (ch == '\\')
+          ++i;
+        else if (ch == '"')
+          state = code;
+        else if (ch == '\n')
+          state = code, end_line();
         break;
       case literal:
-        if (ch == '\'') state = code;
-        else if (ch == '\n') state = code, end_line();
+        if (ch == '\'')
+          state = code;
+        else if (ch == '\n')
+          state = code, end_line();
         break;
       case ml_basic:
-        if (ch == '\\') ++i;
-        else if (triple_quote) state = code, i += 2;
+        if (ch == '\\')
+          ++i;
+        else if (triple_quote)
+          state = code, i += 2;
         break;
       case ml_literal:
         if (triple_apos) state = code, i += 2;
@@ -563,8 +603,7 @@ static toml::table parse_scene_file(const std::string& path) {
     return toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     const int line = static_cast<int>(e.source().begin.line);
-    if (e.source().path == nullptr && line == 0)
-      throw SceneError(path, {{"(file)", 0, std::string(e.description())}});
+    if (e.source().path == nullptr && line == 0) throw SceneError(path, {{"(file)", 0, std::string(e.description())}});
     throw SceneError(path, {{"(syntax)", line, std::string(e.description())}});
   }
 }
@@ -659,7 +698,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.run.step_timeout > 0, "run.step_timeout_s", "must be positive");
 
   // Required, without a default: missing is one problem, not also "must be positive".
-  for (auto [key, value] : {std::pair{"vessel.diameter_um", &s.vessel.diameter}, {"vessel.length_um", &s.vessel.length}}) {
+  for (auto [key, value] :
+       {std::pair{"vessel.diameter_um", &s.vessel.diameter}, {"vessel.length_um", &s.vessel.length}}) {
     if (!r.read(key, *value, units::um))
       r.refuse_once(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
     r.check(*value > 0, key, "must be positive");
@@ -687,7 +727,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   if (has_shear)
     s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * s.driving.wall_shear_rate / s.vessel.diameter;
   else if (s.vessel.diameter > 0 && s.vessel.length > 0)
-    s.driving.wall_shear_rate = s.vessel.diameter * s.driving.pressure_drop / (4 * s.plasma.viscosity * s.vessel.length);
+    s.driving.wall_shear_rate =
+        s.vessel.diameter * s.driving.pressure_drop / (4 * s.plasma.viscosity * s.vessel.length);
 
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);
@@ -702,10 +743,14 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("contact.friction", c.friction);
   r.check(c.cell_youngs_modulus > 0, "contact.cell_youngs_modulus_Pa", "must be positive");
   r.check(c.wall_youngs_modulus > 0, "contact.wall_youngs_modulus_Pa", "must be positive");
-  r.check(c.cell_poisson_ratio > -1 && c.cell_poisson_ratio < 0.5, "contact.cell_poisson_ratio", "must be in (-1, 0.5)");
-  r.check(c.wall_poisson_ratio > -1 && c.wall_poisson_ratio < 0.5, "contact.wall_poisson_ratio", "must be in (-1, 0.5)");
-  r.check(c.cell_cell_restitution > 0 && c.cell_cell_restitution <= 1, "contact.cell_cell_restitution", "must be in (0, 1]");
-  r.check(c.cell_wall_restitution > 0 && c.cell_wall_restitution <= 1, "contact.cell_wall_restitution", "must be in (0, 1]");
+  r.check(c.cell_poisson_ratio > -1 && c.cell_poisson_ratio < 0.5, "contact.cell_poisson_ratio",
+          "must be in (-1, 0.5)");
+  r.check(c.wall_poisson_ratio > -1 && c.wall_poisson_ratio < 0.5, "contact.wall_poisson_ratio",
+          "must be in (-1, 0.5)");
+  r.check(c.cell_cell_restitution > 0 && c.cell_cell_restitution <= 1, "contact.cell_cell_restitution",
+          "must be in (0, 1]");
+  r.check(c.cell_wall_restitution > 0 && c.cell_wall_restitution <= 1, "contact.cell_wall_restitution",
+          "must be in (0, 1]");
   r.check(c.friction >= 0, "contact.friction", "must not be negative");
 
   r.read("time.coupling_interval_s", s.time.coupling_interval);
@@ -714,7 +759,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("time.dem_steps_per_contact", s.time.steps_per_contact);
   r.read("time.dem_step_max_relaxation_times", s.time.relaxation_factor);
   r.read("time.closure_every_dem_steps", s.time.closure_every_dem_steps);
-  r.check(s.time.closure_every_dem_steps >= 1, "time.closure_every_dem_steps", "must be at least 1 (1: every DEM step)");
+  r.check(s.time.closure_every_dem_steps >= 1, "time.closure_every_dem_steps",
+          "must be at least 1 (1: every DEM step)");
   r.read("time.mass_scaling", s.time.mass_scaling);
   r.check(s.time.mass_scaling >= 1 && std::isfinite(s.time.mass_scaling), "time.mass_scaling",
           "must be at least 1 (1: the physical masses)");
@@ -801,8 +847,9 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                                                 : "OpenFOAM's cell-centre U (ours and CFDEM's)"});
   if (s.platelet.present)
     r.push_back({"platelet.orientation_integrator", s.platelet.orientation_integrator,
-                 s.platelet.orientation_integrator == "euler" ? "the paper's Algorithm 1 as printed (explicit, first order)"
-                                                              : "ours: second order, exact torque-free rotation"});
+                 s.platelet.orientation_integrator == "euler"
+                     ? "the paper's Algorithm 1 as printed (explicit, first order)"
+                     : "ours: second order, exact torque-free rotation"});
   return r;
 }
 

@@ -29,8 +29,8 @@ struct MeshSpec {
 };
 
 struct Plasma {
-  double density = 1025;       // kg/m^3
-  double viscosity = 1.2e-3;   // Pa s (dynamic)
+  double density = 1025;      // kg/m^3
+  double viscosity = 1.2e-3;  // Pa s (dynamic)
   double kinematic_viscosity() const { return viscosity / density; }
 };
 
@@ -42,13 +42,13 @@ struct Driving {
 };
 
 struct Species {
-  std::string name;               // "rbc" or "platelet"
+  std::string name;  // "rbc" or "platelet"
   bool present = false;
-  double diameter = 0;            // m, placeholder sphere (contacts, Re, reference areas)
-  double mass = 0;                // kg
-  double volume = 0;              // m^3, the cell's own volume (deposited as solid fraction)
-  double hematocrit = 0;          // rbc: volume fraction of the vessel
-  double number_density = 0;      // platelet: per m^3 of blood
+  double diameter = 0;        // m, placeholder sphere (contacts, Re, reference areas)
+  double mass = 0;            // kg
+  double volume = 0;          // m^3, the cell's own volume (deposited as solid fraction)
+  double hematocrit = 0;      // rbc: volume fraction of the vessel
+  double number_density = 0;  // platelet: per m^3 of blood
   // The DEM integrates this species with mass_scaling x its mass (0: time.mass_scaling's).
   // Platelets' contacts are the shortest (they set the DEM step): scaling them more than the red
   // cells lengthens the step without making the red cells heavier.
@@ -64,8 +64,8 @@ struct Species {
   // how its orientation is integrated: "splitting" (second order, exact torque-free rotation)
   // or "euler" (docs/model.md §3.3 as printed, first order). Orientation is tracked only when a
   // closure needs it.
-  double semi_axis_a = 0;         // m
-  double semi_axis_c = 0;         // m
+  double semi_axis_a = 0;  // m
+  double semi_axis_c = 0;  // m
   std::string orientation_integrator = "splitting";
 };
 
@@ -76,8 +76,8 @@ const std::vector<std::string>& known_lift_closures();
 const std::vector<std::string>& known_torque_closures();
 
 struct Contact {
-  double cell_youngs_modulus = 7.5e5;   // Pa
-  double wall_youngs_modulus = 7.5e7;   // Pa
+  double cell_youngs_modulus = 7.5e5;  // Pa
+  double wall_youngs_modulus = 7.5e7;  // Pa
   double cell_poisson_ratio = 0.45;
   double wall_poisson_ratio = 0.18;
   double cell_cell_restitution = 0.9;
@@ -88,7 +88,7 @@ struct Contact {
 struct Timing {
   double coupling_interval = 1e-5;  // s, one fluid step and N DEM substeps
   long coupling_steps = 10;
-  int dem_substeps = 0;             // 0: derived from contact time and drag relaxation
+  int dem_substeps = 0;  // 0: derived from contact time and drag relaxation
   // The DEM step is at most contact_time / steps_per_contact and at most
   // relaxation_factor x the shortest drag relaxation time m / beta(0) (0: drag does not limit
   // it; the exponential drag update is stable at any step, particle-node/README.md measures
@@ -104,7 +104,7 @@ struct Timing {
   // DEM step does; what it costs is the particles' inertia: their drag relaxation time grows
   // like s and must stay far below the flow's time scale 1 / shear rate (docs/performance.md,
   // bench mass-scaling). 1: the physical masses.
-  double mass_scaling = 1;         // every species' DEM mass factor unless the species sets its own
+  double mass_scaling = 1;  // every species' DEM mass factor unless the species sets its own
   // Adaptive coupling intervals (coordinator/coupling_clock.h): each interval the longest of
   // coupling_interval / 2^j that is at most this many times the shortest drag relaxation time
   // m / beta the particle node reports for its particles (at their DEM masses, current slip and
@@ -117,7 +117,7 @@ struct Timing {
 
 // Body force on the particles (m g); docs/model.md §1: off by default.
 struct Gravity {
-  double x = 0, y = 0, z = 0;       // m/s^2
+  double x = 0, y = 0, z = 0;  // m/s^2
 };
 
 // The fluid node's linear solvers, PISO loop and steady-state skip (fluid-node/README.md;
@@ -139,25 +139,25 @@ struct FluidSolver {
 };
 
 struct Output {
-  long every_steps = 10;            // particle snapshot every this many coupling steps (and last)
+  long every_steps = 10;               // particle snapshot every this many coupling steps (and last)
   long checkpoint_every_steps = 1000;  // both nodes' whole state every this many steps (0: never)
 };
 
 struct RunSettings {
   std::string name = "run";
   unsigned seed = 1;
-  double node_timeout = 30;         // s without a heartbeat before a node is declared dead
-  double startup_timeout = 120;     // s for both nodes to finish step 0
-  double step_timeout = 3600;       // s for both nodes to finish any later step
-  int max_restarts = 3;             // times a dead or silent node is restarted from the last checkpoint
-  int fluid_ranks = 1;              // MPI ranks of the fluid node
-  int particle_ranks = 1;           // MPI ranks of the particle node
-  int drop_every = 0;               // fault injection: every process drops every n-th message it receives
+  double node_timeout = 30;      // s without a heartbeat before a node is declared dead
+  double startup_timeout = 120;  // s for both nodes to finish step 0
+  double step_timeout = 3600;    // s for both nodes to finish any later step
+  int max_restarts = 3;          // times a dead or silent node is restarted from the last checkpoint
+  int fluid_ranks = 1;           // MPI ranks of the fluid node
+  int particle_ranks = 1;        // MPI ranks of the particle node
+  int drop_every = 0;            // fault injection: every process drops every n-th message it receives
   // Stability guards: the coordinator stops a run whose step exceeds them, naming the cause.
-  double max_courant = 1.0;         // fluid Courant number
-  double max_overlap = 0.25;        // deepest contact overlap / the smaller diameter (wall: the cell's)
-  std::string fluid_command;        // empty: the built-in fluid node
-  std::string particle_command;     // empty: the built-in particle node
+  double max_courant = 1.0;      // fluid Courant number
+  double max_overlap = 0.25;     // deepest contact overlap / the smaller diameter (wall: the cell's)
+  std::string fluid_command;     // empty: the built-in fluid node
+  std::string particle_command;  // empty: the built-in particle node
   // The bus across hosts (docs/hosts.md): the multicast TTL (-1: 0 on one host, 1 with
   // [hosts]) and the seconds after every process joined the bus within which each must have
   // heard every other, or the run stops naming the pair that does not hear each other.
@@ -190,7 +190,7 @@ struct Scene {
   Timing time;
   Output output;
   FluidSolver fluid;
-  bool two_way = true;              // particles push back on the fluid
+  bool two_way = true;  // particles push back on the fluid
   // How a particle's volume, drag and coefficient are shared among fluid cells:
   // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
   // face of its cell) or "centre_cell" (all to the cell holding its centre).
@@ -256,16 +256,16 @@ struct Scene {
 // ("ours", CFDEMcoupling's documented behaviour, the paper's Algorithm 1): `hemocosim check`
 // lists them; docs/validation.md measures what each one moves.
 struct NumericalReading {
-  std::string key;     // e.g. "coupling.fluid_velocity"
-  std::string value;   // as in the scene file
-  std::string reading; // whose, and what it means, in a few words
+  std::string key;      // e.g. "coupling.fluid_velocity"
+  std::string value;    // as in the scene file
+  std::string reading;  // whose, and what it means, in a few words
 };
 std::vector<NumericalReading> numerical_readings(const Scene& scene);
 
 // One problem found in a scene, with where it is: one line "file:line: key = value: rule".
 struct SceneProblem {
-  std::string key;   // dotted key, e.g. "vessel.diameter_um"
-  int line = 0;      // 0 when the key is missing
+  std::string key;  // dotted key, e.g. "vessel.diameter_um"
+  int line = 0;     // 0 when the key is missing
   std::string message;
   std::string value = {};  // the value as in the file (or the default it took), when there is one
   std::string str(const std::string& file) const;

@@ -29,9 +29,10 @@ int check_command(const std::string& scene_path) {
              s.driving.wall_shear_rate);
   fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
   if (s.time.adaptive_interval())
-    fmt::print("  time        {:.4g} s physical in coupling intervals of at most {:.3g} s, each the longest {:.3g} s / 2^j "
-               "within {:g} drag relaxation times\n",
-               s.time.end_time(), s.time.coupling_interval, s.time.coupling_interval, s.time.coupling_relaxation_times);
+    fmt::print(
+        "  time        {:.4g} s physical in coupling intervals of at most {:.3g} s, each the longest {:.3g} s / 2^j "
+        "within {:g} drag relaxation times\n",
+        s.time.end_time(), s.time.coupling_interval, s.time.coupling_interval, s.time.coupling_relaxation_times);
   else
     fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.end_time());
@@ -39,9 +40,10 @@ int check_command(const std::string& scene_path) {
   fmt::print("  numerics    (readings the paper leaves open; docs/validation.md)\n");
   for (const auto& n : numerical_readings(s)) fmt::print("    {:<34} {:<20} {}\n", n.key, n.value, n.reading);
   if (const auto w = estimate_work(s); w.substeps > 0)
-    fmt::print("  work        at least {:.0f} DEM substeps per coupling interval (shortest contact {:.3g} s), "
-               "~{:.3g} particle-steps in all\n",
-               w.substeps, w.contact_time, w.particle_steps);
+    fmt::print(
+        "  work        at least {:.0f} DEM substeps per coupling interval (shortest contact {:.3g} s), "
+        "~{:.3g} particle-steps in all\n",
+        w.substeps, w.contact_time, w.particle_steps);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)

@@ -8,8 +8,8 @@ namespace hemo {
 
 struct RunOptions {
   std::string scene;
-  std::string out;     // run directory; default runs/<name>-<time>
-  int fluid_ranks = 0;     // 0: as the scene says
+  std::string out;      // run directory; default runs/<name>-<time>
+  int fluid_ranks = 0;  // 0: as the scene says
   int particle_ranks = 0;
   long stop_after_step = 0;  // > 0: stop after this step, writing a checkpoint there
   // Placement across hosts (docs/hosts.md); empty: as the scene's [hosts] says.
@@ -31,8 +31,8 @@ int resume_command(const ResumeOptions& opt);
 // nodes again from there. Waits for the coordinator's answer.
 struct ControlOptions {
   std::string run_dir;
-  std::string node;         // fluid or particles
-  std::string with;         // swap: the program (and arguments) that takes the node's place
+  std::string node;  // fluid or particles
+  std::string with;  // swap: the program (and arguments) that takes the node's place
   double timeout_s = 300;
 };
 int control_command(const std::string& action, const ControlOptions& opt);
@@ -51,9 +51,9 @@ struct MonitorOptions {
   long total_steps = 0;     // for the ETA; 0: the run's scene copy
   double duration_s = 0;    // 0: until Ctrl-C
   double interval_s = 1;
-  bool plain = false;       // no screen clearing (logs, tests)
-  bool json = false;        // one JSON object per interval instead of the table
-  int http_port = -1;       // >= 0: serve the live page (0: any free port)
+  bool plain = false;  // no screen clearing (logs, tests)
+  bool json = false;   // one JSON object per interval instead of the table
+  int http_port = -1;  // >= 0: serve the live page (0: any free port)
   std::string bind = "127.0.0.1";
 };
 int monitor_command(const MonitorOptions& opt);

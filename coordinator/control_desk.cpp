@@ -3,8 +3,8 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
 #include <unistd.h>
+#include <chrono>
 
 namespace hemo {
 
@@ -82,8 +82,8 @@ control_t ask_coordinator(const RunContext& ctx, const ControlRequest& request, 
     });
   }
   if (!answer)
-    throw std::runtime_error(fmt::format("no answer from the run's coordinator within {:.0f} s: is the run going?",
-                                         timeout_s));
+    throw std::runtime_error(
+        fmt::format("no answer from the run's coordinator within {:.0f} s: is the run going?", timeout_s));
   return *answer;
 }
 

@@ -22,8 +22,8 @@ CouplingClock::CouplingClock(const Timing& time, const Output& output, long firs
       step_(first_step) {
   ticks_ = adaptive() ? std::llround(first_time_s / tick_s_) : first_step * ticks_per_interval(0);
   if (ticks_ < 0 || ticks_ > end_ticks_)
-    throw std::runtime_error(fmt::format("the run resumes at t = {:.6g} s, outside its span 0..{:.6g} s", first_time_s,
-                                         end_time_s()));
+    throw std::runtime_error(
+        fmt::format("the run resumes at t = {:.6g} s, outside its span 0..{:.6g} s", first_time_s, end_time_s()));
   // A run resumed between two longest intervals goes on with intervals that end on its time.
   while (ticks_ % ticks_per_interval(level_) != 0) ++level_;
 }
@@ -43,10 +43,11 @@ void CouplingClock::observe_relaxation_time(double tau_s) {
   int wanted = 0;
   while (wanted <= kMaxLevel && std::ldexp(dt_max_s_, -wanted) > longest) ++wanted;
   if (wanted > kMaxLevel)
-    throw std::runtime_error(fmt::format(
-        "the drag relaxation time {:.3g} s asks for coupling intervals below {:.3g} s (time.coupling_interval_s / 2^{}): "
-        "raise time.coupling_relaxation_times or lower time.coupling_interval_s",
-        tau_s, std::ldexp(dt_max_s_, -kMaxLevel), kMaxLevel));
+    throw std::runtime_error(
+        fmt::format("the drag relaxation time {:.3g} s asks for coupling intervals below {:.3g} s "
+                    "(time.coupling_interval_s / 2^{}): "
+                    "raise time.coupling_relaxation_times or lower time.coupling_interval_s",
+                    tau_s, std::ldexp(dt_max_s_, -kMaxLevel), kMaxLevel));
   if (wanted > level_)
     level_ = wanted;  // shorter: at once (a shorter power of two still ends on the grid)
   else if (wanted < level_ && ticks_ % ticks_per_interval(level_ - 1) == 0)

@@ -11,23 +11,19 @@
 
 #include <fmt/format.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <limits>
 #include <sstream>
-#include <unistd.h>
 
 namespace hemo {
 
 namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-std::string self_dir() {
-  return std::filesystem::read_symlink("/proc/self/exe").parent_path().string();
-}
+std::string self_dir() { return std::filesystem::read_symlink("/proc/self/exe").parent_path().string(); }
 
 std::string who(const std::string& process) {
   return process == "coordinator" ? "the coordinator" : "the " + process + " node";
@@ -41,12 +37,11 @@ std::vector<std::string> split(const std::string& s) {
 }
 }  // namespace
 
-Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, NodeLauncher& launcher,
-                   long first_step)
+Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, NodeLauncher& launcher, long first_step)
     : scene_(scene), dir_(std::move(dir)), ctx_(ctx), launcher_(launcher), first_step_(first_step) {
   bus_ = std::make_unique<Bus>(ctx_, "coordinator", channel::heard_by_coordinator());
-  heartbeat_ = std::make_unique<Heartbeat>(ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); },
-                                           HeardReport{true, ""});
+  heartbeat_ = std::make_unique<Heartbeat>(
+      ctx_, "coordinator", 0.5, [bus = bus_.get()] { return bus->counters(); }, HeardReport{true, ""});
   // Reports of nodes from before (a restart) would pass the bus check for the new ones.
   std::error_code ec;
   std::filesystem::remove_all(std::filesystem::path(heard_report_file(ctx_, "coordinator")).parent_path(), ec);
@@ -71,11 +66,11 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
                       long first_step) {
   auto argv = split(command);
   if (argv.empty()) argv.push_back(self_dir() + "/" + default_program);
-  for (const auto& a : {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path,
-                        std::string("--run-id"), ctx_.run_id, std::string("--lcm-url"), ctx_.lcm_url,
-                        std::string("--secret-file"), ctx_.secret_file, std::string("--timeout"),
-                        fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
-                        fmt::format("{}", ctx_.drop_every), std::string("--ranks"), fmt::format("{}", ranks)})
+  for (const auto& a :
+       {std::string("--scene"), dir_.scene_copy(), std::string("--run-dir"), dir_.path, std::string("--run-id"),
+        ctx_.run_id, std::string("--lcm-url"), ctx_.lcm_url, std::string("--secret-file"), ctx_.secret_file,
+        std::string("--timeout"), fmt::format("{}", scene_.run.node_timeout), std::string("--drop-every"),
+        fmt::format("{}", ctx_.drop_every), std::string("--ranks"), fmt::format("{}", ranks)})
     argv.push_back(a);
   const std::string& hosts = node == "fluid" ? scene_.hosts.fluid : scene_.hosts.particles;
   if (!hosts.empty()) {
@@ -132,7 +127,8 @@ void Lockstep::record(const Received& msg) {
   node.compute = done.compute_s;
   node.wait = done.wait_s;
   node.last.clear();
-  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i) node.last[done.names[i]] = done.values[i];
+  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i)
+    node.last[done.names[i]] = done.values[i];
   const long k = msg.envelope.step;
   // A resumed run's start-up report is of the checkpoint's step, whose metrics the run kept.
   if (k == first_step_ && k > 0) return;
@@ -178,7 +174,8 @@ void Lockstep::check_health(long step) {
     }
     // Until its first heartbeat a node is starting up (MPI launch, engine set-up, a loaded or
     // remote host): it has the start-up allowance, not the heartbeat timeout.
-    const double allowance = node.heard ? scene_.run.node_timeout : std::max(scene_.run.node_timeout, scene_.run.startup_timeout);
+    const double allowance =
+        node.heard ? scene_.run.node_timeout : std::max(scene_.run.node_timeout, scene_.run.startup_timeout);
     if (now() - node.last_heard > allowance)
       throw NodeLost(fmt::format("{} node {} at step {}: no heartbeat for {:.0f} s (log: {})", name,
                                  node.heard ? "stopped answering" : "did not start", step, allowance,
@@ -205,7 +202,8 @@ void Lockstep::check_bus() {
   for (const auto& [listener, r] : report)
     for (const auto& [speaker, other] : report)
       if (speaker != listener && !r.heard.count(speaker))
-        unheard.push_back(fmt::format("{} (on {}) does not hear {} (on {})", who(listener), r.host, who(speaker), other.host));
+        unheard.push_back(
+            fmt::format("{} (on {}) does not hear {} (on {})", who(listener), r.host, who(speaker), other.host));
   if (unheard.empty()) {
     bus_checked_ = true;
     return;
@@ -261,8 +259,8 @@ void Lockstep::await(long step, double timeout_s) {
     if (now() - start > timeout_s) {
       for (auto& [name, node] : nodes_)
         if (node.done_step < step)
-          throw std::runtime_error(fmt::format("{} node did not finish step {} within {:.0f} s (log: {})", name,
-                                               step, timeout_s, node.process->log_path()));
+          throw std::runtime_error(fmt::format("{} node did not finish step {} within {:.0f} s (log: {})", name, step,
+                                               timeout_s, node.process->log_path()));
     }
   }
 }
@@ -287,8 +285,8 @@ void Lockstep::stop(long step) {
   }
   for (auto& [name, node] : nodes_) {
     if (node.process->how_it_ended() != "exited with status 0")
-      throw std::runtime_error(fmt::format("{} node {} while finishing (log: {})", name,
-                                           node.process->how_it_ended(), node.process->log_path()));
+      throw std::runtime_error(fmt::format("{} node {} while finishing (log: {})", name, node.process->how_it_ended(),
+                                           node.process->log_path()));
   }
 }
 
@@ -298,8 +296,8 @@ namespace hemo {
 
 std::string Lockstep::profile_report(double wall_s, long steps) const {
   std::string csv = "node,phase,total_s,per_step_ms\n";
-  std::string text = fmt::format("profile of {} coupled steps ({:.2f} s wall, {:.2f} s stepping):\n", steps, wall_s,
-                                 stepping_wall_s_);
+  std::string text =
+      fmt::format("profile of {} coupled steps ({:.2f} s wall, {:.2f} s stepping):\n", steps, wall_s, stepping_wall_s_);
   for (const auto& [name, node] : nodes_) {
     for (const auto& [phase, total] : node.totals) {
       csv += fmt::format("{},{},{:.6g},{:.6g}\n", name, phase, total, 1e3 * total / std::max(steps, 1L));

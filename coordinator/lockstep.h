@@ -86,7 +86,7 @@ class Lockstep {
   RunDirectory dir_;
   RunContext ctx_;
   NodeLauncher& launcher_;
-  long first_step_ = 0;         // the step the nodes started from
+  long first_step_ = 0;  // the step the nodes started from
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::map<std::string, NodeState> nodes_;
@@ -100,12 +100,12 @@ class Lockstep {
   };
   std::vector<MetricsRow> unwritten_;  // rows not yet in metrics_
   double step_time_s_ = 0;
-  double ordered_at_ = 0;       // wall clock when the current step was ordered
-  double stepping_wall_s_ = 0;  // sum over steps >= 1 of order-to-all-done wall time
-  double overhead_s_ = 0;       // the part of it no node spent computing (see profile_report)
-  std::string unstable_;        // the first broken stability guard, if any
-  bool bus_checked_ = false;    // every process heard every other
-  double bus_checked_at_ = 0;   // when check_bus last looked
+  double ordered_at_ = 0;                      // wall clock when the current step was ordered
+  double stepping_wall_s_ = 0;                 // sum over steps >= 1 of order-to-all-done wall time
+  double overhead_s_ = 0;                      // the part of it no node spent computing (see profile_report)
+  std::string unstable_;                       // the first broken stability guard, if any
+  bool bus_checked_ = false;                   // every process heard every other
+  double bus_checked_at_ = 0;                  // when check_bus last looked
   std::map<std::string, double> reported_at_;  // when a node's heard report first appeared
 };
 

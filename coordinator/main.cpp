@@ -7,8 +7,8 @@
 #include "scene.h"
 #include "study.h"
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 int main(int argc, char** argv) {
   CLI::App app{"hemocosim: unresolved CFD-DEM of red blood cells and platelets, coupled over LCM"};
@@ -20,50 +20,68 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--out", run.out, "Run directory to create (default runs/<name>-<time>)");
   run_cmd->add_option("--np-fluid", run.fluid_ranks, "MPI ranks of the fluid node (overrides run.fluid_ranks)")
       ->check(CLI::PositiveNumber);
-  run_cmd->add_option("--np-particles", run.particle_ranks,
-                      "MPI ranks of the particle node (overrides run.particle_ranks)")
+  run_cmd
+      ->add_option("--np-particles", run.particle_ranks,
+                   "MPI ranks of the particle node (overrides run.particle_ranks)")
       ->check(CLI::PositiveNumber);
-  run_cmd->add_option("--stop-after-step", run.stop_after_step,
-                      "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
+  run_cmd
+      ->add_option("--stop-after-step", run.stop_after_step,
+                   "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
       ->check(CLI::PositiveNumber);
   run_cmd->add_option("--fluid-hosts", run.fluid_hosts,
                       "Hosts of the fluid node's MPI job and ranks on each, e.g. a or a:2,b:2; its ranks are their sum "
                       "(overrides hosts.fluid; docs/hosts.md)");
-  run_cmd->add_option("--particle-hosts", run.particle_hosts,
-                      "Hosts of the particle node's MPI job and ranks on each, e.g. b:2,c:2 (overrides hosts.particles)");
-  run_cmd->add_option("--launcher", run.launcher,
-                      "How a node with hosts starts: ssh (on its first host, by the launch command) or local (here; "
-                      "Open MPI places its ranks) (overrides hosts.launcher)")
+  run_cmd->add_option(
+      "--particle-hosts", run.particle_hosts,
+      "Hosts of the particle node's MPI job and ranks on each, e.g. b:2,c:2 (overrides hosts.particles)");
+  run_cmd
+      ->add_option("--launcher", run.launcher,
+                   "How a node with hosts starts: ssh (on its first host, by the launch command) or local (here; "
+                   "Open MPI places its ranks) (overrides hosts.launcher)")
       ->check(CLI::IsMember({"ssh", "local"}));
-  run_cmd->add_option("--launch-command", run.launch_command,
-                      "The command that starts a node on a host, with {host} {command} {node} {run_dir} (default \"ssh -o "
-                      "BatchMode=yes {host} {command}\"; overrides hosts.launch_command)");
-  run_cmd->add_option("--bus-ttl", run.bus_ttl,
-                      "Multicast TTL of the run's bus (default 0 on one host, 1 with hosts; overrides run.bus_ttl)")
+  run_cmd->add_option(
+      "--launch-command", run.launch_command,
+      "The command that starts a node on a host, with {host} {command} {node} {run_dir} (default \"ssh -o "
+      "BatchMode=yes {host} {command}\"; overrides hosts.launch_command)");
+  run_cmd
+      ->add_option("--bus-ttl", run.bus_ttl,
+                   "Multicast TTL of the run's bus (default 0 on one host, 1 with hosts; overrides run.bus_ttl)")
       ->check(CLI::Range(0, 255));
 
   hemo::ResumeOptions resume;
   auto* resume_cmd = app.add_subcommand(
       "resume", "Go on with a stopped run (interrupted, failed, --stop-after-step) from its last checkpoint");
   resume_cmd->add_option("run_dir", resume.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
-  resume_cmd->add_option("--stop-after-step", resume.stop_after_step,
-                         "Stop again after this coupling step, writing a checkpoint there")
+  resume_cmd
+      ->add_option("--stop-after-step", resume.stop_after_step,
+                   "Stop again after this coupling step, writing a checkpoint there")
       ->check(CLI::PositiveNumber);
 
   // restart and swap: a request to the coordinator of a running run.
   auto add_node_request = [&app](const char* name, const char* what, hemo::ControlOptions& opt) {
     auto* cmd = app.add_subcommand(name, what);
-    cmd->add_option("run_dir", opt.run_dir, "Run directory of a running run")->required()->check(CLI::ExistingDirectory);
-    cmd->add_option("node", opt.node, "The node: fluid or particles")->required()->check(CLI::IsMember({"fluid", "particles"}));
-    cmd->add_option("--timeout", opt.timeout_s, "Seconds to wait for the coordinator to carry it out")->capture_default_str();
+    cmd->add_option("run_dir", opt.run_dir, "Run directory of a running run")
+        ->required()
+        ->check(CLI::ExistingDirectory);
+    cmd->add_option("node", opt.node, "The node: fluid or particles")
+        ->required()
+        ->check(CLI::IsMember({"fluid", "particles"}));
+    cmd->add_option("--timeout", opt.timeout_s, "Seconds to wait for the coordinator to carry it out")
+        ->capture_default_str();
     return cmd;
   };
   hemo::ControlOptions restart, swap;
   auto* restart_cmd = add_node_request(
       "restart", "Restart a node of a running run: both nodes go on from a checkpoint of the current step", restart);
-  auto* swap_cmd = add_node_request(
-      "swap", "Swap a node of a running run for another program that speaks the messages; it goes on from a checkpoint of the current step", swap);
-  swap_cmd->add_option("--with", swap.with, "The program (and its arguments) that takes the node's place; it gets the node's usual options, --resume-step among them")->required();
+  auto* swap_cmd = add_node_request("swap",
+                                    "Swap a node of a running run for another program that speaks the messages; it "
+                                    "goes on from a checkpoint of the current step",
+                                    swap);
+  swap_cmd
+      ->add_option("--with", swap.with,
+                   "The program (and its arguments) that takes the node's place; it gets the node's usual options, "
+                   "--resume-step among them")
+      ->required();
 
   std::string check_scene;
   auto* check_cmd = app.add_subcommand("check", "Validate a scene and summarise what it will run");
@@ -107,36 +125,54 @@ int main(int argc, char** argv) {
       ->capture_default_str();
 
   hemo::AnalyzeOptions ana;
-  auto* ana_cmd = app.add_subcommand("analyze", "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit");
+  auto* ana_cmd =
+      app.add_subcommand("analyze", "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit");
   ana_cmd->add_option("run_dir", ana.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
   ana_cmd->add_flag("--json", ana.json, "Print JSON instead of the table");
   ana_cmd->add_option("--bins", ana.bins, "Radial bins over [0, R]")->capture_default_str()->check(CLI::PositiveNumber);
-  ana_cmd->add_option("--t-fit", ana.t_fit, "s: D from the MSD over [0, t_fit]")->capture_default_str()->check(CLI::PositiveNumber);
-  ana_cmd->add_option("--window-start", ana.window_start, "s: start of the averaging window (default: second half of the run)");
-  ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
-  ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")->check(CLI::NonNegativeNumber);
+  ana_cmd->add_option("--t-fit", ana.t_fit, "s: D from the MSD over [0, t_fit]")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  ana_cmd->add_option("--window-start", ana.window_start,
+                      "s: start of the averaging window (default: second half of the run)");
+  ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")
+      ->check(CLI::NonNegativeNumber);
+  ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")
+      ->check(CLI::NonNegativeNumber);
 
   hemo::PlotOptions plot;
-  auto* plot_cmd = app.add_subcommand("plot", "PNG figures of analysed runs: profiles over time, MSD and D, observables against the swept key");
-  plot_cmd->add_option("run_dirs", plot.run_dirs, "Run directories (analysed first when analysis.json is missing or stale)")->required();
-  plot_cmd->add_option("--out", plot.out, "Directory for the PNG files (default RUN_DIR/figures for one run, ./figures for several)");
-  plot_cmd->add_option("--key", plot.key, "Swept scene key, dotted (default: the one key whose value differs between the runs)");
+  auto* plot_cmd = app.add_subcommand(
+      "plot", "PNG figures of analysed runs: profiles over time, MSD and D, observables against the swept key");
+  plot_cmd
+      ->add_option("run_dirs", plot.run_dirs, "Run directories (analysed first when analysis.json is missing or stale)")
+      ->required();
+  plot_cmd->add_option("--out", plot.out,
+                       "Directory for the PNG files (default RUN_DIR/figures for one run, ./figures for several)");
+  plot_cmd->add_option("--key", plot.key,
+                       "Swept scene key, dotted (default: the one key whose value differs between the runs)");
   plot_cmd->add_option("--labels", plot.labels, "Names of the runs in the figures, one per run")->delimiter(',');
   plot_cmd->add_flag("--reanalyze", plot.reanalyze, "Analyse again even when analysis.json is up to date");
 
   hemo::StudyOptions study;
-  auto* study_cmd = app.add_subcommand("study", "Run every scene of a study (resuming), analyse them, write report.md with figures");
+  auto* study_cmd =
+      app.add_subcommand("study", "Run every scene of a study (resuming), analyse them, write report.md with figures");
   study_cmd->add_option("study", study.study, "Study name (scenes/studies/<name>.toml) or study file")->required();
   study_cmd->add_option("--out", study.out, "Study directory (default runs/study-<name>, runs/study-<name>-reduced)");
-  study_cmd->add_flag("--reduced", study.reduced, "Shrink every scene (vessel, mesh, time) so the study runs in minutes");
+  study_cmd->add_flag("--reduced", study.reduced,
+                      "Shrink every scene (vessel, mesh, time) so the study runs in minutes");
   study_cmd->add_flag("--no-plot", study.no_plot, "Write the report without figures");
   study_cmd->add_flag("--check", study.check_only, "Only expand and validate the study's scenes and print the plan");
 
   hemo::BenchOptions bench;
-  auto* bench_cmd = app.add_subcommand("bench", "Run time against error: run bench suites (scenes/bench), errors against each suite's reference, bench.md with figures");
-  bench_cmd->add_option("suites", bench.suites, "Suite names (scenes/bench/<name>.toml, or a group such as 'stress') or files (default: every suite but the stress tests)");
+  auto* bench_cmd = app.add_subcommand("bench",
+                                       "Run time against error: run bench suites (scenes/bench), errors against each "
+                                       "suite's reference, bench.md with figures");
+  bench_cmd->add_option("suites", bench.suites,
+                        "Suite names (scenes/bench/<name>.toml, or a group such as 'stress') or files (default: every "
+                        "suite but the stress tests)");
   bench_cmd->add_option("--out", bench.out, "Bench directory")->capture_default_str();
-  bench_cmd->add_option("--hemocosim", bench.hemocosim, "hemocosim executable for the runs (its nodes are used; default: this one)");
+  bench_cmd->add_option("--hemocosim", bench.hemocosim,
+                        "hemocosim executable for the runs (its nodes are used; default: this one)");
   bench_cmd->add_flag("--no-plot", bench.no_plot, "Write bench.md without figures");
   bench_cmd->add_flag("--check", bench.check_only,
                       "Only expand and validate the suites' scenes (stress suites too) and print the plan");
@@ -154,7 +190,8 @@ int main(int argc, char** argv) {
     if (*study_cmd) return hemo::study_command(study);
     if (*bench_cmd) return hemo::bench_command(bench);
   } catch (const hemo::SceneError& e) {
-    for (const auto& p : e.problems()) fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
+    for (const auto& p : e.problems())
+      fmt::print(stderr, "hemocosim: error: {}\n", p.str(run.scene.empty() ? check_scene : run.scene));
     return 2;
   } catch (const std::exception& e) {
     fmt::print(stderr, "hemocosim: error: {}\n", e.what());

@@ -5,12 +5,12 @@
 
 #include <fmt/format.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <chrono>
 #include <csignal>
 #include <fstream>
 #include <stdexcept>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <thread>
 
 namespace hemo {

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <csignal>
 #include <ctime>
@@ -15,7 +16,6 @@
 #include <limits>
 #include <stdexcept>
 #include <tuple>
-#include <unistd.h>
 
 namespace hemo {
 
@@ -50,14 +50,18 @@ int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& ct
     reached = drive(scene, dir, ctx, span, launcher, [] { return interrupted != 0; });
   } catch (const std::exception& e) {
     // The nodes are stopped by now.
-    try { write_paraview_sidecars(dir.path); } catch (const std::exception&) {}
+    try {
+      write_paraview_sidecars(dir.path);
+    } catch (const std::exception&) {
+    }
     throw std::runtime_error(e.what() + resume_hint(dir));
   }
   const int snapshots = write_paraview_sidecars(dir.path);
   fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
              snapshots, dir.path);
   if (!reached.end) {
-    if (interrupted) throw std::runtime_error(fmt::format("interrupted after step {}", reached.step) + resume_hint(dir));
+    if (interrupted)
+      throw std::runtime_error(fmt::format("interrupted after step {}", reached.step) + resume_hint(dir));
     fmt::print(stderr, "hemocosim: stopped as asked{}\n", resume_hint(dir));
   }
   return 0;
@@ -123,8 +127,8 @@ int resume_command(const ResumeOptions& opt) {
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   const long last = last_step(scene, opt.stop_after_step);
   if (*from >= last)
-    throw std::runtime_error(fmt::format("{}: its checkpoint of step {} is already at the end (step {})", dir.path,
-                                         *from, last));
+    throw std::runtime_error(
+        fmt::format("{}: its checkpoint of step {} is already at the end (step {})", dir.path, *from, last));
   ctx.drop_every = scene.run.drop_every;
   dir.drop_metrics_after(*from);
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";

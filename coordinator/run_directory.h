@@ -17,9 +17,9 @@ struct RunDirectory {
   std::string secret_file() const { return path + "/secret"; }
   std::string metrics_file() const { return path + "/metrics.csv"; }
   std::string log(const std::string& node) const { return path + "/" + node + ".log"; }
-  int fluid_ranks = 0;     // as run (0: unknown, a run directory older than resume)
+  int fluid_ranks = 0;  // as run (0: unknown, a run directory older than resume)
   int particle_ranks = 0;
-  std::string fluid_command;     // a node swapped in (`hemocosim swap`); empty: the scene's
+  std::string fluid_command;  // a node swapped in (`hemocosim swap`); empty: the scene's
   std::string particle_command;
   HostPlacement placement;  // where the nodes run (docs/hosts.md); a resumed run uses it again
 

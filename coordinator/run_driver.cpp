@@ -22,7 +22,8 @@ CouplingClock span_clock(const Scene& scene, const Lockstep& lockstep, long firs
   const double resumed_at = first_step > 0 ? lockstep.diagnostic("particles", kTimeDiagnostic) : 0.0;
   if (!std::isfinite(resumed_at))
     throw std::runtime_error(fmt::format(
-        "the particle node did not report the time of its checkpoint of step {} (adaptive intervals need it)", first_step));
+        "the particle node did not report the time of its checkpoint of step {} (adaptive intervals need it)",
+        first_step));
   CouplingClock clock(scene.time, scene.output, first_step, resumed_at);
   clock.observe_relaxation_time(lockstep.diagnostic("particles", kRelaxationDiagnostic));
   return clock;
@@ -68,7 +69,10 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
     } catch (const UnstableRun&) {
       // Keep the state the run went unstable in: the nodes write it as they finish. The last
       // checkpoint is the one from before: one of this step would resume into the instability.
-      try { lockstep.stop(k + 1); } catch (const std::exception&) {}
+      try {
+        lockstep.stop(k + 1);
+      } catch (const std::exception&) {
+      }
       if (checkpoint) dir.drop_checkpoint(k);  // once the nodes are done writing
       throw;
     }
@@ -91,7 +95,8 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
 // Tells where to go on from after a run stopped before its end.
 std::string resume_hint(const RunDirectory& dir) {
   const auto last = dir.last_checkpoint();
-  return last ? fmt::format("; its last checkpoint is step {}: `hemocosim resume {}` goes on from there", *last, dir.path)
+  return last ? fmt::format("; its last checkpoint is step {}: `hemocosim resume {}` goes on from there", *last,
+                            dir.path)
               : "; it has no checkpoint to resume from";
 }
 
@@ -124,8 +129,8 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
                      ? fmt::format("stopped after step {} (t = {:.6g} s of {:.6g} s)", reached.step, reached.time_s,
                                    scene.time.end_time())
                      : fmt::format("stopped after step {} of {}", reached.step, scene.time.coupling_steps),
-                 progress.seconds(), restarts > 0 ? fmt::format(" ({} restart{})", restarts, restarts > 1 ? "s" : "") : "",
-                 dir.path);
+                 progress.seconds(),
+                 restarts > 0 ? fmt::format(" ({} restart{})", restarts, restarts > 1 ? "s" : "") : "", dir.path);
       reached.restarts = restarts;
       return reached;
     } catch (const RestartRequested& asked) {
@@ -138,10 +143,12 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
       const auto checkpoint = dir.last_checkpoint();
       if (!checkpoint) {
         desk.answer(r, false, "no checkpoint was completed to restart from");
-        throw std::runtime_error(fmt::format("{} of the {} node asked for, but no checkpoint was completed", r.action, r.node));
+        throw std::runtime_error(
+            fmt::format("{} of the {} node asked for, but no checkpoint was completed", r.action, r.node));
       }
       from = *checkpoint;
-      fmt::print(stderr, "hemocosim: {} of the {} node asked for{}: restarting both nodes from the checkpoint of step {}\n",
+      fmt::print(stderr,
+                 "hemocosim: {} of the {} node asked for{}: restarting both nodes from the checkpoint of step {}\n",
                  r.action, r.node, r.action == "swap" ? " (`" + r.command + "`)" : "", from);
       restarted = r;
     } catch (const NodeLost& e) {
@@ -153,7 +160,8 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
       }
       ++restarts;
       from = *checkpoint;
-      fmt::print(stderr, "hemocosim: {}; restarting both nodes from the checkpoint of step {} (restart {} of at most {})\n",
+      fmt::print(stderr,
+                 "hemocosim: {}; restarting both nodes from the checkpoint of step {} (restart {} of at most {})\n",
                  e.what(), from, restarts, scene.run.max_restarts);
       restarted.reset();
     } catch (const std::exception& e) {

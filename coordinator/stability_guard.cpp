@@ -16,13 +16,15 @@ std::string unstable_step(const std::string& node, long step, const std::vector<
       return fmt::format("{} node reported {} = {} at step {}: the run has gone unstable (a non-finite value)", node,
                          name, v, step);
     if (node == "fluid" && name == "courant_max" && v > limits.max_courant)
-      return fmt::format("fluid Courant number {:.3g} at step {} exceeds run.max_courant = {:g}: the flow crosses "
-                         "cells within one coupling interval; lower time.coupling_interval_s",
-                         v, step, limits.max_courant);
+      return fmt::format(
+          "fluid Courant number {:.3g} at step {} exceeds run.max_courant = {:g}: the flow crosses "
+          "cells within one coupling interval; lower time.coupling_interval_s",
+          v, step, limits.max_courant);
     if (node == "particles" && name == "max_overlap" && v > limits.max_overlap)
-      return fmt::format("cells overlap by {:.3g} of a diameter at step {} (run.max_overlap = {:g}): the contacts are "
-                         "not resolved; raise time.dem_steps_per_contact",
-                         v, step, limits.max_overlap);
+      return fmt::format(
+          "cells overlap by {:.3g} of a diameter at step {} (run.max_overlap = {:g}): the contacts are "
+          "not resolved; raise time.dem_steps_per_contact",
+          v, step, limits.max_overlap);
   }
   return {};
 }

@@ -55,8 +55,9 @@ std::vector<SnapshotInfo> scan(const std::string& h5_path) {
 
 std::string item(const std::string& path, hsize_t rows, int cols, const char* type, int precision) {
   const std::string dims = cols == 1 ? fmt::format("{}", rows) : fmt::format("{} {}", rows, cols);
-  return fmt::format(R"(<DataItem Format="HDF" NumberType="{}" Precision="{}" Dimensions="{}">particles.h5:{}</DataItem>)",
-                     type, precision, dims, path);
+  return fmt::format(
+      R"(<DataItem Format="HDF" NumberType="{}" Precision="{}" Dimensions="{}">particles.h5:{}</DataItem>)", type,
+      precision, dims, path);
 }
 
 }  // namespace

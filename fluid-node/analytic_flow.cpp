@@ -25,9 +25,7 @@ std::array<double, 9> AnalyticFlow::gradient(const Vec3& x) const {
   return g;
 }
 
-double AnalyticFlow::wall_shear_rate() const {
-  return kind == Kind::poiseuille ? 2 * a * radius : std::abs(rate);
-}
+double AnalyticFlow::wall_shear_rate() const { return kind == Kind::poiseuille ? 2 * a * radius : std::abs(rate); }
 
 AnalyticFlow poiseuille_flow(const FluidSettings& fluid, const Vessel& vessel) {
   AnalyticFlow f;
@@ -45,8 +43,8 @@ AnalyticFlow shear_flow(double rate, double u0) {
   return f;
 }
 
-void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const std::string& mesh_hash,
-                double time_s, fluid_state_t& state) {
+void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const std::string& mesh_hash, double time_s,
+                fluid_state_t& state) {
   const auto n = geometry.cell_centres.size();
   state.mesh_hash = mesh_hash;
   state.time_s = time_s;

@@ -21,8 +21,8 @@ struct AnalyticFlow {
   double a = 0;       // 1/(m s)
   double radius = 0;  // m
   // Shear: u_z = u0 + rate x (a uniform gradient d u_z / d x; not zero at the wall).
-  double rate = 0;    // 1/s
-  double u0 = 0;      // m/s
+  double rate = 0;  // 1/s
+  double u0 = 0;    // m/s
 
   Vec3 velocity(const Vec3& x) const;
   // G[i][j] = d u_j / d x_i, row-major (fluid_state_t's order).
@@ -39,7 +39,7 @@ AnalyticFlow shear_flow(double rate, double u0);
 // Fills the state's per-cell velocity and gradient with the flow's values at the cell centres
 // (for a linear field they are also its cell averages; for Poiseuille the cell average is
 // smaller by a times the cell's polar second moment about its centre over its area).
-void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const std::string& mesh_hash,
-                double time_s, fluid_state_t& state);
+void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const std::string& mesh_hash, double time_s,
+                fluid_state_t& state);
 
 }  // namespace hemo

@@ -19,9 +19,9 @@
 #include "fluid_case.h"
 #include "vessel_mesh.h"
 
-#include <hemo/mesh_t.hpp>
 #include <node_port.h>
 #include <scene.h>
+#include <hemo/mesh_t.hpp>
 
 #include <CLI/CLI.hpp>
 
@@ -110,12 +110,9 @@ int main(int argc, char** argv) {
           source[k] += (hemo::source_of(fb, c)[k] - fb.drag_coefficient[c] * hemo::velocity_of(state, c)[k]) *
                        geometry.cell_volumes[c];
       hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, step->order.time_s, state);
-      diag = {{"time_s", step->order.time_s},
-              {"mean_velocity_m_s", mean_uz},
-              {"max_velocity_m_s", max_u},
-              {"wall_shear_stress_Pa", fluid.viscosity * flow.wall_shear_rate()},
-              {"received_source_x_N", source[0]},
-              {"received_source_y_N", source[1]},
+      diag = {{"time_s", step->order.time_s},     {"mean_velocity_m_s", mean_uz},
+              {"max_velocity_m_s", max_u},        {"wall_shear_stress_Pa", fluid.viscosity * flow.wall_shear_rate()},
+              {"received_source_x_N", source[0]}, {"received_source_y_N", source[1]},
               {"received_source_z_N", source[2]}};
     }
     port->finalize();

@@ -25,10 +25,10 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
     return "particle feedback is for mesh '" + fb.mesh_hash + "', the fluid mesh is '" + mesh_hash + "'" + step;
   const auto n = static_cast<std::size_t>(n_cells);
   if (fb.n_cells != n_cells || fb.solid_fraction.size() != n || fb.drag_coefficient.size() != n)
-    return "particle feedback has " + std::to_string(fb.n_cells) + " cells, the fluid mesh " +
-           std::to_string(n_cells) + step;
-  if (std::string why = flat_size_problem("explicit source", fb.n_source_values, fb.source_explicit,
-                                          kVectorValues, n_cells);
+    return "particle feedback has " + std::to_string(fb.n_cells) + " cells, the fluid mesh " + std::to_string(n_cells) +
+           step;
+  if (std::string why =
+          flat_size_problem("explicit source", fb.n_source_values, fb.source_explicit, kVectorValues, n_cells);
       !why.empty())
     return "particle feedback: " + why + step;
 
@@ -52,16 +52,20 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
                           ? "; the particles in it hold more volume than it has: pressed together by a load or "
                             "a DEM step too long for their contacts, or a cell too small for them"
                           : "";
-    return format("particle feedback: cell %ld has solid fraction %g; %ld cells out of range", first,
-                  first_value, bad) + range + why + step;
+    return format("particle feedback: cell %ld has solid fraction %g; %ld cells out of range", first, first_value,
+                  bad) +
+           range + why + step;
   }
   for (std::size_t i = 0; i < n; ++i) {
     const double k = fb.drag_coefficient[i];
     if (!std::isfinite(k) || k < 0) flag(i, k);
   }
   if (bad)
-    return format("particle feedback: cell %ld has drag coefficient %g N s/m^4 (must be finite, >= 0); "
-                  "%ld cells bad", first, first_value, bad) + step;
+    return format(
+               "particle feedback: cell %ld has drag coefficient %g N s/m^4 (must be finite, >= 0); "
+               "%ld cells bad",
+               first, first_value, bad) +
+           step;
   for (std::size_t i = 0; i < n; ++i) {
     const double* s = source_of(fb, i);
     for (int k = 0; k < kVectorValues; ++k)
@@ -71,8 +75,9 @@ std::string feedback_problem(const particle_feedback_t& fb, const std::string& m
       }
   }
   if (bad)
-    return format("particle feedback: cell %ld has a non-finite explicit source (%g N/m^3); %ld cells bad",
-                  first, first_value, bad) + step;
+    return format("particle feedback: cell %ld has a non-finite explicit source (%g N/m^3); %ld cells bad", first,
+                  first_value, bad) +
+           step;
   return {};
 }
 

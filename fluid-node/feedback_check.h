@@ -12,7 +12,7 @@ namespace hemo {
 // Empty when the feedback fits this mesh and every value is usable; otherwise the reason, one
 // line: wrong mesh hash, wrong sizes (n_cells, or n_source_values not 3 n_cells), non-finite
 // values, solid fraction outside [0, max_solid), negative drag coefficient.
-std::string feedback_problem(const particle_feedback_t& feedback, const std::string& mesh_hash,
-                             int n_cells, double max_solid_fraction = 1.0);
+std::string feedback_problem(const particle_feedback_t& feedback, const std::string& mesh_hash, int n_cells,
+                             double max_solid_fraction = 1.0);
 
 }  // namespace hemo

@@ -48,7 +48,9 @@ std::string control_dict(const FluidSettings& fluid) {
        "startTime       0;\n"
        "stopAt          endTime;\n"
        "endTime         1e30;           // the coordinator decides when to stop\n"
-       "deltaT          " + num(fluid.dt) + ";  // coupling interval; each step order may change it\n"
+       "deltaT          " +
+       num(fluid.dt) +
+       ";  // coupling interval; each step order may change it\n"
        "writeControl    none;           // written only when the coordinator asks\n"
        "writeInterval   1;\n"
        "purgeWrite      0;\n"
@@ -81,18 +83,29 @@ std::string pressure_solver(const std::string& name) {
 std::string fv_solution(const FluidSolver& solver) {
   std::string s = header("dictionary", "system", "fvSolution");
   s += "solvers\n{\n"
-       "    p\n    {\n" + pressure_solver(solver.pressure_solver) +
-       "        tolerance       " + num(solver.pressure_tolerance) + ";\n"
-       "        relTol          " + num(solver.pressure_relative_tolerance) + ";\n    }\n"
+       "    p\n    {\n" +
+       pressure_solver(solver.pressure_solver) + "        tolerance       " + num(solver.pressure_tolerance) +
+       ";\n"
+       "        relTol          " +
+       num(solver.pressure_relative_tolerance) +
+       ";\n    }\n"
        "    pFinal\n    {\n        $p;\n        relTol          0;\n    }\n"
        "    U\n    {\n        solver          GAMG;\n        smoother        symGaussSeidel;\n"
-       "        tolerance       " + num(solver.velocity_tolerance) + ";\n"
+       "        tolerance       " +
+       num(solver.velocity_tolerance) +
+       ";\n"
        "        relTol          0;\n        maxIter         100;\n    }\n"
        "}\n\n"
        "PISO\n{\n    momentumPredictor yes;\n"
-       "    nCorrectors     " + std::to_string(solver.min_correctors) + ";\n"
-       "    maxCorrectors   " + std::to_string(solver.max_correctors) + ";  // more correctors while the p residual is above:\n"
-       "    correctorTolerance " + num(solver.corrector_tolerance) + ";\n"
+       "    nCorrectors     " +
+       std::to_string(solver.min_correctors) +
+       ";\n"
+       "    maxCorrectors   " +
+       std::to_string(solver.max_correctors) +
+       ";  // more correctors while the p residual is above:\n"
+       "    correctorTolerance " +
+       num(solver.corrector_tolerance) +
+       ";\n"
        "    nNonOrthogonalCorrectors 1;\n    pRefCell        0;\n    pRefValue       0;\n}\n";
   return s;
 }
@@ -103,8 +116,7 @@ double driving_pressure_drop(const Scene& scene) {
   // load_scene fills both from the one the file gives; prefer the pressure drop.
   if (scene.driving.pressure_drop > 0) return scene.driving.pressure_drop;
   if (scene.driving.wall_shear_rate > 0)
-    return 4 * scene.plasma.viscosity * scene.vessel.length * scene.driving.wall_shear_rate /
-           scene.vessel.diameter;
+    return 4 * scene.plasma.viscosity * scene.vessel.length * scene.driving.wall_shear_rate / scene.vessel.diameter;
   // Neither: no driving (a scene that gives pressure_drop_Pa = 0; flow only from sources).
   if (scene.driving.pressure_drop == 0 && scene.driving.wall_shear_rate == 0) return 0;
   throw std::invalid_argument("driving: pressure_drop and wall_shear_rate must not be negative");
@@ -137,8 +149,7 @@ double poiseuille_velocity(const FluidSettings& fluid, const Vessel& vessel, dou
   return fluid.pressure_drop / (4 * fluid.viscosity * vessel.length) * (R * R - r * r);
 }
 
-std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
-                                                   double largest_particle_diameter) {
+std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry, double largest_particle_diameter) {
   if (geometry.cell_volumes.empty() || !(largest_particle_diameter > 0)) return std::nullopt;
   const double v_min = *std::min_element(geometry.cell_volumes.begin(), geometry.cell_volumes.end());
   const double dx = std::cbrt(v_min);
@@ -152,8 +163,8 @@ std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
   return std::string(buf);
 }
 
-void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel,
-                const PolyMesh& mesh, const MeshGeometry& geometry, InitialFlow initial) {
+void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel, const PolyMesh& mesh,
+                const MeshGeometry& geometry, InitialFlow initial) {
   namespace fs = std::filesystem;
   const fs::path dir(case_dir);
   write_text(dir / "system" / "controlDict", control_dict(fluid));
@@ -176,29 +187,32 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
       u += "(0 0 " + num(poiseuille_velocity(fluid, vessel, std::hypot(c[0], c[1]))) + ")\n";
     u += ")\n;\n\n";
   }
-  u += "boundaryField\n{\n    " + std::string(patch_name::wall) +
-       "\n    {\n        type            noSlip;\n    }\n" + cyclic_entries + "}\n";
+  u += "boundaryField\n{\n    " + std::string(patch_name::wall) + "\n    {\n        type            noSlip;\n    }\n" +
+       cyclic_entries + "}\n";
   write_text(dir / "0" / "U", u);
 
   std::string p = header("volScalarField", "0", "p");
   p += "dimensions      [0 2 -2 0 0 0 0];  // kinematic: pressure / density\n\n"
        "internalField   uniform 0;\n\n"
-       "boundaryField\n{\n    " + std::string(patch_name::wall) +
-       "\n    {\n        type            zeroGradient;\n    }\n" + cyclic_entries + "}\n";
+       "boundaryField\n{\n    " +
+       std::string(patch_name::wall) + "\n    {\n        type            zeroGradient;\n    }\n" + cyclic_entries +
+       "}\n";
   write_text(dir / "0" / "p", p);
 }
 
 void write_decomposition(const std::string& case_dir, int ranks, const MeshSpec& mesh) {
   if (ranks < 2) throw std::invalid_argument("a decomposed fluid needs at least 2 ranks");
   if (mesh.axial_cells < ranks)
-    throw std::invalid_argument("the fluid is decomposed along the vessel axis: " + std::to_string(ranks) +
-                                " ranks need at least as many axial cells (mesh.axial_cells = " +
-                                std::to_string(mesh.axial_cells) + ")");
+    throw std::invalid_argument(
+        "the fluid is decomposed along the vessel axis: " + std::to_string(ranks) +
+        " ranks need at least as many axial cells (mesh.axial_cells = " + std::to_string(mesh.axial_cells) + ")");
   std::string s = header("dictionary", "system", "decomposeParDict");
-  s += "numberOfSubdomains " + std::to_string(ranks) + ";\n\n"
+  s += "numberOfSubdomains " + std::to_string(ranks) +
+       ";\n\n"
        "// Whole cross-sections, split along the vessel axis.\n"
        "method          simple;\n\n"
-       "coeffs\n{\n    n               (1 1 " + std::to_string(ranks) + ");\n}\n";
+       "coeffs\n{\n    n               (1 1 " +
+       std::to_string(ranks) + ");\n}\n";
   write_text(std::filesystem::path(case_dir) / "system" / "decomposeParDict", s);
 }
 

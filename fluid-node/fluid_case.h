@@ -14,17 +14,17 @@ namespace hemo {
 
 // The fluid problem in SI units.
 struct FluidSettings {
-  double density = 0;              // kg/m^3
-  double viscosity = 0;            // Pa s
-  double kinematic_viscosity = 0;  // m^2/s
-  double pressure_drop = 0;        // Pa over the vessel length
-  double body_force = 0;           // m/s^2 along +z: G = dP / (rho l)
-  double dt = 0;                   // s, coupling interval = one fluid time step
-  double largest_particle_diameter = 0;  // m, over the species present (0: none)
-  FluidSolver solver;              // scene keys fluid.*: tolerances, PISO correctors, steady skip
-  bool skip_when_steady = false;   // fluid.skip_when_steady and a one-way scene
-  bool publish_pressure_gradient = false;  // coupling.pressure_gradient_force: grad P goes with the state
-  bool publish_face_flux_velocity = false; // coupling.plasma_velocity = "face_flux": U from the face fluxes
+  double density = 0;                       // kg/m^3
+  double viscosity = 0;                     // Pa s
+  double kinematic_viscosity = 0;           // m^2/s
+  double pressure_drop = 0;                 // Pa over the vessel length
+  double body_force = 0;                    // m/s^2 along +z: G = dP / (rho l)
+  double dt = 0;                            // s, coupling interval = one fluid time step
+  double largest_particle_diameter = 0;     // m, over the species present (0: none)
+  FluidSolver solver;                       // scene keys fluid.*: tolerances, PISO correctors, steady skip
+  bool skip_when_steady = false;            // fluid.skip_when_steady and a one-way scene
+  bool publish_pressure_gradient = false;   // coupling.pressure_gradient_force: grad P goes with the state
+  bool publish_face_flux_velocity = false;  // coupling.plasma_velocity = "face_flux": U from the face fluxes
 };
 
 // The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from
@@ -40,15 +40,14 @@ double poiseuille_velocity(const FluidSettings& fluid, const Vessel& vessel, dou
 // Unresolved coupling needs every fluid cell larger than every particle. Cell size is the
 // edge of the cube of the cell's volume. Returns the one-line reason when the mesh is too
 // fine for the particles, nothing when it is fine.
-std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
-                                                   double largest_particle_diameter);
+std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry, double largest_particle_diameter);
 
 enum class InitialFlow { rest, poiseuille };
 
 // Writes the case directory: system/{controlDict,fvSchemes,fvSolution}, constant/polyMesh,
 // 0/{U,p}. The time step is the coupling interval; the case writes nothing unless asked.
-void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel,
-                const PolyMesh& mesh, const MeshGeometry& geometry, InitialFlow initial);
+void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel, const PolyMesh& mesh,
+                const MeshGeometry& geometry, InitialFlow initial);
 
 // Writes system/decomposeParDict: `ranks` subdomains of whole cross-sections, split along the
 // vessel axis (method simple, n = (1 1 ranks)). Throws std::invalid_argument when the mesh has

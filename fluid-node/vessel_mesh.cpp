@@ -66,8 +66,7 @@ Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
       Vec2 p;
       for (int d = 0; d < 2; ++d) {
         p[d] = (1 - eta) * b[d] + eta * t[d] + (1 - xi) * l[d] + xi * r[d] -
-               ((1 - xi) * (1 - eta) * p00[d] + xi * (1 - eta) * p10[d] + (1 - xi) * eta * p01[d] +
-                xi * eta * p11[d]);
+               ((1 - xi) * (1 - eta) * p00[d] + xi * (1 - eta) * p10[d] + (1 - xi) * eta * p01[d] + xi * eta * p11[d]);
       }
       sec.nodes[static_cast<std::size_t>(core_id(i, j))] = p;
     }
@@ -76,10 +75,14 @@ Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
   // counter-clockwise around the axis.
   auto side_id = [&](int k, int m) {
     switch (k) {
-      case 0: return core_id(nc, m);
-      case 1: return core_id(nc - m, nc);
-      case 2: return core_id(0, nc - m);
-      default: return core_id(m, 0);
+      case 0:
+        return core_id(nc, m);
+      case 1:
+        return core_id(nc - m, nc);
+      case 2:
+        return core_id(0, nc - m);
+      default:
+        return core_id(m, 0);
     }
   };
   // Ring nodes: side k, position m (0..nc, m = nc is the next side's m = 0), layer l (0 core edge,
@@ -115,8 +118,7 @@ Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
   for (int k = 0; k < 4; ++k)
     for (int m = 0; m < nc; ++m)
       for (int l = 0; l < nr; ++l)
-        sec.quads.push_back(
-            {ring_id(k, m, l), ring_id(k, m, l + 1), ring_id(k, m + 1, l + 1), ring_id(k, m + 1, l)});
+        sec.quads.push_back({ring_id(k, m, l), ring_id(k, m, l + 1), ring_id(k, m + 1, l + 1), ring_id(k, m + 1, l)});
   return sec;
 }
 
@@ -414,10 +416,9 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(case_dir) / "constant" / "polyMesh";
   fs::create_directories(dir);
-  const std::string note = "nPoints:" + std::to_string(mesh.points.size()) +
-                           "  nCells:" + std::to_string(mesh.n_cells) +
-                           "  nFaces:" + std::to_string(mesh.faces.size()) +
-                           "  nInternalFaces:" + std::to_string(mesh.neighbour.size());
+  const std::string note =
+      "nPoints:" + std::to_string(mesh.points.size()) + "  nCells:" + std::to_string(mesh.n_cells) +
+      "  nFaces:" + std::to_string(mesh.faces.size()) + "  nInternalFaces:" + std::to_string(mesh.neighbour.size());
   {
     std::string s = foam_header("vectorField", "points");
     s += std::to_string(mesh.points.size()) + "\n(\n";
@@ -460,8 +461,8 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
         s += "        matchTolerance  0.0001;\n";
         s += "        transform       translational;\n";
         s += "        neighbourPatch  " + p.neighbour + ";\n";
-        s += "        separationVector (" + fmt_double(p.separation[0]) + " " +
-             fmt_double(p.separation[1]) + " " + fmt_double(p.separation[2]) + ");\n";
+        s += "        separationVector (" + fmt_double(p.separation[0]) + " " + fmt_double(p.separation[1]) + " " +
+             fmt_double(p.separation[2]) + ");\n";
       }
       s += "    }\n";
     }
@@ -470,8 +471,7 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
   }
 }
 
-void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel,
-                       mesh_t& msg) {
+void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel, mesh_t& msg) {
   msg.mesh_hash = mesh_hash(mesh);
   msg.vessel_diameter_m = vessel.diameter;
   msg.vessel_length_m = vessel.length;

@@ -25,10 +25,10 @@ struct OGridShape {
 
 struct PatchInfo {
   std::string name;
-  std::string type;  // "wall" or "cyclic"
-  int start = 0;     // first face
-  int size = 0;      // number of faces
-  std::string neighbour;  // cyclic partner patch
+  std::string type;          // "wall" or "cyclic"
+  int start = 0;             // first face
+  int size = 0;              // number of faces
+  std::string neighbour;     // cyclic partner patch
   Vec3 separation{0, 0, 0};  // cyclic: neighbour face centre minus this face centre
 };
 
@@ -81,7 +81,6 @@ std::string mesh_hash(const PolyMesh& mesh);
 void write_polymesh(const PolyMesh& mesh, const std::string& case_dir);
 
 // Fills the mesh message (everything except the envelope).
-void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel,
-                       mesh_t& msg);
+void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel, mesh_t& msg);
 
 }  // namespace hemo

@@ -39,7 +39,9 @@ inline void resize_cells(particle_feedback_t& fb, int n) {
 }
 
 // Cell c's values: 3 of the velocity [m/s] and explicit source [N/m^3], 9 of the gradient [1/s].
-inline const double* velocity_of(const fluid_state_t& s, std::size_t c) { return s.velocity.data() + kVectorValues * c; }
+inline const double* velocity_of(const fluid_state_t& s, std::size_t c) {
+  return s.velocity.data() + kVectorValues * c;
+}
 inline double* velocity_of(fluid_state_t& s, std::size_t c) { return s.velocity.data() + kVectorValues * c; }
 inline const double* gradient_of(const fluid_state_t& s, std::size_t c) {
   return s.velocity_gradient.data() + kTensorValues * c;
@@ -54,7 +56,9 @@ inline double* pressure_gradient_of(fluid_state_t& s, std::size_t c) {
 inline const double* source_of(const particle_feedback_t& fb, std::size_t c) {
   return fb.source_explicit.data() + kVectorValues * c;
 }
-inline double* source_of(particle_feedback_t& fb, std::size_t c) { return fb.source_explicit.data() + kVectorValues * c; }
+inline double* source_of(particle_feedback_t& fb, std::size_t c) {
+  return fb.source_explicit.data() + kVectorValues * c;
+}
 
 // Empty when a flat field's length field and array both hold `per_cell` values for each of
 // n_cells cells; else one line, e.g. "velocity has 4605 values, not 3 per cell of 1536 cells".

@@ -37,9 +37,7 @@ FaceGeometry face_geometry(const std::vector<Vec3>& pts) {
   return {total > 0 ? Vec3(weighted / total) : mean, area};
 }
 
-[[noreturn]] void bad_mesh(const std::string& what) {
-  throw std::invalid_argument("mesh_t is inconsistent: " + what);
-}
+[[noreturn]] void bad_mesh(const std::string& what) { throw std::invalid_argument("mesh_t is inconsistent: " + what); }
 
 // The end of face f's run in face_points.
 int face_end(const mesh_t& mesh, int f) { return f + 1 < mesh.n_faces ? mesh.face_offsets[f + 1] : mesh.n_face_points; }

@@ -133,12 +133,12 @@ class CellLocator {
 
  private:
   struct Plane {
-    Vec3 normal;   // unit, pointing out of the cell
-    double offset; // normal . (point on the face)
-    int across;    // the cell on the other side, -1 for a boundary face
-    int beyond;    // across, or the periodic partner of a cyclic face (-1: wall)
-    bool wall;     // a face of a wall patch (any boundary patch that is not cyclic)
-    double gap;    // wall chord on the vessel circle: how far behind it the circle reaches (m)
+    Vec3 normal;    // unit, pointing out of the cell
+    double offset;  // normal . (point on the face)
+    int across;     // the cell on the other side, -1 for a boundary face
+    int beyond;     // across, or the periodic partner of a cyclic face (-1: wall)
+    bool wall;      // a face of a wall patch (any boundary patch that is not cyclic)
+    double gap;     // wall chord on the vessel circle: how far behind it the circle reaches (m)
   };
 
   double signed_distance(const Plane& p, const Vec3& x) const { return p.normal.dot(x) - p.offset; }
@@ -159,7 +159,7 @@ class CellLocator {
   int bin_of(const Vec3& x) const;
   int search_bins(const Vec3& x) const;
 
-  std::vector<int> plane_start_;   // CSR: planes of cell c are plane_start_[c] .. plane_start_[c+1]
+  std::vector<int> plane_start_;  // CSR: planes of cell c are plane_start_[c] .. plane_start_[c+1]
   std::vector<Plane> planes_;
   std::vector<Vec3> centre_;
   std::vector<double> volume_;
@@ -168,7 +168,7 @@ class CellLocator {
   double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};
-  std::vector<int> bin_start_;     // CSR: candidate cells per bin
+  std::vector<int> bin_start_;  // CSR: candidate cells per bin
   std::vector<int> bin_cells_;
 
   int max_walk_steps_ = 8;

@@ -44,8 +44,8 @@ class CheckpointReader {
   void get(const std::string& name, std::vector<double>& out) const;
   void get(const std::string& name, std::vector<std::int64_t>& out) const;
   std::string bytes(const std::string& name) const;
-  double real(const std::string& name) const;            // an array of exactly one value
-  std::int64_t integer(const std::string& name) const;   // an array of exactly one value
+  double real(const std::string& name) const;           // an array of exactly one value
+  std::int64_t integer(const std::string& name) const;  // an array of exactly one value
   const std::string& path() const { return path_; }
 
  private:

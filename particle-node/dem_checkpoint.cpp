@@ -46,7 +46,8 @@ std::vector<double> rows(double** array, int nlocal, int width) {
 template <class T>
 void expect_size(const std::vector<T>& values, std::size_t expected, const char* name) {
   if (values.size() != expected)
-    throw std::invalid_argument(fmt::format("the checkpoint's '{}' holds {} values, not {}", name, values.size(), expected));
+    throw std::invalid_argument(
+        fmt::format("the checkpoint's '{}' holds {} values, not {}", name, values.size(), expected));
 }
 
 }  // namespace
@@ -62,8 +63,8 @@ void DemEngine::rebuild_neighbours() {
 }
 
 std::vector<DemEngine::Column> DemEngine::carried_columns() {
-  std::vector<Column> columns = {{lmp_->atom->f, 3}, {lmp_->atom->torque, 3},
-                                 {per_atom(impulse_fix_), values_per_atom(impulse_fix_)}};
+  std::vector<Column> columns = {
+      {lmp_->atom->f, 3}, {lmp_->atom->torque, 3}, {per_atom(impulse_fix_), values_per_atom(impulse_fix_)}};
   if (rotation_fix_) columns.push_back({per_atom(rotation_fix_), values_per_atom(rotation_fix_)});
   if (closure_fix_) columns.push_back({per_atom(closure_fix_), values_per_atom(closure_fix_)});
   columns.push_back({wall_history_fix_->array_atom, wall_history_fix_->get_nvalues()});
@@ -228,13 +229,13 @@ void DemEngine::agreed(const std::function<void()>& check) const {
 
 void DemEngine::check_globals(const EngineState& s) const {
   if (s.ranks != ranks_of(comm_))
-    throw std::invalid_argument(fmt::format("the checkpoint was written on {} MPI ranks, this engine runs on {}", s.ranks,
-                                            ranks_of(comm_)));
+    throw std::invalid_argument(
+        fmt::format("the checkpoint was written on {} MPI ranks, this engine runs on {}", s.ranks, ranks_of(comm_)));
   expect_size(s.type_of, kSpeciesCount, "type_of");
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (s.type_of[sp] > 0 && !forces_[sp])
-      throw std::invalid_argument(fmt::format("the checkpoint has {} particles, the scene has none",
-                                              sp == kRbc ? "red cell" : "platelet"));
+      throw std::invalid_argument(
+          fmt::format("the checkpoint has {} particles, the scene has none", sp == kRbc ? "red cell" : "platelet"));
   if (s.particles < 1) throw std::invalid_argument("the checkpoint has no particles");
   expect_size(s.tracked, EngineState::kTrackedValues * static_cast<std::size_t>(s.particles + 1), "tracked");
   expect_size(s.max_reynolds, kSpeciesCount, "max_reynolds");
@@ -295,15 +296,16 @@ void DemEngine::create_atoms_as(const EngineState& s) {
   a.map_set();
   n_particles_ = static_cast<long>(total);
   if (n_particles_ != s.particles)
-    throw std::runtime_error(fmt::format("the checkpoint's ranks hold {} particles, not {}", n_particles_, s.particles));
+    throw std::runtime_error(
+        fmt::format("the checkpoint's ranks hold {} particles, not {}", n_particles_, s.particles));
 }
 
 void DemEngine::restore_contact_history(const EngineState& s) {
   LAMMPS_NS::FixContactHistory* history = contact_history();
   const int values = history->get_dnum();
   if (s.contact_values != values)  // the same on every rank (check_atoms)
-    throw std::invalid_argument(fmt::format("the checkpoint's pair contacts carry {} history values, LIGGGHTS's {}",
-                                            s.contact_values, values));
+    throw std::invalid_argument(
+        fmt::format("the checkpoint's pair contacts carry {} history values, LIGGGHTS's {}", s.contact_values, values));
   // LIGGGHTS's own format for an atom arriving from another rank: count, then per partner its tag
   // and values (integers as bit patterns in doubles).
   using Bits = LAMMPS_NS::Fix::ubuf;

@@ -92,8 +92,8 @@ void DemEngine::set_up_species(const Scene& physical) {
     if (forces_[sp]->needs_orientation()) {
       if (!(s.semi_axis_a > 0) || !(s.semi_axis_c > 0))
         throw std::invalid_argument(s.name + ": an oblate closure needs the semi-axes a and c");
-      rotation_[sp] = make_orientation_integrator(
-          s.orientation_integrator, SymmetricTop::oblate_spheroid(s.mass, s.semi_axis_a, s.semi_axis_c));
+      rotation_[sp] = make_orientation_integrator(s.orientation_integrator,
+                                                  SymmetricTop::oblate_spheroid(s.mass, s.semi_axis_a, s.semi_axis_c));
       any_orientation_ = true;
     }
     volume_[sp] = s.volume;
@@ -203,7 +203,8 @@ void DemEngine::find_fixes() {
   if (any_orientation_) rotation_fix_ = find(kRotationFix);
   if (holds_closures()) closure_fix_ = find(kClosureFix);
   wall_history_fix_ = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
-  if (wall_history_fix_ == nullptr) throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
+  if (wall_history_fix_ == nullptr)
+    throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
 }
 
 double** DemEngine::per_atom(LAMMPS_NS::Fix* fix) const { return fix != nullptr ? fix->array_atom : nullptr; }
@@ -224,8 +225,8 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   std::vector<const PlacedParticle*> order;
   for (const auto& p : particles) order.push_back(&p);
   auto key = [&](const PlacedParticle* p) {
-    return std::make_tuple(std::floor((p->position.z() - locator_->z0()) / d_max_), std::floor(p->position.y() / d_max_),
-                           p->position.x());
+    return std::make_tuple(std::floor((p->position.z() - locator_->z0()) / d_max_),
+                           std::floor(p->position.y() / d_max_), p->position.x());
   };
   std::stable_sort(order.begin(), order.end(), [&](auto* a, auto* b) { return key(a) < key(b); });
   for (const PlacedParticle* p : order)
@@ -239,8 +240,8 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   }
   n_particles_ = static_cast<long>(lmp_->atom->natoms);
   if (n_particles_ != static_cast<long>(particles.size()))
-    throw std::runtime_error(fmt::format("LIGGGHTS created {} of {} particles (some outside the box?)", n_particles_,
-                                         particles.size()));
+    throw std::runtime_error(
+        fmt::format("LIGGGHTS created {} of {} particles (some outside the box?)", n_particles_, particles.size()));
   tracked_.assign(n_particles_ + 1, Tracked{});
   for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
 }
@@ -328,8 +329,9 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   sync_tracking();
   outside_total_ = static_cast<long>(sum_all(static_cast<double>(outside_), comm_));
   for (int sp = 0; sp < kSpeciesCount; ++sp)
-    max_re_[sp] = forces_[sp] ? forces_[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
-                              : 0.0;
+    max_re_[sp] = forces_[sp]
+                      ? forces_[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
+                      : 0.0;
   min_relaxation_time_ = std::numeric_limits<double>::infinity();
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (const double beta = max_all(max_beta_[sp], comm_); beta > 0)
@@ -350,9 +352,10 @@ std::string DemEngine::check_lost(long coupling_step) {
   long first = 0;
   for (long t = 1; t <= n_particles_ && first == 0; ++t)
     if (present[t] == 0) first = t;
-  return fmt::format("particle {} was lost by LIGGGHTS (it left the DEM box) during coupling step {}; {} particle{} lost "
-                     "in all",
-                     first, coupling_step, lost_, lost_ == 1 ? "" : "s");
+  return fmt::format(
+      "particle {} was lost by LIGGGHTS (it left the DEM box) during coupling step {}; {} particle{} lost "
+      "in all",
+      first, coupling_step, lost_, lost_ == 1 ? "" : "s");
 }
 
 void DemEngine::sync_tracking() {

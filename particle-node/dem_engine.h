@@ -64,10 +64,10 @@
 
 #include <array>
 #include <cmath>
-#include <limits>
-#include <map>
 #include <cstdint>
 #include <functional>
+#include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <utility>
@@ -78,15 +78,15 @@ class LAMMPS;
 class Fix;
 class FixContactHistory;
 class FixPropertyAtom;
-}
+}  // namespace LAMMPS_NS
 
 namespace hemo::particles {
 
 // What a coupling step's DEM tells about itself (the node's step diagnostics).
 struct EngineDiagnostics {
   long particles = 0;
-  long outside_mesh = 0;            // particles found in no fluid cell during the interval
-  long in_wall_gap = 0;             // particles now between a flat wall face and the round wall
+  long outside_mesh = 0;                    // particles found in no fluid cell during the interval
+  long in_wall_gap = 0;                     // particles now between a flat wall face and the round wall
   double core_particle_axial_velocity = 0;  // mean v_z of particles with r < R/2 (m/s)
   double core_fluid_axial_velocity = 0;     // mean fluid u_z sampled at those particles (m/s)
   long core_particles = 0;
@@ -219,7 +219,7 @@ class DemEngine {
   // Locates the particle, samples the plasma there and evaluates its species' closures; returns
   // its cell, or -1 (problem noted) when it is outside the mesh or the force is not finite.
   int evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
-                            Vec3& plasma_velocity);
+                           Vec3& plasma_velocity);
   // Keeps the closures per atom for the steps until the next evaluation (closure_every_ > 1),
   static void hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* held);
   // and applies them there: the drag on the current velocity, with this step's other forces.
@@ -289,26 +289,27 @@ class DemEngine {
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
   std::array<std::unique_ptr<SpeciesForces>, kSpeciesCount> forces_;
   std::array<std::unique_ptr<OrientationIntegrator>, kSpeciesCount> rotation_;  // null: a sphere
-  std::array<double, kSpeciesCount> volume_{};    // m^3, deposited as solid
-  std::array<double, kSpeciesCount> diameter_{};  // m
-  std::array<double, kSpeciesCount> mass_{};      // kg, the DEM's (dem_mass_scaling x physical)
+  std::array<double, kSpeciesCount> volume_{};                                  // m^3, deposited as solid
+  std::array<double, kSpeciesCount> diameter_{};                                // m
+  std::array<double, kSpeciesCount> mass_{};                            // kg, the DEM's (dem_mass_scaling x physical)
   std::array<Vec3, kSpeciesCount> weight_{Vec3::Zero(), Vec3::Zero()};  // N, physical mass x gravity
-  std::array<double, kSpeciesCount> max_re_{};    // largest particle Re of the last run
-  std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, during the run (Re after it)
-  std::array<double, kSpeciesCount> max_beta_{};          // N s/m, during the run
+  std::array<double, kSpeciesCount> max_re_{};                          // largest particle Re of the last run
+  std::array<double, kSpeciesCount> max_slip_squared_{};                // (m/s)^2, during the run (Re after it)
+  std::array<double, kSpeciesCount> max_beta_{};                        // N s/m, during the run
   double min_relaxation_time_ = std::numeric_limits<double>::quiet_NaN();  // s, of the last run
   bool any_orientation_ = false;
-  LAMMPS_NS::Fix* impulse_fix_ = nullptr;  // per atom: F dt (3), beta dt, last F (3), last beta
-  LAMMPS_NS::Fix* rotation_fix_ = nullptr; // per atom: q (w, x, y, z), L (3)
-  LAMMPS_NS::Fix* closure_fix_ = nullptr;  // per atom: beta, r, u (3), lift (3), torque (3)
+  LAMMPS_NS::Fix* impulse_fix_ = nullptr;                   // per atom: F dt (3), beta dt, last F (3), last beta
+  LAMMPS_NS::Fix* rotation_fix_ = nullptr;                  // per atom: q (w, x, y, z), L (3)
+  LAMMPS_NS::Fix* closure_fix_ = nullptr;                   // per atom: beta, r, u (3), lift (3), torque (3)
   LAMMPS_NS::FixPropertyAtom* wall_history_fix_ = nullptr;  // LIGGGHTS's: the wall contacts' history
-  bool rebuilding_ = false;                // rebuild_neighbours in progress: the callback does nothing
+  bool rebuilding_ = false;                                 // rebuild_neighbours in progress: the callback does nothing
   const int closure_every_ = scene_.time.closure_every_dem_steps;
   // coupling.fluid_force: when the closures are evaluated and what is held until the next.
   enum class FluidForceUpdate { per_dem_step, held_implicit_drag, held };
-  const FluidForceUpdate fluid_force_ = scene_.fluid_force == "held"                 ? FluidForceUpdate::held
-                                        : scene_.fluid_force == "held_implicit_drag" ? FluidForceUpdate::held_implicit_drag
-                                                                                      : FluidForceUpdate::per_dem_step;
+  const FluidForceUpdate fluid_force_ = scene_.fluid_force == "held" ? FluidForceUpdate::held
+                                        : scene_.fluid_force == "held_implicit_drag"
+                                            ? FluidForceUpdate::held_implicit_drag
+                                            : FluidForceUpdate::per_dem_step;
   // coupling.pressure_gradient_force: -V_p grad P on every particle (fluid states carry grad P).
   const bool pressure_force_ = scene_.pressure_gradient_force;
   // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
@@ -319,18 +320,18 @@ class DemEngine {
   // callback's evaluation and its application (the co-relaxation comes in between).
   std::vector<FluidForce> step_forces_;
   std::vector<int> step_cells_;
-  std::int64_t last_rotation_step_ = -1;   // the DEM step whose kick was applied last
-  double rotation_dt_ = 0;                 // the step length of that kick
+  std::int64_t last_rotation_step_ = -1;  // the DEM step whose kick was applied last
+  double rotation_dt_ = 0;                // the step length of that kick
   long n_particles_ = 0;
   double d_max_ = 0;
-  std::array<int, kSpeciesCount> type_of_{};      // LIGGGHTS atom type of a species (0: none)
+  std::array<int, kSpeciesCount> type_of_{};  // LIGGGHTS atom type of a species (0: none)
   std::array<int, kSpeciesCount + 2> species_of_type_{};
 
   // Per tag (index = LIGGGHTS atom tag, 0 unused), packed for one cache line per particle.
   struct Tracked {
-    LocateCache where;      // fluid cell
-    double last_z = 0;      // z when last seen (as LIGGGHTS had it)
-    double crossings = 0;   // periodic crossings along +z (integer valued)
+    LocateCache where;     // fluid cell
+    double last_z = 0;     // z when last seen (as LIGGGHTS had it)
+    double crossings = 0;  // periodic crossings along +z (integer valued)
   };
   std::vector<Tracked> tracked_;
 
@@ -343,9 +344,9 @@ class DemEngine {
   long callbacks_ = 0;
   double fluid_force_seconds_ = 0;
   long outside_ = 0;
-  long outside_total_ = 0;          // over all ranks, last run
+  long outside_total_ = 0;  // over all ranks, last run
   long coupling_step_ = 0;
-  std::string first_problem_;      // on this rank
+  std::string first_problem_;  // on this rank
   int first_problem_tag_ = 0;
   bool first_run_ = true;
   long lost_ = 0;

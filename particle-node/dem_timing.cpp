@@ -16,8 +16,8 @@ namespace {
 double inv(double v) { return std::isfinite(v) ? 1.0 / v : 0.0; }
 }  // namespace
 
-double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2,
-                          double nu2, double v) {
+double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2, double nu2,
+                          double v) {
   const double m = 1.0 / (inv(m1) + inv(m2));
   const double r = 1.0 / (inv(r1) + inv(r2));
   const double e = 1.0 / ((1 - nu1 * nu1) / e1 + (1 - nu2 * nu2) / e2);
@@ -89,7 +89,8 @@ DemTiming derive_dem_timing(const Scene& physical, double coupling_interval, int
     consider(hertz_contact_time(a.sp->mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, inf, inf,
                                 c.wall_youngs_modulus, c.wall_poisson_ratio, impact(2 * a.r)),
              a.sp->name + "-wall");
-    t.rayleigh_time = std::min(t.rayleigh_time, rayleigh_time(a.r, a.density, c.cell_youngs_modulus, c.cell_poisson_ratio));
+    t.rayleigh_time =
+        std::min(t.rayleigh_time, rayleigh_time(a.r, a.density, c.cell_youngs_modulus, c.cell_poisson_ratio));
     if (s.plasma.viscosity > 0)
       t.relaxation_time = std::min(t.relaxation_time, a.sp->mass / SpeciesForces(*a.sp, s).max_coefficient_at_rest());
   }
@@ -98,8 +99,9 @@ DemTiming derive_dem_timing(const Scene& physical, double coupling_interval, int
     dt_max = s.time.relaxation_factor * t.relaxation_time;
     t.relaxation_limited = true;
   }
-  t.substeps = substeps_override > 0 ? substeps_override
-                                     : std::max(1, static_cast<int>(std::ceil(coupling_interval / dt_max * (1 - 1e-12))));
+  t.substeps = substeps_override > 0
+                   ? substeps_override
+                   : std::max(1, static_cast<int>(std::ceil(coupling_interval / dt_max * (1 - 1e-12))));
   t.dt = coupling_interval / t.substeps;
   return t;
 }

@@ -23,8 +23,8 @@ namespace hemo::particles {
 //   t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5)
 // with 1/m* = 1/m1 + 1/m2, 1/R* = 1/r1 + 1/r2, 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2.
 // A wall is mass = radius = infinity.
-double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2,
-                          double nu2, double v);
+double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2, double nu2,
+                          double v);
 
 // Rayleigh time pi r sqrt(rho / G) / (0.1631 nu + 0.8766), G = E / (2 (1 + nu)).
 double rayleigh_time(double radius, double density, double youngs, double poisson);
@@ -40,17 +40,17 @@ Scene dem_scene(const Scene& scene);
 double wall_shear_rate(const Scene& scene);
 
 struct DemTiming {
-  double contact_time = 0;    // s, shortest Hertz contact time
-  double rayleigh_time = 0;   // s, shortest, for information
-  double relaxation_time = 0; // s, shortest drag relaxation time m / beta(0) of the drag closures
-  double dt = 0;              // s, the DEM step actually used (coupling_interval / substeps)
-  int substeps = 0;           // DEM steps per coupling interval
-  std::string limiting;       // which contact set contact_time
+  double contact_time = 0;          // s, shortest Hertz contact time
+  double rayleigh_time = 0;         // s, shortest, for information
+  double relaxation_time = 0;       // s, shortest drag relaxation time m / beta(0) of the drag closures
+  double dt = 0;                    // s, the DEM step actually used (coupling_interval / substeps)
+  int substeps = 0;                 // DEM steps per coupling interval
+  std::string limiting;             // which contact set contact_time
   bool relaxation_limited = false;  // the relaxation-time bound was the tighter one
 };
 
-// The DEM timing for a coupling interval, of the DEM's masses (dem_scene); `substeps_override` > 0 fixes the substep count
-// (scene time.dem_substeps). Throws std::invalid_argument when the scene has no particle.
+// The DEM timing for a coupling interval, of the DEM's masses (dem_scene); `substeps_override` > 0 fixes the substep
+// count (scene time.dem_substeps). Throws std::invalid_argument when the scene has no particle.
 DemTiming derive_dem_timing(const Scene& scene, double coupling_interval, int substeps_override = 0);
 
 }  // namespace hemo::particles

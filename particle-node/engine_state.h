@@ -22,27 +22,27 @@ struct EngineState {
   // The same on every rank.
   std::int64_t ranks = 1;
   std::int64_t particles = 0;
-  std::vector<std::int64_t> type_of;      // LIGGGHTS atom type per species (0: none)
-  std::int64_t dem_step = 0;              // LIGGGHTS's ntimestep
-  double dt = 0;                          // the DEM step of the last run
-  std::int64_t last_rotation_step = -1;   // the DEM step whose orientation kick was applied last
-  double rotation_dt = 0;                 // and its length
-  std::int64_t neighbour_builds = 0;      // LIGGGHTS's count (0: no list to measure overlaps on yet)
-  std::vector<double> max_reynolds;       // per species, of the last run
-  double min_relaxation_time = 0;         // s, of the last run (NaN: no run yet)
-  std::int64_t outside_total = 0;         // particles outside the mesh in the last run
+  std::vector<std::int64_t> type_of;     // LIGGGHTS atom type per species (0: none)
+  std::int64_t dem_step = 0;             // LIGGGHTS's ntimestep
+  double dt = 0;                         // the DEM step of the last run
+  std::int64_t last_rotation_step = -1;  // the DEM step whose orientation kick was applied last
+  double rotation_dt = 0;                // and its length
+  std::int64_t neighbour_builds = 0;     // LIGGGHTS's count (0: no list to measure overlaps on yet)
+  std::vector<double> max_reynolds;      // per species, of the last run
+  double min_relaxation_time = 0;        // s, of the last run (NaN: no run yet)
+  std::int64_t outside_total = 0;        // particles outside the mesh in the last run
   std::int64_t lost = 0;
-  std::vector<std::int64_t> pending_tags;      // set_orientation not applied yet
-  std::vector<double> pending_orientations;    // 4 per pending tag
+  std::vector<std::int64_t> pending_tags;    // set_orientation not applied yet
+  std::vector<double> pending_orientations;  // 4 per pending tag
 
   // This rank's atoms, in LIGGGHTS's local order; vectors hold 3 (or the fix's width) per atom.
   std::vector<std::int64_t> tag, type, mask, image;
   std::vector<double> x, v, omega, radius, rmass, density;
-  std::vector<double> force, torque;  // of the last DEM step: the next run's first half kick
-  std::vector<double> impulse;        // hemoImpulse: this interval's F dt, beta dt; the last F, beta
-  std::vector<double> rotation;       // hemoRotation: q, L (platelets); empty without orientation
-  std::vector<double> closures;       // hemoClosures: the held closures; empty when m = 1
-  std::vector<double> wall_history;   // the wall contacts' tangential history
+  std::vector<double> force, torque;        // of the last DEM step: the next run's first half kick
+  std::vector<double> impulse;              // hemoImpulse: this interval's F dt, beta dt; the last F, beta
+  std::vector<double> rotation;             // hemoRotation: q, L (platelets); empty without orientation
+  std::vector<double> closures;             // hemoClosures: the held closures; empty when m = 1
+  std::vector<double> wall_history;         // the wall contacts' tangential history
   std::vector<std::int64_t> partner_count;  // pair contacts with history, per atom
   std::vector<std::int64_t> partner;        // their partners' tags
   std::vector<double> contact_history;      // contact_values per partner
@@ -55,16 +55,41 @@ struct EngineState {
 
   template <class F>
   void visit(F&& f) {
-    f("ranks", ranks); f("particles", particles); f("type_of", type_of); f("dem_step", dem_step); f("dt", dt);
-    f("last_rotation_step", last_rotation_step); f("rotation_dt", rotation_dt);
-    f("neighbour_builds", neighbour_builds); f("max_reynolds", max_reynolds);
-    f("min_relaxation_time", min_relaxation_time); f("outside_total", outside_total);
-    f("lost", lost); f("pending_tags", pending_tags); f("pending_orientations", pending_orientations);
-    f("tag", tag); f("type", type); f("mask", mask); f("image", image); f("x", x); f("v", v); f("omega", omega);
-    f("radius", radius); f("rmass", rmass); f("density", density); f("force", force); f("torque", torque);
-    f("impulse", impulse); f("rotation", rotation); f("closures", closures); f("wall_history", wall_history);
-    f("partner_count", partner_count); f("partner", partner); f("contact_history", contact_history);
-    f("contact_values", contact_values); f("tracked", tracked);
+    f("ranks", ranks);
+    f("particles", particles);
+    f("type_of", type_of);
+    f("dem_step", dem_step);
+    f("dt", dt);
+    f("last_rotation_step", last_rotation_step);
+    f("rotation_dt", rotation_dt);
+    f("neighbour_builds", neighbour_builds);
+    f("max_reynolds", max_reynolds);
+    f("min_relaxation_time", min_relaxation_time);
+    f("outside_total", outside_total);
+    f("lost", lost);
+    f("pending_tags", pending_tags);
+    f("pending_orientations", pending_orientations);
+    f("tag", tag);
+    f("type", type);
+    f("mask", mask);
+    f("image", image);
+    f("x", x);
+    f("v", v);
+    f("omega", omega);
+    f("radius", radius);
+    f("rmass", rmass);
+    f("density", density);
+    f("force", force);
+    f("torque", torque);
+    f("impulse", impulse);
+    f("rotation", rotation);
+    f("closures", closures);
+    f("wall_history", wall_history);
+    f("partner_count", partner_count);
+    f("partner", partner);
+    f("contact_history", contact_history);
+    f("contact_values", contact_values);
+    f("tracked", tracked);
   }
 };
 
@@ -83,9 +108,12 @@ inline EngineState read_engine_state(const std::string& path) {
   EngineState state;
   state.visit([&](const char* name, auto& value) {
     using T = std::decay_t<decltype(value)>;
-    if constexpr (std::is_same_v<T, double>) value = in.real(name);
-    else if constexpr (std::is_same_v<T, std::int64_t>) value = in.integer(name);
-    else in.get(name, value);
+    if constexpr (std::is_same_v<T, double>)
+      value = in.real(name);
+    else if constexpr (std::is_same_v<T, std::int64_t>)
+      value = in.integer(name);
+    else
+      in.get(name, value);
   });
   return state;
 }

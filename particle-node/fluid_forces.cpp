@@ -10,8 +10,7 @@
 
 namespace hemo::particles {
 
-SpeciesForces::SpeciesForces(const Species& s, const Scene& scene)
-    : params_(closure_params(s, scene)), mass_(s.mass) {
+SpeciesForces::SpeciesForces(const Species& s, const Scene& scene) : params_(closure_params(s, scene)), mass_(s.mass) {
   if (!(s.mass > 0)) throw std::invalid_argument(s.name + ": the mass must be positive");
   try {
     drag_ = make_drag_closure(s.drag, params_);

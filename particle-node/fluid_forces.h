@@ -22,8 +22,8 @@ struct FluidForce {
   // N, -V_p grad P (coupling.pressure_gradient_force): applied to the particle, not exchanged
   // (the fluid feels its own share of the pressure), so not in total().
   Vec3 pressure = Vec3::Zero();
-  double beta = 0;             // N s/m, the linearised drag coefficient at this slip
-  double ratio = 1;            // r of the exponential update at this beta and step (exponential_drag.h)
+  double beta = 0;   // N s/m, the linearised drag coefficient at this slip
+  double ratio = 1;  // r of the exponential update at this beta and step (exponential_drag.h)
   Vec3 total() const { return drag + lift; }
   bool finite() const {
     return drag.allFinite() && lift.allFinite() && torque.allFinite() && pressure.allFinite() && std::isfinite(beta);
@@ -60,8 +60,8 @@ class SpeciesForces {
   std::unique_ptr<LiftClosure> lift_;
   std::unique_ptr<TorqueClosure> torque_;
   bool needs_orientation_ = false;
-  double beta_fixed_ = -1;  // slip-independent drag: beta, else < 0
-  double beta_rest_ = 0;    // beta at zero slip (the usual value of a Stokesian particle)
+  double beta_fixed_ = -1;                         // slip-independent drag: beta, else < 0
+  double beta_rest_ = 0;                           // beta at zero slip (the usual value of a Stokesian particle)
   mutable double ratio_dt_ = -1, ratio_rest_ = 1;  // exponential ratio of beta_rest_ at dt
 };
 

@@ -84,7 +84,6 @@ std::vector<double> FluidSampler::cell_pressure_gradients() const {
   return out;
 }
 
-
 std::vector<double> FluidSampler::cell_velocities() const {
   std::vector<double> out;
   out.reserve(3 * velocity_.size());

@@ -21,7 +21,9 @@ class FluidSampler {
   enum class Sampling { reconstructed, cell };
   explicit FluidSampler(const CellLocator& locator, Sampling sampling = Sampling::reconstructed)
       : locator_(&locator), sampling_(sampling) {}
-  static Sampling sampling_named(const std::string& name) { return name == "cell" ? Sampling::cell : Sampling::reconstructed; }
+  static Sampling sampling_named(const std::string& name) {
+    return name == "cell" ? Sampling::cell : Sampling::reconstructed;
+  }
 
   // Takes a copy of the fluid state's per-cell fields. Throws std::invalid_argument when the
   // state does not fit the mesh or holds a non-finite value (the message names the cause).

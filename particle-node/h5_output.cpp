@@ -14,8 +14,8 @@ namespace {
 
 [[noreturn]] void fail(const std::string& what) { throw std::runtime_error("particles.h5: " + what); }
 
-void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, std::size_t rows,
-                   std::size_t cols, const void* data) {
+void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, std::size_t rows, std::size_t cols,
+                   const void* data) {
   hsize_t dims[2] = {rows, cols};
   hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
   hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);

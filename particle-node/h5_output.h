@@ -25,8 +25,8 @@ struct ParticleSnapshot {
   double time_s = 0;
   std::vector<std::int64_t> id;
   std::vector<std::int8_t> species;
-  std::vector<double> position;  // 3 per particle
-  std::vector<double> velocity;  // 3 per particle
+  std::vector<double> position;     // 3 per particle
+  std::vector<double> velocity;     // 3 per particle
   std::vector<double> orientation;  // 4 per particle (w, x, y, z)
   std::size_t size() const { return id.size(); }
 };
@@ -38,7 +38,8 @@ class H5Output {
   // Goes on with the file of a run resumed after step `last_step`: the snapshots of later steps
   // are removed (the resumed run writes them again; HDF5 does not shrink the file), those up to
   // it kept; listed in `dropped` if given. A missing file is created.
-  static std::unique_ptr<H5Output> resume(const std::string& path, long last_step, std::vector<long>* dropped = nullptr);
+  static std::unique_ptr<H5Output> resume(const std::string& path, long last_step,
+                                          std::vector<long>* dropped = nullptr);
   ~H5Output();
   H5Output(const H5Output&) = delete;
   H5Output& operator=(const H5Output&) = delete;
@@ -51,8 +52,8 @@ class H5Output {
   H5Output(const std::string& path, long long file, long long snapshots)
       : path_(path), file_(file), snapshots_(snapshots) {}
   std::string path_;
-  long long file_ = -1;      // hid_t
-  long long snapshots_ = -1; // hid_t of /snapshots
+  long long file_ = -1;       // hid_t
+  long long snapshots_ = -1;  // hid_t of /snapshots
 };
 
 // Reading back (tests, analysis).

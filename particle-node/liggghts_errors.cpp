@@ -25,8 +25,7 @@ void on_exit() {
   if (!g.armed || !g.report) return;
   g.armed = false;
   std::string line = last_liggghts_error(g.logs);
-  g.report(line.empty() ? "the DEM engine (LIGGGHTS) ended the process without an error message"
-                        : "LIGGGHTS: " + line);
+  g.report(line.empty() ? "the DEM engine (LIGGGHTS) ended the process without an error message" : "LIGGGHTS: " + line);
 }
 
 }  // namespace

@@ -14,12 +14,12 @@
 #include "particle_node.h"
 #include "ranked_port.h"
 
-#include <CLI/CLI.hpp>
 #include <mpi.h>
 #include <node_port.h>
 #include <scene.h>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include <cstdlib>
 #include <iostream>
@@ -104,11 +104,10 @@ int main(int argc, char** argv) {
   try {
     scene = hemo::load_scene(scene_path);
     ctx.load_secret();
-    port = std::make_unique<hemo::particles::RankedPort>(
-        MPI_COMM_WORLD, [&] {
-          return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size(),
-                                                      scene.coupling_scheme == "parallel");
-        });
+    port = std::make_unique<hemo::particles::RankedPort>(MPI_COMM_WORLD, [&] {
+      return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size(),
+                                                  scene.coupling_scheme == "parallel");
+    });
   } catch (const std::exception& e) {
     if (mpi.rank() == 0) std::cerr << "hemocosim-particles: error: " << one_line(e.what()) << "\n";
     return 1;

@@ -38,8 +38,10 @@ std::string requested_hosts(int argc, char** argv) {
   std::string hosts;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--mpi-hosts" && i + 1 < argc) hosts = argv[i + 1];
-    else if (a.rfind("--mpi-hosts=", 0) == 0) hosts = a.substr(12);
+    if (a == "--mpi-hosts" && i + 1 < argc)
+      hosts = argv[i + 1];
+    else if (a.rfind("--mpi-hosts=", 0) == 0)
+      hosts = a.substr(12);
   }
   return hosts;
 }

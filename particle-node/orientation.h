@@ -1,7 +1,7 @@
 // Orientation of the oblate platelets (docs/model.md §3.3): a unit quaternion q = (w, x, y, z)
 // rotating body -> world, the body z axis along the symmetry axis n, and the angular momentum L
-// in the world frame (omega = R I^-1 R^T L; the engine hands omega to LIGGGHTS for contacts). The body is a symmetric top, I_xx = I_yy = m (a^2 + c^2)/5,
-// I_zz = 2 m a^2 / 5.
+// in the world frame (omega = R I^-1 R^T L; the engine hands omega to LIGGGHTS for contacts). The body is a symmetric
+// top, I_xx = I_yy = m (a^2 + c^2)/5, I_zz = 2 m a^2 / 5.
 //
 // One DEM step from t_n to t_{n+1} is a kick and a drift (the engine calls kick at t_n with the
 // torque at q_n, then drift to t_{n+1}):

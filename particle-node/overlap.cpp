@@ -8,8 +8,8 @@
 
 namespace hemo::particles {
 
-OverlapReport measure_overlaps(const std::vector<Vec3>& x, const std::vector<double>& d, double radius,
-                               double length, double z0) {
+OverlapReport measure_overlaps(const std::vector<Vec3>& x, const std::vector<double>& d, double radius, double length,
+                               double z0) {
   OverlapReport rep;
   if (x.empty()) return rep;
   const double d_max = *std::max_element(d.begin(), d.end());

@@ -14,7 +14,7 @@ struct OverlapReport {
   long contacts = 0;        // pairs and wall contacts with a positive overlap
 };
 
-OverlapReport measure_overlaps(const std::vector<Vec3>& positions, const std::vector<double>& diameters,
-                               double radius, double length, double z0);
+OverlapReport measure_overlaps(const std::vector<Vec3>& positions, const std::vector<double>& diameters, double radius,
+                               double length, double z0);
 
 }  // namespace hemo::particles

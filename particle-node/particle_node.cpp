@@ -23,11 +23,11 @@ namespace {
 
 void require_same(double scene_value, double mesh_value, const char* what) {
   if (std::abs(scene_value - mesh_value) > 1e-9 * std::abs(scene_value))
-    throw std::runtime_error(fmt::format("the fluid mesh's {} is {:.6g} m, the scene's {:.6g} m", what, mesh_value,
-                                         scene_value));
+    throw std::runtime_error(
+        fmt::format("the fluid mesh's {} is {:.6g} m, the scene's {:.6g} m", what, mesh_value, scene_value));
 }
 
-constexpr const char* kRole = "particles";  // the checkpoint's folder (common/checkpoint.h)
+constexpr const char* kRole = "particles";     // the checkpoint's folder (common/checkpoint.h)
 constexpr std::int64_t kCheckpointFormat = 2;  // 2: the fluid state's pressure gradient
 
 void broadcast(std::string& text, int root, MPI_Comm comm) {
@@ -45,9 +45,9 @@ struct ParticleNode::NodeCheckpoint {
   double time_s = 0, interval_s = 0;
   std::vector<std::int64_t> warned_re;
   std::string mesh_hash;
-  std::vector<double> deposition;  // the interval's per-cell accumulators (Deposition::data)
+  std::vector<double> deposition;                      // the interval's per-cell accumulators (Deposition::data)
   std::vector<double> fluid_velocity, fluid_gradient;  // the fluid state of the interval; empty before any
-  std::vector<double> fluid_pressure_gradient;          // of that state; empty when it carried none
+  std::vector<double> fluid_pressure_gradient;         // of that state; empty when it carried none
 };
 
 ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
@@ -64,22 +64,25 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
   require_same(scene.vessel.length, mesh.vessel_length_m, "vessel length");
   std::filesystem::create_directories(run_dir);
   for (int sp = 0; sp < kSpeciesCount; ++sp) used_[sp] = (sp == kRbc ? rbc_count(scene) : platelet_count(scene)) > 0;
-  if (!used_[kRbc] && !used_[kPlatelet]) throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
+  if (!used_[kRbc] && !used_[kPlatelet])
+    throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
   set_interval(scene.time.coupling_interval);
   if (resume_step > 0)
     resume(resume_step);
   else
     start();
-  spdlog::info("particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um); solid fraction "
-               "'{}'",
-               engine_->particle_count(), rbc_count(scene), platelet_count(scene), locator_.n_cells(),
-               locator_.wall_gap() * 1e6, scene.solid_fraction);
+  spdlog::info(
+      "particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um); solid fraction "
+      "'{}'",
+      engine_->particle_count(), rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6,
+      scene.solid_fraction);
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (used_[sp])
-      spdlog::info("{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
-                   engine_->tracks_orientation(sp) ? ", orientation tracked (" +
-                                                         (sp == kRbc ? scene.rbc : scene.platelet).orientation_integrator + ")"
-                                                   : std::string());
+      spdlog::info(
+          "{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
+          engine_->tracks_orientation(sp)
+              ? ", orientation tracked (" + (sp == kRbc ? scene.rbc : scene.platelet).orientation_integrator + ")"
+              : std::string());
 }
 
 void ParticleNode::start() {
@@ -136,8 +139,8 @@ void ParticleNode::resume(long step) {
 ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   const CheckpointReader in(checkpoint_of(run_dir_, step, kRole) + "/node.h5");
   if (in.integer("format") != kCheckpointFormat)
-    throw std::runtime_error(fmt::format("{} is of format {}, this node reads {}", in.path(), in.integer("format"),
-                                         kCheckpointFormat));
+    throw std::runtime_error(
+        fmt::format("{} is of format {}, this node reads {}", in.path(), in.integer("format"), kCheckpointFormat));
   NodeCheckpoint c;
   c.ranks = in.integer("ranks");
   c.particles = in.integer("particles");
@@ -158,21 +161,21 @@ void ParticleNode::check_fits(const NodeCheckpoint& c, long step, const std::str
   int ranks = 1;
   MPI_Comm_size(comm_, &ranks);
   if (c.ranks != ranks)
-    throw std::runtime_error(fmt::format("it was written by {} MPI ranks, this node runs on {} (resume with --ranks {})",
-                                         c.ranks, ranks, c.ranks));
+    throw std::runtime_error(fmt::format(
+        "it was written by {} MPI ranks, this node runs on {} (resume with --ranks {})", c.ranks, ranks, c.ranks));
   if (c.mesh_hash != mesh_hash_)
     throw std::runtime_error(fmt::format("it fits the mesh '{}', the fluid's mesh is '{}'", c.mesh_hash, mesh_hash_));
   const long particles = rbc_count(scene_) + platelet_count(scene_);
   if (c.particles != particles)
     throw std::runtime_error(fmt::format("it holds {} particles, the scene has {}", c.particles, particles));
   const std::size_t cells = static_cast<std::size_t>(locator_.n_cells());
-  const bool fluid_fits =
-      c.fluid_velocity.empty() || (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells &&
-                                   (c.fluid_pressure_gradient.empty() || c.fluid_pressure_gradient.size() == 3 * cells));
+  const bool fluid_fits = c.fluid_velocity.empty() ||
+                          (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells &&
+                           (c.fluid_pressure_gradient.empty() || c.fluid_pressure_gradient.size() == 3 * cells));
   if (c.step != step || c.warned_re.size() != kSpeciesCount ||
       c.deposition.size() != static_cast<std::size_t>(deposition_.size()) || !fluid_fits)
-    throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition and {} fluid values for {} cells)", path,
-                                         c.step, c.deposition.size(), c.fluid_velocity.size(), cells));
+    throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition and {} fluid values for {} cells)",
+                                         path, c.step, c.deposition.size(), c.fluid_velocity.size(), cells));
 }
 
 void ParticleNode::set_interval(double interval) {
@@ -200,9 +203,10 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
   if (scene_.pressure_gradient_force && !fluid_.has_pressure_gradient())
-    return fmt::format("step {}: the fluid state carries no pressure gradient, and coupling.pressure_gradient_force "
-                       "needs one (is the fluid node '{}' of another build?)",
-                       order.envelope.step, scene_.run.fluid_command.empty() ? "built-in" : scene_.run.fluid_command);
+    return fmt::format(
+        "step {}: the fluid state carries no pressure gradient, and coupling.pressure_gradient_force "
+        "needs one (is the fluid node '{}' of another build?)",
+        order.envelope.step, scene_.run.fluid_command.empty() ? "built-in" : scene_.run.fluid_command);
   set_interval(order.dt_s);
   step_ = order.envelope.step;
   time_ = order.time_s;
@@ -277,9 +281,10 @@ void ParticleNode::warn_reynolds() {
     if (!(re > limit)) continue;
     warned_re_[sp] = true;
     if (rank_ == 0)
-      spdlog::warn("{}: particle Reynolds number {:.3g} at coupling step {} exceeds {:.3g}, the range of the '{}' drag "
-                   "law (warned once per run)",
-                   sp == kRbc ? "rbc" : "platelet", re, step_, limit, engine_->forces(sp).drag().name());
+      spdlog::warn(
+          "{}: particle Reynolds number {:.3g} at coupling step {} exceeds {:.3g}, the range of the '{}' drag "
+          "law (warned once per run)",
+          sp == kRbc ? "rbc" : "platelet", re, step_, limit, engine_->forces(sp).drag().name());
   }
 }
 

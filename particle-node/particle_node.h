@@ -50,8 +50,7 @@ class ParticleNode {
   // checkpoint of step K, particles.h5 cut back to the snapshots of steps <= K, no snapshot
   // written, the LIGGGHTS log appended to; throws CheckpointError when that is not possible.
   // Throws std::exception with a one-line reason when the scene and mesh do not fit together.
-  ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
-               long resume_step = 0);
+  ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm, long resume_step = 0);
 
   // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
   std::string check(const fluid_state_t& fluid) const;
@@ -104,7 +103,7 @@ class ParticleNode {
   std::unique_ptr<H5Output> output_;
   DemTiming timing_;
   double timing_interval_ = 0;  // the coupling interval timing_ was derived for
-  double interval_ = 0;       // of the last advance (0 before the first)
+  double interval_ = 0;         // of the last advance (0 before the first)
   long step_ = 0;
   double time_ = 0;
   std::string run_dir_;

@@ -47,7 +47,11 @@ namespace {
 class Packing {
  public:
   Packing(double radius, double length, double z0, double reach, double gap_fraction)
-      : radius_(radius), length_(length), z0_(z0), reach_(reach), gap_fraction_(gap_fraction),
+      : radius_(radius),
+        length_(length),
+        z0_(z0),
+        reach_(reach),
+        gap_fraction_(gap_fraction),
         grid_(radius, length, z0, reach) {}
 
   // Whether a sphere of diameter d at x keeps r_i + r_j + gap from every placed one (across the
@@ -155,8 +159,8 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
 }  // namespace
 
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
-                                            const std::vector<PlacementRequest>& requests,
-                                            unsigned long long seed, const PlacementOptions& opt) {
+                                            const std::vector<PlacementRequest>& requests, unsigned long long seed,
+                                            const PlacementOptions& opt) {
   if (requests.empty()) return {};
   if (!(radius > 0) || !(length > 0)) throw PlacementError("placement needs a vessel with positive radius and length");
 

@@ -19,8 +19,8 @@
 namespace hemo::particles {
 
 struct PlacementRequest {
-  int species = 0;       // SpeciesIndex
-  double diameter = 0;   // m
+  int species = 0;      // SpeciesIndex
+  double diameter = 0;  // m
   long count = 0;
 };
 
@@ -51,7 +51,7 @@ std::vector<PlacementRequest> placement_requests(const Scene& scene);
 // Places the particles, largest first; throws PlacementError naming the species, how many were
 // placed and the volume fraction when neither way finds room for a species.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
-                                            const std::vector<PlacementRequest>& requests,
-                                            unsigned long long seed, const PlacementOptions& options = {});
+                                            const std::vector<PlacementRequest>& requests, unsigned long long seed,
+                                            const PlacementOptions& options = {});
 
 }  // namespace hemo::particles

@@ -40,7 +40,8 @@ double oblate_k0(double lambda) {
   const double eps = 1 - lambda;
   if (eps < kSeriesBelow) return 1 + eps * (2.0 / 15 + eps * 263.0 / 1575);
   const double s = std::sqrt(1 - lambda * lambda);
-  return 4.0 / 3 * std::cbrt(1 / lambda) * (1 - lambda * lambda) / (lambda + (1 - 2 * lambda * lambda) / s * std::acos(lambda));
+  return 4.0 / 3 * std::cbrt(1 / lambda) * (1 - lambda * lambda) /
+         (lambda + (1 - 2 * lambda * lambda) / s * std::acos(lambda));
 }
 
 double oblate_k90(double lambda) {
@@ -48,7 +49,8 @@ double oblate_k90(double lambda) {
   const double eps = 1 - lambda;
   if (eps < kSeriesBelow) return 1 + eps * (-1.0 / 15 + eps * 199.0 / 3150);
   const double s = std::sqrt(1 - lambda * lambda);
-  return 8.0 / 3 * std::cbrt(1 / lambda) * (lambda * lambda - 1) / (lambda - (3 - 2 * lambda * lambda) / s * std::acos(lambda));
+  return 8.0 / 3 * std::cbrt(1 / lambda) * (lambda * lambda - 1) /
+         (lambda - (3 - 2 * lambda * lambda) / s * std::acos(lambda));
 }
 
 OblateDrag::OblateDrag(const ClosureParams& p) : params_(p) {

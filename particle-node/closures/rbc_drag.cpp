@@ -12,7 +12,7 @@ namespace {
 constexpr double kA = 73.146, kB = 29.86, kExponent = 27.079;
 // Below this Re the correction 29.86 Re^27.079 < 3e-18 is below a double's resolution of 1.
 constexpr double kStokesBelow = 0.2;
-}
+}  // namespace
 
 RbcFitDrag::RbcFitDrag(const ClosureParams& p)
     : params_(p),

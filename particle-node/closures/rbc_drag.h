@@ -33,7 +33,7 @@ class RbcFitDrag final : public DragClosure {
 
  private:
   ClosureParams params_;
-  double beta0_;  // N s/m, at Re = 0
+  double beta0_;                // N s/m, at Re = 0
   double stokes_slip_squared_;  // (m/s)^2: |u_r|^2 below it is Re < kStokesBelow, beta = beta0
 };
 

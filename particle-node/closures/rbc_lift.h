@@ -28,7 +28,7 @@ class RbcLift final : public LiftClosure {
     double factor = 0;
   };
   mutable std::vector<Memo> memo_;  // per cell
-  double scale_;  // 100.271 rho d^6 / nu / (d^2 / nu)^0.63, so that F = scale gamma^-0.63 |Ga|^2 Ga
+  double scale_;                    // 100.271 rho d^6 / nu / (d^2 / nu)^0.63, so that F = scale gamma^-0.63 |Ga|^2 Ga
 };
 
 }  // namespace hemo::particles

@@ -88,7 +88,8 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   for (std::size_t i = 0; i < run.snapshots.size(); ++i) {
     const Snapshot s = i == 0 ? first : run.load(i);
     const Cells rbc = select_species(s, kRbc), plt = select_species(s, kPlatelet);
-    a.frames.push_back({s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
+    a.frames.push_back(
+        {s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
     if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, plt, s.time_s));
     if (s.time_s < a.window_start) continue;
 
@@ -121,7 +122,8 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.rbc_density = average_profiles(rbc_n);
   a.platelet_density = average_profiles(plt_n);
   for (double& c : rbc_centres) c /= n;
-  a.rbc_volume_fraction = radial_volume_fraction_from_histogram(rbc_centres, a.rbc_diameter, a.rbc_volume, a.tube, bins);
+  a.rbc_volume_fraction =
+      radial_volume_fraction_from_histogram(rbc_centres, a.rbc_diameter, a.rbc_volume, a.tube, bins);
   a.cfl_edge = cfl_thickness_edge(edges, a.tube);
   a.cfl_profile = cfl_thickness_profile(a.rbc_volume_fraction, a.tube);
   if (a.mean_rbc_count == 0) a.notes.push_back("no RBCs: no cell-free layer");
@@ -141,7 +143,8 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   else if (a.diffusion.points < 3)
     a.notes.push_back(fmt::format("D from only {} MSD point(s)", a.diffusion.points));
   if (a.diffusion.points > 0 && a.diffusion.window_end < 0.99 * t_fit)
-    a.notes.push_back(fmt::format("the run ends before t_fit: D fitted over [0, {:.4g}] s only", a.diffusion.window_end));
+    a.notes.push_back(
+        fmt::format("the run ends before t_fit: D fitted over [0, {:.4g}] s only", a.diffusion.window_end));
 
   a.tube_hematocrit = hematocrit_sum / n;
   a.rbc_volume_flux = rbc_flux_sum / n;
@@ -171,7 +174,9 @@ nlohmann::ordered_json::json_pointer pointer(const std::string& dotted) {
 
 std::string format_table(const Analysis& a) {
   std::string t;
-  auto line = [&t](const std::string& label, const std::string& text) { t += fmt::format("  {:<18}{}\n", label, text); };
+  auto line = [&t](const std::string& label, const std::string& text) {
+    t += fmt::format("  {:<18}{}\n", label, text);
+  };
   t += fmt::format("{}: analysis\n", a.run_dir);
   line("vessel", fmt::format("d = {} µm, l = {} µm", fixed(2 * a.tube.radius, 1, kUm), fixed(a.tube.length, 1, kUm)));
   line("window", fmt::format("t = {:.4g} .. {:.4g} s, {} snapshots{}", a.window_start, a.window_end, a.window_snapshots,
@@ -208,7 +213,8 @@ std::string format_json(const Analysis& a) {
                          {"core_radius_fraction", 0.5},
                          {"core_mean_volume_fraction", number(a.cfl_profile.core_mean_fraction)}};
   nlohmann::ordered_json msd = nlohmann::ordered_json::array();
-  for (const auto& p : a.msd) msd.push_back({{"lag_s", number(p.lag_s)}, {"msd_m2", number(p.msd_m2)}, {"matched", p.matched}});
+  for (const auto& p : a.msd)
+    msd.push_back({{"lag_s", number(p.lag_s)}, {"msd_m2", number(p.msd_m2)}, {"matched", p.matched}});
   j["diffusion"] = {{"fit", "MSD = 2 D t, least squares through the origin"},
                     {"t_fit_s", number(a.diffusion.t_fit)},
                     {"window_start_s", 0},
@@ -255,8 +261,8 @@ std::string format_profiles_csv(const Analysis& a) {
   auto block = [&](double t0, double t1, const std::vector<double>& rbc, const std::vector<double>& plt,
                    const std::vector<double>* phi) {
     for (int b = 0; b < a.bins; ++b)
-      c += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.9g},{:.9g},{}\n", t0, t1, a.bin_edges[b], a.bin_edges[b + 1],
-                       (b + 0.5) / a.bins, rbc.empty() ? 0.0 : rbc[b], plt.empty() ? 0.0 : plt[b],
+      c += fmt::format("{:.9g},{:.9g},{:.9g},{:.9g},{:.6g},{:.9g},{:.9g},{}\n", t0, t1, a.bin_edges[b],
+                       a.bin_edges[b + 1], (b + 0.5) / a.bins, rbc.empty() ? 0.0 : rbc[b], plt.empty() ? 0.0 : plt[b],
                        phi && !phi->empty() ? fmt::format("{:.9g}", (*phi)[b]) : "");
   };
   block(a.window_start, a.window_end, a.rbc_density, a.platelet_density, &a.rbc_volume_fraction);

@@ -13,12 +13,12 @@ namespace hemo {
 
 struct AnalyzeOptions {
   std::string run_dir;
-  bool json = false;          // print JSON instead of the table
-  int bins = 50;              // radial bins over [0, R]
-  double t_fit = 0.1;         // s: D from the MSD over [0, t_fit]
-  double window_start = -1;   // s: start of the averaging window; < 0: the second half of the run
-  int slices = 0;             // CFL stations: axial slices; 0: about 20 RBCs per station
-  int sectors = 0;            // CFL stations: angular sectors; 0: about 20 RBCs per station
+  bool json = false;         // print JSON instead of the table
+  int bins = 50;             // radial bins over [0, R]
+  double t_fit = 0.1;        // s: D from the MSD over [0, t_fit]
+  double window_start = -1;  // s: start of the averaging window; < 0: the second half of the run
+  int slices = 0;            // CFL stations: axial slices; 0: about 20 RBCs per station
+  int sectors = 0;           // CFL stations: angular sectors; 0: about 20 RBCs per station
 };
 
 // Prints the table (or JSON) and writes the two files; throws analysis::RunDataError (one line,
@@ -63,7 +63,7 @@ struct Analysis {
 
   double margination_index = 0;  // with the edge-method delta
 
-  std::vector<double> bin_edges;  // m
+  std::vector<double> bin_edges;                                           // m
   std::vector<double> rbc_density, platelet_density, rbc_volume_fraction;  // window means
   std::vector<ProfileFrame> frames;
 

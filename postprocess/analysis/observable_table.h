@@ -21,18 +21,18 @@ struct Analysis;
 // How the table and the report print a value: value / scale, in `unit`.
 struct Shown {
   enum class Style { fixed, scientific, general } style = Style::fixed;
-  int digits = 3;          // after the point (fixed), of the mantissa (scientific), significant (general)
-  double scale = 1;        // e.g. 1e-6 to print metres as µm
-  std::string_view unit;   // as printed ("µm"); empty for a pure number
+  int digits = 3;         // after the point (fixed), of the mantissa (scientific), significant (general)
+  double scale = 1;       // e.g. 1e-6 to print metres as µm
+  std::string_view unit;  // as printed ("µm"); empty for a pure number
 };
 
 struct Observable {
-  std::string_view name;         // the summary.csv column; unique
-  std::string_view json_path;    // where analysis.json holds it, dotted ("cfl.edge.thickness_m")
-  std::string_view label;        // its name in the text table and the report ("δ edge")
-  std::string_view unit;         // SI unit of the stored value (JSON, CSV); "1" for a pure number
-  std::string_view description;  // one line, for the report's legend
-  double (*value)(const Analysis&);                   // NaN when undefined
+  std::string_view name;             // the summary.csv column; unique
+  std::string_view json_path;        // where analysis.json holds it, dotted ("cfl.edge.thickness_m")
+  std::string_view label;            // its name in the text table and the report ("δ edge")
+  std::string_view unit;             // SI unit of the stored value (JSON, CSV); "1" for a pure number
+  std::string_view description;      // one line, for the report's legend
+  double (*value)(const Analysis&);  // NaN when undefined
   Shown shown;
   std::string (*detail)(const Analysis&) = nullptr;  // the text table's bracketed context, if any
   // The panel of `plot`'s sweep figure (its y-axis title) that draws it against the swept key,

@@ -12,7 +12,7 @@
 
 namespace hemo::analysis {
 
-inline constexpr std::int8_t kRbc = 0;       // species code in particles.h5
+inline constexpr std::int8_t kRbc = 0;  // species code in particles.h5
 inline constexpr std::int8_t kPlatelet = 1;
 
 struct Tube {
@@ -120,8 +120,8 @@ CflThickness cfl_thickness_edge(const std::vector<StationEdges>& per_snapshot, c
 // Profile method: the core mean is the volume-weighted mean fraction over r < core_radius_fraction R;
 // the edge is the outermost radius where the (linearly interpolated between bin centres) fraction
 // is still `threshold` x core mean; delta = R - edge.
-CflThickness cfl_thickness_profile(const std::vector<double>& volume_fraction, const Tube& tube,
-                                   double threshold = 0.1, double core_radius_fraction = 0.5);
+CflThickness cfl_thickness_profile(const std::vector<double>& volume_fraction, const Tube& tube, double threshold = 0.1,
+                                   double core_radius_fraction = 0.5);
 
 // ---- Radial mean squared displacement and diffusivity ----------------------------------------
 
@@ -145,10 +145,10 @@ DiffusionFit fit_diffusivity(const std::vector<MsdPoint>& msd, double t_fit);
 // ---- Apparent viscosity ----------------------------------------------------------------------
 
 struct ApparentViscosity {
-  double mean_velocity = 0;            // U, m/s
-  double wall_shear_rate = 0;          // gamma_w = d dP / (4 mu l), 1/s (imposed)
-  double apparent_wall_shear_rate = 0; // 8 U / d, 1/s
-  double relative_viscosity = 0;       // mu_app / mu = gamma_w / (8 U / d)
+  double mean_velocity = 0;             // U, m/s
+  double wall_shear_rate = 0;           // gamma_w = d dP / (4 mu l), 1/s (imposed)
+  double apparent_wall_shear_rate = 0;  // 8 U / d, 1/s
+  double relative_viscosity = 0;        // mu_app / mu = gamma_w / (8 U / d)
 };
 ApparentViscosity apparent_viscosity(double mean_velocity, double diameter, double wall_shear_rate);
 

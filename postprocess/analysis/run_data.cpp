@@ -149,7 +149,8 @@ std::vector<MetricSample> read_metrics(const std::string& path) {
   std::string line;
   if (!std::getline(in, line)) fail(path, "empty (expected header step,time_s,node,name,value)");
   if (!line.empty() && line.back() == '\r') line.pop_back();
-  if (line != "step,time_s,node,name,value") fail(path + ":1", "header is '" + line + "', expected step,time_s,node,name,value");
+  if (line != "step,time_s,node,name,value")
+    fail(path + ":1", "header is '" + line + "', expected step,time_s,node,name,value");
   std::vector<MetricSample> out;
   for (long lineno = 2; std::getline(in, line); ++lineno) {
     if (!line.empty() && line.back() == '\r') line.pop_back();

@@ -156,7 +156,8 @@ BenchSuite load_bench_suite(const std::string& path, const std::string& out_dir)
   s.stress = root["stress"].value_or(false);
   const bool keep_time = root["keep_physical_time"].value_or(false);
   const toml::node* reference = root.get("reference");
-  if (!s.stress && !reference) fail(path, "reference: missing (the converged value of the swept key, one of sweep.values)");
+  if (!s.stress && !reference)
+    fail(path, "reference: missing (the converged value of the swept key, one of sweep.values)");
   if (s.stress && reference) fail(path, "reference: a stress suite has none");
   auto* sweep = root["sweep"].as_table();
   if (!sweep) fail(path, "[sweep]: missing (key and values)");
@@ -201,7 +202,8 @@ BenchSuite load_bench_suite(const std::string& path, const std::string& out_dir)
       sweep->insert_or_assign("labels", labels);
     }
     sweep->erase("key");
-    sweep->insert_or_assign("keys", toml::array{"time.coupling_interval_s", "time.coupling_steps", "output.every_steps"});
+    sweep->insert_or_assign("keys",
+                            toml::array{"time.coupling_interval_s", "time.coupling_steps", "output.every_steps"});
     sweep->insert_or_assign("values", derived);
   }
   for (const char* k : {"reference", "keep_physical_time", "stress"}) root.erase(k);
@@ -227,7 +229,8 @@ std::vector<std::string> resolve_bench_suites(const std::vector<std::string>& na
       std::vector<std::string> found;
       for (const auto& e : fs::directory_iterator(dir)) {
         bool stress = false;
-        if (e.path().extension() == ".toml" && is_suite_file(e.path(), &stress) && !stress) found.push_back(e.path().string());
+        if (e.path().extension() == ".toml" && is_suite_file(e.path(), &stress) && !stress)
+          found.push_back(e.path().string());
       }
       std::sort(found.begin(), found.end());
       if (!found.empty()) return found;
@@ -261,7 +264,8 @@ std::vector<std::string> resolve_bench_suites(const std::vector<std::string>& na
         break;
       }
     }
-    if (!hit) throw StudyError(fmt::format("no bench suite '{}' (scenes/bench/{}.toml or {}-*.toml)", name, name, name));
+    if (!hit)
+      throw StudyError(fmt::format("no bench suite '{}' (scenes/bench/{}.toml or {}-*.toml)", name, name, name));
   }
   return out;
 }
@@ -269,7 +273,8 @@ std::vector<std::string> resolve_bench_suites(const std::vector<std::string>& na
 std::string bench_csv(const std::vector<BenchRow>& rows) {
   std::string c =
       "suite,key,value,label,reference,status,wall_s,speedup,fluid_compute_s,particle_compute_s,coupling_overhead_s,"
-      "fluid_peak_MiB,particle_peak_MiB,U_m_s,r_platelet_m,r_rbc_m,D_m2_s,platelets,rbcs,err_U,err_r_platelet,err_r_rbc,"
+      "fluid_peak_MiB,particle_peak_MiB,U_m_s,r_platelet_m,r_rbc_m,D_m2_s,platelets,rbcs,err_U,err_r_platelet,err_r_"
+      "rbc,"
       "err_D,D_noise,L1_platelet,L1_rbc,message,run_dir\n";
   for (const auto& r : rows) {
     const auto& m = r.measures;
@@ -277,13 +282,13 @@ std::string bench_csv(const std::vector<BenchRow>& rows) {
     const bool me = r.measured, er = r.has_errors;
     c += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                      csv_field(r.suite), csv_field(r.keys), csv_field(r.value), csv_field(r.label), r.reference ? 1 : 0,
-                     r.status, num(r.wall_s), num(r.speedup), num(r.cost.fluid_compute_s), num(r.cost.particle_compute_s),
-                     num(r.cost.coupling_overhead_s), num(r.cost.fluid_peak_mib), num(r.cost.particle_peak_mib),
-                     me ? num(m.mean_velocity) : "", me ? num(m.mean_r_platelet) : "", me ? num(m.mean_r_rbc) : "",
-                     me ? num(m.diffusivity) : "", me ? std::to_string(m.platelets) : "", me ? std::to_string(m.rbcs) : "",
-                     er ? num(e.u) : "", er ? num(e.r_platelet) : "", er ? num(e.r_rbc) : "", er ? num(e.d) : "",
-                     er ? num(e.d_noise) : "", er ? num(e.l1_platelet) : "", er ? num(e.l1_rbc) : "",
-                     csv_field(r.message), csv_field(r.run_dir));
+                     r.status, num(r.wall_s), num(r.speedup), num(r.cost.fluid_compute_s),
+                     num(r.cost.particle_compute_s), num(r.cost.coupling_overhead_s), num(r.cost.fluid_peak_mib),
+                     num(r.cost.particle_peak_mib), me ? num(m.mean_velocity) : "", me ? num(m.mean_r_platelet) : "",
+                     me ? num(m.mean_r_rbc) : "", me ? num(m.diffusivity) : "", me ? std::to_string(m.platelets) : "",
+                     me ? std::to_string(m.rbcs) : "", er ? num(e.u) : "", er ? num(e.r_platelet) : "",
+                     er ? num(e.r_rbc) : "", er ? num(e.d) : "", er ? num(e.d_noise) : "", er ? num(e.l1_platelet) : "",
+                     er ? num(e.l1_rbc) : "", csv_field(r.message), csv_field(r.run_dir));
   }
   return c;
 }
@@ -295,11 +300,12 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
   std::string m = "# hemocosim bench\n\n";
   std::string args;
   for (const auto& s : opt.suites) args += " " + s;
-  m += fmt::format("Generated {} by `hemocosim bench{} --out {}`. Errors against each suite's reference run "
-                   "(definitions: `postprocess/bench/bench_metrics.h`, docs/performance.md): e_U, e_rPLT, e_rRBC, e_D "
-                   "relative; L1 between the last snapshot's radial distributions (10 bins of r/R; 0 equal, 2 disjoint); "
-                   "D noise ≈ √(2/N_PLT). Wall: the whole `hemocosim run`; compute: the nodes' own (profile.csv).\n",
-                   utc_now(), args, opt.out);
+  m += fmt::format(
+      "Generated {} by `hemocosim bench{} --out {}`. Errors against each suite's reference run "
+      "(definitions: `postprocess/bench/bench_metrics.h`, docs/performance.md): e_U, e_rPLT, e_rRBC, e_D "
+      "relative; L1 between the last snapshot's radial distributions (10 bins of r/R; 0 equal, 2 disjoint); "
+      "D noise ≈ √(2/N_PLT). Wall: the whole `hemocosim run`; compute: the nodes' own (profile.csv).\n",
+      utc_now(), args, opt.out);
   for (const auto& s : suites) {
     std::string keys;
     for (const auto& k : s.study.keys) keys += (keys.empty() ? "`" : ", `") + k + "`";
@@ -309,11 +315,12 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
       m += "| value | status | wall (s) | particles compute (s) | message |\n|---|---|---|---|---|\n";
       for (const auto& r : rows)
         if (r.suite == s.name)
-          m += fmt::format("| {} | {} | {:.1f} | {} | {} |\n", r.value, r.status, r.wall_s, g3(r.cost.particle_compute_s),
-                           md_cell(r.message));
+          m += fmt::format("| {} | {} | {:.1f} | {} | {} |\n", r.value, r.status, r.wall_s,
+                           g3(r.cost.particle_compute_s), md_cell(r.message));
       continue;
     }
-    m += "| value | wall (s) | speed-up | fluid / particles compute (s) | e_U | e_rPLT | e_rRBC | e_D (noise) | L1 PLT | L1 RBC "
+    m += "| value | wall (s) | speed-up | fluid / particles compute (s) | e_U | e_rPLT | e_rRBC | e_D (noise) | L1 PLT "
+         "| L1 RBC "
          "| peak MiB fluid / particles | status |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& r : rows) {
       if (r.suite != s.name) continue;
@@ -322,9 +329,9 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
       m += fmt::format("| {}{} | {:.1f} | {} | {} / {} | {} | {} | {} | {} ({}) | {} | {} | {} / {} | {} |\n", r.value,
                        r.reference ? " (ref)" : "", r.wall_s, g3(r.speedup), g3(r.cost.fluid_compute_s),
                        g3(r.cost.particle_compute_s), er ? pct(e.u) : "", er ? pct(e.r_platelet) : "",
-                       er ? pct(e.r_rbc) : "", er ? pct(e.d) : "", er ? pct(e.d_noise) : "", er ? g3(e.l1_platelet) : "",
-                       er ? g3(e.l1_rbc) : "", g3(r.cost.fluid_peak_mib), g3(r.cost.particle_peak_mib),
-                       r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
+                       er ? pct(e.r_rbc) : "", er ? pct(e.d) : "", er ? pct(e.d_noise) : "",
+                       er ? g3(e.l1_platelet) : "", er ? g3(e.l1_rbc) : "", g3(r.cost.fluid_peak_mib),
+                       g3(r.cost.particle_peak_mib), r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
     }
   }
   if (!figure_error.empty()) m += fmt::format("\nFigures not drawn: {}\n", figure_error);
@@ -341,7 +348,8 @@ BenchResult run_bench(const BenchOptions& opt) {
   fs::create_directories(opt.out);
   std::vector<BenchSuite> suites;
   for (const auto& f : files) suites.push_back(load_bench_suite(f, opt.out));  // all validated before anything runs
-  const std::string hemocosim = !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
+  const std::string hemocosim =
+      !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
   BenchResult result;
   for (const auto& s : suites) {
     stress_failed = 0;
@@ -445,7 +453,8 @@ BenchResult run_bench(const BenchOptions& opt) {
         else
           said += line + "\n";
       };
-      const auto r = run_child({python, script, (fs::path(opt.out) / "bench.csv").string(), (fs::path(opt.out) / "figures").string()}, co);
+      const auto r = run_child(
+          {python, script, (fs::path(opt.out) / "bench.csv").string(), (fs::path(opt.out) / "figures").string()}, co);
       if (!r.ok()) throw std::runtime_error(fmt::format("{} {}: {}", script, r.describe(), said));
     } catch (const std::exception& e) {
       figure_error = e.what();
@@ -453,7 +462,9 @@ BenchResult run_bench(const BenchOptions& opt) {
     }
   }
   std::ofstream(fs::path(opt.out) / "bench.md") << bench_md(opt, suites, result.rows, result.figures, figure_error);
-  if (!opt.quiet) fmt::print(stderr, "bench: {} runs, {} failed; {}/bench.md, {}/bench.csv\n", result.rows.size(), result.failed, opt.out, opt.out);
+  if (!opt.quiet)
+    fmt::print(stderr, "bench: {} runs, {} failed; {}/bench.md, {}/bench.csv\n", result.rows.size(), result.failed,
+               opt.out, opt.out);
   return result;
 }
 

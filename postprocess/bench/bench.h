@@ -30,18 +30,18 @@ namespace hemo {
 struct BenchOptions {
   std::vector<std::string> suites;  // names or files; empty: every suite that is not a stress test
   std::string out = "runs/bench";
-  std::string hemocosim;            // the hemocosim executable for the runs; default: this one
+  std::string hemocosim;  // the hemocosim executable for the runs; default: this one
   bool no_plot = false;
   bool quiet = false;
   bool check_only = false;  // expand and validate every suite's scenes, print the plan, run nothing
 };
 
 struct BenchSuite {
-  std::string path;        // the suite file
+  std::string path;  // the suite file
   std::string name;
   std::string study_path;  // the study file written for run_study (OUT/<name>/bench-study.toml)
   Study study;
-  int reference = -1;      // index of the reference run; -1 for a stress suite
+  int reference = -1;  // index of the reference run; -1 for a stress suite
   bool stress = false;
 };
 

@@ -39,11 +39,11 @@ struct RunCost {
 RunCost read_profile(const std::string& run_dir);
 
 struct RunMeasures {
-  double mean_velocity = 0;        // U, m/s
-  double mean_r_platelet = 0;      // m, last snapshot
-  double mean_r_rbc = 0;           // m, last snapshot
-  double diffusivity = 0;          // D, m^2/s
-  long platelets = 0, rbcs = 0;    // in the last snapshot
+  double mean_velocity = 0;                           // U, m/s
+  double mean_r_platelet = 0;                         // m, last snapshot
+  double mean_r_rbc = 0;                              // m, last snapshot
+  double diffusivity = 0;                             // D, m^2/s
+  long platelets = 0, rbcs = 0;                       // in the last snapshot
   std::vector<double> profile_platelet, profile_rbc;  // fractions per bin, sum 1 (empty without cells)
 };
 

@@ -89,10 +89,12 @@ std::string find_plot_script() {
     if (candidate(env)) return env;
     throw std::runtime_error(fmt::format("HEMOCOSIM_PLOT_SCRIPT={} does not exist", env));
   }
-  const std::string installed = (fs::path(executable_dir()) / ".." / "share" / "hemocosim" / kScriptName).lexically_normal();
+  const std::string installed =
+      (fs::path(executable_dir()) / ".." / "share" / "hemocosim" / kScriptName).lexically_normal();
   if (candidate(installed)) return installed;
   if (candidate(HEMO_PLOT_SCRIPT_SOURCE)) return HEMO_PLOT_SCRIPT_SOURCE;
-  throw std::runtime_error(fmt::format("cannot find {} (tried {}); set HEMOCOSIM_PLOT_SCRIPT", kScriptName, join(tried, ", ")));
+  throw std::runtime_error(
+      fmt::format("cannot find {} (tried {}); set HEMOCOSIM_PLOT_SCRIPT", kScriptName, join(tried, ", ")));
 }
 
 std::string find_python() {
@@ -107,10 +109,10 @@ std::string find_python() {
   for (const auto& py : candidates) {
     if (run_child({py, "-c", "import matplotlib, numpy"}, quiet).ok()) return found = py;
   }
-  throw std::runtime_error(fmt::format(
-      "no Python 3 with matplotlib and numpy (tried {}); install python3-matplotlib python3-numpy "
-      "(deploy/install-deps.sh) or set HEMOCOSIM_PYTHON",
-      join(candidates, ", ")));
+  throw std::runtime_error(
+      fmt::format("no Python 3 with matplotlib and numpy (tried {}); install python3-matplotlib python3-numpy "
+                  "(deploy/install-deps.sh) or set HEMOCOSIM_PYTHON",
+                  join(candidates, ", ")));
 }
 
 std::vector<std::string> plot_runs(const PlotOptions& opt) {
@@ -126,8 +128,9 @@ std::vector<std::string> plot_runs(const PlotOptions& opt) {
   // Analysis first, so that a run without snapshots fails here with the reader's one line.
   for (const auto& d : opt.run_dirs) ensure_analysis(d, opt.reanalyze);
 
-  const std::string out =
-      !opt.out.empty() ? opt.out : opt.run_dirs.size() == 1 ? (fs::path(opt.run_dirs[0]) / "figures").string() : "figures";
+  const std::string out = !opt.out.empty()           ? opt.out
+                          : opt.run_dirs.size() == 1 ? (fs::path(opt.run_dirs[0]) / "figures").string()
+                                                     : "figures";
   fs::create_directories(out);
   std::vector<std::string> argv = {find_python(), find_plot_script(), "--out", out};
   if (!opt.key.empty()) argv.insert(argv.end(), {"--key", opt.key});

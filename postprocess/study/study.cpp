@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -17,7 +18,6 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -118,9 +118,12 @@ std::string csv_num(double v) { return std::isfinite(v) ? fmt::format("{:.9g}", 
 
 const char* state_name(StudyRunStatus::State s) {
   switch (s) {
-    case StudyRunStatus::State::ran: return "ran";
-    case StudyRunStatus::State::skipped: return "finished earlier";
-    case StudyRunStatus::State::failed: return "failed";
+    case StudyRunStatus::State::ran:
+      return "ran";
+    case StudyRunStatus::State::skipped:
+      return "finished earlier";
+    case StudyRunStatus::State::failed:
+      return "failed";
   }
   return "";
 }
@@ -161,7 +164,8 @@ std::string summary_csv(const Study& study, const std::vector<Row>& rows) {
 }
 
 std::string report_md(const Study& study, const StudyOptions& opt, const Reduction* reduction, const std::string& out,
-                      const std::vector<Row>& rows, const std::vector<std::string>& figures, const std::string& figure_error) {
+                      const std::vector<Row>& rows, const std::vector<std::string>& figures,
+                      const std::string& figure_error) {
   std::string m;
   m += fmt::format("# Study: {}\n\n", study.name);
   if (!study.title.empty()) m += study.title + "\n\n";
@@ -169,12 +173,14 @@ std::string report_md(const Study& study, const StudyOptions& opt, const Reducti
   m += fmt::format("- base scene: `{}`\n", study.base);
   m += fmt::format("- swept: `{}` over {} values\n", swept_header(study), study.size());
   if (!study.set_toml.empty()) m += "- fixed for every run ([set] of the study file): see `study.toml`\n";
-  m += fmt::format("- generated: {} by `hemocosim study {}{}`\n", utc_now(), opt.study, opt.reduced ? " --reduced" : "");
+  m +=
+      fmt::format("- generated: {} by `hemocosim study {}{}`\n", utc_now(), opt.study, opt.reduced ? " --reduced" : "");
   if (reduction)
     m += fmt::format("- **reduced** (`--reduced`): {}\n", reduction->describe());
   else
     m += "- full size: the scenes as the study file and base scene give them\n";
-  if (!study.expectation.empty()) m += fmt::format("\nWhat the paper reports (docs/model.md §4): {}\n", study.expectation);
+  if (!study.expectation.empty())
+    m += fmt::format("\nWhat the paper reports (docs/model.md §4): {}\n", study.expectation);
   if (reduction)
     m += "\nThese are reduced runs: compare them with the expectation above only where they are long enough to "
          "show it; the numbers below are what the reduced runs give, nothing more.\n";
@@ -192,8 +198,9 @@ std::string report_md(const Study& study, const StudyOptions& opt, const Reducti
     const auto& st = *r.run;
     m += fmt::format("| {} | {} |", study.value_text(st.study_case.index), st.study_case.dir_name);
     for (const auto& o : observables) m += r.analysed ? fmt::format(" {} |", o.format(r.a)) : std::string(" |");
-    const char* status = r.analysed ? state_name(st.state)
-                         : st.state == StudyRunStatus::State::failed ? "failed" : "not analysed";
+    const char* status = r.analysed                                  ? state_name(st.state)
+                         : st.state == StudyRunStatus::State::failed ? "failed"
+                                                                     : "not analysed";
     m += fmt::format(" {:.1f} | {} |\n", st.wall_s, status);
   }
   m += "\nThe same as CSV: `summary.csv`. Each run's full analysis: `runs/<run>/analysis.json` "
@@ -227,7 +234,8 @@ int StudyResult::failed() const {
 void write_finished_marker(const std::string& run_dir, const std::string& scene_text, double wall_s) {
   std::ofstream out(fs::path(run_dir) / kFinishedMarker);
   out << "# Written by `hemocosim study` when this run ended cleanly; a study skips runs that have it.\n";
-  out << fmt::format("scene_fingerprint = \"{}\"\nwall_s = {:.3f}\nfinished = \"{}\"\n", fingerprint(scene_text), wall_s, utc_now());
+  out << fmt::format("scene_fingerprint = \"{}\"\nwall_s = {:.3f}\nfinished = \"{}\"\n", fingerprint(scene_text),
+                     wall_s, utc_now());
   if (!out) throw StudyError(run_dir + ": cannot write " + kFinishedMarker);
 }
 
@@ -268,7 +276,8 @@ StudyResult run_study(const StudyOptions& opt) {
   auto say = [&opt](const std::string& line) {
     if (!opt.quiet) fmt::print(stderr, "{}\n", line);
   };
-  const std::string hemocosim = !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
+  const std::string hemocosim =
+      !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
   const SceneRunner runner = opt.runner ? opt.runner : child_runner(hemocosim);
 
   // Decide first, so that the plan is printed before anything runs.
@@ -289,7 +298,8 @@ StudyResult run_study(const StudyOptions& opt) {
   std::size_t ran = 0, failed_now = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& c = cases[i];
-    if (interrupted) throw StudyError(fmt::format("interrupted before run {}; rerun the same command to resume", c.dir_name));
+    if (interrupted)
+      throw StudyError(fmt::format("interrupted before run {}; rerun the same command to resume", c.dir_name));
     StudyRunStatus st;
     st.study_case = c;
     st.run_dir = (out / "runs" / c.dir_name).string();
@@ -313,7 +323,8 @@ StudyResult run_study(const StudyOptions& opt) {
     const auto start = std::chrono::steady_clock::now();
     const int code = runner(c.scene_path, st.run_dir, log, [&](const std::string& line) { say(tag + " " + line); });
     st.wall_s = seconds_since(start);
-    if (interrupted) throw StudyError(fmt::format("interrupted during run {}; rerun the same command to resume", c.dir_name));
+    if (interrupted)
+      throw StudyError(fmt::format("interrupted during run {}; rerun the same command to resume", c.dir_name));
     if (code == 0) {
       write_finished_marker(st.run_dir, c.scene_text, st.wall_s);
       st.state = StudyRunStatus::State::ran;
@@ -379,9 +390,10 @@ StudyResult run_study(const StudyOptions& opt) {
   std::ofstream(out / "summary.csv") << summary_csv(study, rows);
   result.report_path = (out / "report.md").string();
   std::ofstream(result.report_path) << report_md(study, opt, reduction, result.out, rows, figures, figure_error);
-  say(fmt::format("study {}: {} of {} runs finished{}; report {}", study.name, n - result.failed(), n,
-                  result.failed() ? fmt::format(" ({} failed: rerun the same command to retry them)", result.failed()) : "",
-                  result.report_path));
+  say(fmt::format(
+      "study {}: {} of {} runs finished{}; report {}", study.name, n - result.failed(), n,
+      result.failed() ? fmt::format(" ({} failed: rerun the same command to retry them)", result.failed()) : "",
+      result.report_path));
   return result;
 }
 
@@ -399,16 +411,16 @@ std::vector<std::string> check_study(const StudyOptions& opt) {
   const ScratchFolder tmp("hemocosim-study-check");
   const auto cases = expand_study(study, tmp.path(), opt.reduced ? &reduction_spec : nullptr);
   std::vector<std::string> lines;
-  lines.push_back(fmt::format("{}: ok, {} runs of {} (base {}){}", study.path, cases.size(), swept_header(study), study.base,
-                              opt.reduced ? ", reduced" : ""));
+  lines.push_back(fmt::format("{}: ok, {} runs of {} (base {}){}", study.path, cases.size(), swept_header(study),
+                              study.base, opt.reduced ? ", reduced" : ""));
   for (const auto& c : cases) {
     const Scene s = load_scene(c.scene_path);
     const double volume = 3.14159265358979323846 * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
     const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;
     const long platelets = s.platelet.present ? std::lround(s.platelet.number_density * volume) : 0;
     lines.push_back(fmt::format("  {:<14} {:<36} d = {:g} um, l = {:g} um, {} RBCs, {} platelets, {:g} s", c.dir_name,
-                                study.value_text(c.index), s.vessel.diameter * 1e6, s.vessel.length * 1e6,
-                                rbcs, platelets, s.time.coupling_steps * s.time.coupling_interval));
+                                study.value_text(c.index), s.vessel.diameter * 1e6, s.vessel.length * 1e6, rbcs,
+                                platelets, s.time.coupling_steps * s.time.coupling_interval));
   }
   return lines;
 }

@@ -22,12 +22,13 @@ namespace hemo {
 
 // Runs one scene into run_dir (which does not exist yet), appending its output to log_path;
 // returns the exit code (0: finished cleanly). `progress` gets the run's progress lines.
-using SceneRunner = std::function<int(const std::string& scene_path, const std::string& run_dir, const std::string& log_path,
-                                      const std::function<void(const std::string&)>& progress)>;
+using SceneRunner =
+    std::function<int(const std::string& scene_path, const std::string& run_dir, const std::string& log_path,
+                      const std::function<void(const std::string&)>& progress)>;
 
 struct StudyOptions {
-  std::string study;        // name (scenes/studies/<name>.toml) or file
-  std::string out;          // default runs/study-<name>[-reduced]
+  std::string study;  // name (scenes/studies/<name>.toml) or file
+  std::string out;    // default runs/study-<name>[-reduced]
   bool reduced = false;
   bool no_plot = false;     // skip the figures (report without them)
   std::string hemocosim;    // the hemocosim executable for child runs; default: this one
@@ -41,8 +42,8 @@ struct StudyRunStatus {
   StudyCase study_case;
   std::string run_dir;
   enum class State { ran, skipped, failed } state = State::failed;
-  std::string why;       // redone because..., failed because...
-  double wall_s = 0;     // wall time of the run (from its marker when skipped)
+  std::string why;    // redone because..., failed because...
+  double wall_s = 0;  // wall time of the run (from its marker when skipped)
 };
 
 struct StudyResult {
@@ -80,6 +81,7 @@ inline constexpr const char* kFinishedMarker = "study-finished.toml";
 void write_finished_marker(const std::string& run_dir, const std::string& scene_text, double wall_s);
 // True if run_dir has the marker and it was written for exactly this scene text; `why` says
 // why not ("no run yet", "unfinished", "the scene changed").
-bool run_finished(const std::string& run_dir, const std::string& scene_text, std::string* why = nullptr, double* wall_s = nullptr);
+bool run_finished(const std::string& run_dir, const std::string& scene_text, std::string* why = nullptr,
+                  double* wall_s = nullptr);
 
 }  // namespace hemo

@@ -54,7 +54,8 @@ bool short_floats(const toml::node& n) {
 std::string scene_file_text(const toml::table& scene) {
   std::ostringstream ss;
   if (short_floats(scene))
-    ss << toml::toml_formatter{scene, toml::toml_formatter::default_flags | toml::format_flags::relaxed_float_precision};
+    ss << toml::toml_formatter{scene,
+                               toml::toml_formatter::default_flags | toml::format_flags::relaxed_float_precision};
   else
     ss << scene;
   return ss.str();
@@ -79,8 +80,8 @@ template <class... Args>
 }
 
 // Keys --reduced writes: sweeping one of them would be overwritten.
-const std::set<std::string> kReducedKeys = {"vessel.length_um", "mesh.core_cells", "mesh.ring_cells", "mesh.axial_cells",
-                                            "time.coupling_steps", "output.every_steps"};
+const std::set<std::string> kReducedKeys = {"vessel.length_um", "mesh.core_cells",     "mesh.ring_cells",
+                                            "mesh.axial_cells", "time.coupling_steps", "output.every_steps"};
 
 }  // namespace
 
@@ -92,8 +93,8 @@ std::string Reduction::describe() const {
       "axial, physical time {} s at the scene's coupling interval, {} particle snapshots; every other key as in the "
       "scene. The reduced runs test the machinery and show early-time behaviour only: cell-free layer, margination "
       "and steady profiles take of order a second of physical time to form.",
-      diameter_factor, length_um, core_cells, core_cells, ring_cells, core_cells * core_cells + 4 * core_cells * ring_cells,
-      axial_cells, end_time_s, snapshots);
+      diameter_factor, length_um, core_cells, core_cells, ring_cells,
+      core_cells * core_cells + 4 * core_cells * ring_cells, axial_cells, end_time_s, snapshots);
 }
 
 void Reduction::apply(toml::table& scene) const {
@@ -161,8 +162,8 @@ Study load_study(const std::string& path) {
   const std::set<std::string> known_top = {"name", "title", "expectation", "base", "sweep", "set"};
   for (const auto& [k, v] : root)
     if (!known_top.count(std::string(k.str())))
-      fail(path, "line {}: unknown key '{}' (known: name, title, expectation, base, [sweep], [set])", v.source().begin.line,
-           k.str());
+      fail(path, "line {}: unknown key '{}' (known: name, title, expectation, base, [sweep], [set])",
+           v.source().begin.line, k.str());
   s.name = root["name"].value_or(fs::path(path).stem().string());
   s.title = root["title"].value_or(std::string());
   s.expectation = root["expectation"].value_or(std::string());
@@ -194,7 +195,8 @@ Study load_study(const std::string& path) {
     }
   }
   for (const auto& k : s.keys)
-    if (k.rfind("run.", 0) == 0 && k != "run.seed") fail(path, "sweep: '{}': run settings other than run.seed cannot be swept", k);
+    if (k.rfind("run.", 0) == 0 && k != "run.seed")
+      fail(path, "sweep: '{}': run settings other than run.seed cannot be swept", k);
 
   const auto* values = (*sweep)["values"].as_array();
   if (!values || values->empty()) fail(path, "sweep.values: missing or empty (one value per run)");
@@ -245,7 +247,7 @@ std::string resolve_study(const std::string& name_or_file) {
   const std::string file = name_or_file + ".toml";
   std::vector<std::string> tried = {name_or_file};
   for (const fs::path& dir : {fs::path("scenes/studies"), fs::path(HEMO_STUDIES_SOURCE),
-                             fs::path(executable_dir()) / ".." / "share" / "hemocosim" / "scenes" / "studies"}) {
+                              fs::path(executable_dir()) / ".." / "share" / "hemocosim" / "scenes" / "studies"}) {
     if (dir.empty()) continue;
     const auto p = (dir / file).lexically_normal();
     tried.push_back(p.string());
@@ -267,11 +269,13 @@ std::vector<StudyCase> expand_study(const Study& study, const std::string& scene
   }
   if (reduction)
     for (const auto& k : study.keys)
-      if (kReducedKeys.count(k)) fail(study.path, "sweep key {} is one that --reduced sets; run this study without --reduced", k);
+      if (kReducedKeys.count(k))
+        fail(study.path, "sweep key {} is one that --reduced sets; run this study without --reduced", k);
   if (!study.set_toml.empty()) {
     // Merge [set] into the base, key by key.
     const toml::table set = toml::parse(study.set_toml);
-    std::function<void(const toml::table&, const std::string&)> merge = [&](const toml::table& t, const std::string& prefix) {
+    std::function<void(const toml::table&, const std::string&)> merge = [&](const toml::table& t,
+                                                                            const std::string& prefix) {
       for (const auto& [k, v] : t) {
         const std::string key = prefix + std::string(k.str());
         if (const auto* sub = v.as_table())
@@ -305,7 +309,8 @@ std::vector<StudyCase> expand_study(const Study& study, const std::string& scene
     set_dotted(scene, "run.name", "\"" + run_name + "\"");
     std::ostringstream text;
     text << "# Generated by `hemocosim study` from " << study.path << " (base " << study.base << "):\n";
-    for (std::size_t k = 0; k < study.keys.size(); ++k) text << "#   " << study.keys[k] << " = " << study.values[i][k] << "\n";
+    for (std::size_t k = 0; k < study.keys.size(); ++k)
+      text << "#   " << study.keys[k] << " = " << study.values[i][k] << "\n";
     if (reduction) text << "#   reduced (--reduced): " << reduction->describe() << "\n";
     text << "\n" << scene_file_text(scene) << "\n";
     c.scene_text = text.str();

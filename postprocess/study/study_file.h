@@ -45,20 +45,20 @@ struct Reduction {
   double length_um = 60;         // vessel length (if the scene's is longer)
   int core_cells = 2;            // mesh: 2 x 2 core, ring 2 (20 cells per section) ...
   int ring_cells = 2;
-  int axial_cells = 3;           // ... 3 axial cells (20 um at 60 um). Unresolved coupling needs cells
-                                 // larger than an RBC: at d = 50 um the smallest cell is (6.3 um)^3.
-  double end_time_s = 0.02;      // physical time (if the scene's is longer), at the scene's coupling interval
-  int snapshots = 20;            // particle snapshots over the run
+  int axial_cells = 3;       // ... 3 axial cells (20 um at 60 um). Unresolved coupling needs cells
+                             // larger than an RBC: at d = 50 um the smallest cell is (6.3 um)^3.
+  double end_time_s = 0.02;  // physical time (if the scene's is longer), at the scene's coupling interval
+  int snapshots = 20;        // particle snapshots over the run
   std::string describe() const;
   void apply(toml::table& scene) const;  // on a parsed scene (keys as in the scene file)
 };
 
 struct Study {
-  std::string path;   // the study file
+  std::string path;  // the study file
   std::string name;
   std::string title;
   std::string expectation;
-  std::string base;   // base scene path, resolved against the study file's folder
+  std::string base;                              // base scene path, resolved against the study file's folder
   std::vector<std::string> keys;                 // swept keys (one, or several that change together)
   std::vector<std::vector<std::string>> values;  // per run, per key: the value as TOML text
   std::vector<std::string> labels;               // per run: a name ([A-Za-z0-9._-] only)
@@ -77,9 +77,9 @@ std::string resolve_study(const std::string& name_or_file);
 
 // One run of a study: its scene written to a file and validated.
 struct StudyCase {
-  std::size_t index = 0;   // 0-based
-  std::string label;       // e.g. "799"
-  std::string dir_name;    // e.g. "05-799": runs/<dir_name>, scenes/<dir_name>.toml
+  std::size_t index = 0;  // 0-based
+  std::string label;      // e.g. "799"
+  std::string dir_name;   // e.g. "05-799": runs/<dir_name>, scenes/<dir_name>.toml
   std::string scene_path;
   std::string scene_text;  // exactly what was written
 };

@@ -40,7 +40,8 @@ TEST(Hematocrit, TubeHematocritIsRbcVolumeOverVesselVolume) {
 TEST(Hematocrit, PlugFlowDischargeEqualsTube) {
   const double u = 5e-3, v = 90e-18;
   Snapshot s;
-  for (int i = 0; i < 1000; ++i) add_particle(s, i, kRbc, 40 * kUm * std::sqrt((i + 0.5) / 1000), 2.4 * i, 0.6 * i * kUm, u);
+  for (int i = 0; i < 1000; ++i)
+    add_particle(s, i, kRbc, 40 * kUm * std::sqrt((i + 0.5) / 1000), 2.4 * i, 0.6 * i * kUm, u);
   const Cells rbc = select_species(s, kRbc);
   const double ht = tube_hematocrit(rbc.size(), v, kTube);
   const double q_rbc = cell_volume_flux(rbc.vz, v, kTube);

@@ -5,8 +5,8 @@
 #include "run_data.h"
 #include "synthetic.h"
 
-#include <gtest/gtest.h>
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 #include <hdf5.h>
 #include <nlohmann/json.hpp>
 
@@ -54,8 +54,7 @@ void write_particles(const std::string& path, const std::vector<Snapshot>& snaps
       write_set(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3 * n, 1, s.position.data());
     else
       write_set(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
-    if (flaw != Flaw::no_velocity)
-      write_set(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
+    if (flaw != Flaw::no_velocity) write_set(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
     H5Gclose(g);
   }
   H5Gclose(root);
@@ -184,7 +183,7 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
     s.step = 5 * k;
     s.time_s = 0.05 * k;
     for (int i = 0; i < 4; ++i) add_particle(s, i, kRbc, 4 * kUm, i * kPi / 2, (5 + 10 * i) * kUm, u);
-    add_particle(s, 100, kPlatelet, 9 * kUm, 0.3, 10 * kUm, u);         // in the layer
+    add_particle(s, 100, kPlatelet, 9 * kUm, 0.3, 10 * kUm, u);       // in the layer
     add_particle(s, 101, kPlatelet, (2 + 0.5 * k) * kUm, 0.3, 0, u);  // walks outward 0.5 um per snapshot
     snaps.push_back(s);
   }

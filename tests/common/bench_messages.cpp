@@ -100,7 +100,10 @@ void BM_LoopbackExchange(benchmark::State& st) {
           got = true;
         }
       });
-      if (!got) { st.SkipWithError("exchange lost"); break; }
+      if (!got) {
+        st.SkipWithError("exchange lost");
+        break;
+      }
     }
   }
   done = true;

@@ -209,7 +209,8 @@ TEST(BusFuzz, TenThousandHostileDatagramsAreCountedByCauseAndGenuineOnesArriveIn
       auto d = fresh();
       const auto original = d.bytes;
       while (d.bytes == original)  // flips of the same bit could cancel out
-        for (std::size_t f = 0, n = 1 + uniform(8); f < n; ++f) d.bytes[uniform(d.bytes.size())] ^= std::uint8_t(1u << uniform(8));
+        for (std::size_t f = 0, n = 1 + uniform(8); f < n; ++f)
+          d.bytes[uniform(d.bytes.size())] ^= std::uint8_t(1u << uniform(8));
       h.send(d), ++any_rejection;
     }
     // Zero, negative and oversized string lengths in the envelope (the crash of issue #21).
@@ -221,8 +222,10 @@ TEST(BusFuzz, TenThousandHostileDatagramsAreCountedByCauseAndGenuineOnesArriveIn
     // The same in the body, re-signed with the run's key (a buggy peer): authentic but undecodable.
     {
       auto d = fresh();
-      put_be32(d.bytes, body_at(d.bytes), round % 2 ? 0 : -int(1 + uniform(100000)));  // first string or count of the body
-      if (d.kind == channel::step || d.kind == channel::heartbeat) d.bytes.resize(d.bytes.size() - 3);  // no string there: cut
+      put_be32(d.bytes, body_at(d.bytes),
+               round % 2 ? 0 : -int(1 + uniform(100000)));  // first string or count of the body
+      if (d.kind == channel::step || d.kind == channel::heartbeat)
+        d.bytes.resize(d.bytes.size() - 3);  // no string there: cut
       sign(d.bytes, ctx.secret);
       h.send(d), ++expected["undecodable"];
     }
@@ -252,8 +255,9 @@ TEST(BusFuzz, TenThousandHostileDatagramsAreCountedByCauseAndGenuineOnesArriveIn
   EXPECT_GE(k.rejected_short, expected["short"]) << k.str();
   EXPECT_GE(k.rejected_foreign, expected["foreign"]) << k.str();
   EXPECT_GE(k.rejected_auth, expected["auth"]) << k.str();
-  EXPECT_EQ(k.rejected_short + k.rejected_foreign + k.rejected_auth,
-            expected["short"] + expected["foreign"] + expected["auth"] + short_or_foreign + short_or_auth + any_rejection)
+  EXPECT_EQ(
+      k.rejected_short + k.rejected_foreign + k.rejected_auth,
+      expected["short"] + expected["foreign"] + expected["auth"] + short_or_foreign + short_or_auth + any_rejection)
       << k.str();
 
   // Every genuine message arrived once, bit for bit, and decodes to what was sent.
@@ -309,10 +313,11 @@ TEST(BusFuzz, HeartbeatCarriesTheRejectionCounts) {
   std::vector<std::uint8_t> b(100, 0);  // zero run-id length
   for (int i = 0; i < 5; ++i) raw.publish(ctx.run_id + "/" + channel::step, b.data(), static_cast<unsigned>(b.size()));
   auto forged = genuine(ctx, 0, Bus::next_seq());  // a step order ...
-  forged.bytes.back() ^= 1;                          // ... tampered with
+  forged.bytes.back() ^= 1;                        // ... tampered with
   raw.publish(ctx.run_id + "/" + forged.kind, forged.bytes.data(), static_cast<unsigned>(forged.bytes.size()));
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-  while (std::chrono::steady_clock::now() < until && node.counters().received < 6) node.poll(0.05, [](const Received&) {});
+  while (std::chrono::steady_clock::now() < until && node.counters().received < 6)
+    node.poll(0.05, [](const Received&) {});
   ASSERT_EQ(node.counters().rejected_short, 5u);
   ASSERT_EQ(node.counters().rejected_auth, 1u);
   Heartbeat hb(ctx, "fluid", 0.1, [&] { return node.counters(); });

@@ -6,14 +6,14 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 #include <thread>
-#include <unistd.h>
 
 using namespace hemo;
 namespace fs = std::filesystem;
@@ -58,9 +58,7 @@ bool ends_within(pid_t pid, double seconds) {
 
 TEST(ChildProcess, StartedChildWritesStdoutAndStderrToItsLog) {
   const std::string log = temp_log("log");
-  {
-    std::ofstream(log) << "before\n";
-  }
+  { std::ofstream(log) << "before\n"; }
   StartOptions opt;
   opt.log_path = log;
   const pid_t pid = start_child({"/bin/sh", "-c", "echo to-stdout; echo to-stderr >&2; exit 3"}, opt);
@@ -153,7 +151,8 @@ TEST(ChildProcess, RunChildPassesLinesEnvironmentAndStatus) {
   opt.env = {{"HEMO_CHILD_TEST", "from the parent"}, {"HOME", "/elsewhere"}};
   opt.merge_stderr = true;
   opt.on_line = [&lines](const std::string& l) { lines.push_back(l); };
-  const ChildResult r = run_child({"sh", "-c", "echo \"$HEMO_CHILD_TEST\"; echo \"$HOME\" >&2; printf 'a\\r\\nlast'; exit 4"}, opt);
+  const ChildResult r =
+      run_child({"sh", "-c", "echo \"$HEMO_CHILD_TEST\"; echo \"$HOME\" >&2; printf 'a\\r\\nlast'; exit 4"}, opt);
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_EQ(lines, (std::vector<std::string>{"from the parent", "/elsewhere", "a", "last"}));
   EXPECT_EQ(::getenv("HEMO_CHILD_TEST"), nullptr);  // set in the child only

@@ -18,7 +18,8 @@ inline RunContext make_context(const std::string& tag) {
   std::random_device rd;
   RunContext ctx;
   ctx.run_id = tag + std::to_string(rd() % 1000000);
-  ctx.lcm_url = "udpm://239.255.77." + std::to_string(1 + rd() % 250) + ":" + std::to_string(20000 + rd() % 40000) + "?ttl=0";
+  ctx.lcm_url =
+      "udpm://239.255.77." + std::to_string(1 + rd() % 250) + ":" + std::to_string(20000 + rd() % 40000) + "?ttl=0";
   ctx.secret.assign(32, 0);
   for (auto& b : ctx.secret) b = static_cast<std::uint8_t>(rd());
   ctx.timeout_s = 10;

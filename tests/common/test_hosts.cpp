@@ -136,16 +136,19 @@ launcher = "local"
   EXPECT_EQ(s.hosts.launch_command, kDefaultLaunchCommand);
   EXPECT_EQ(s.run.bus_ttl, -1);
 
-  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nparticle_ranks = 3\n[hosts]\nparticles = \"b:2,c:2\"\n")
-                .find("run.particle_ranks = 3 but the hosts b:2,c:2 give 4 ranks"),
-            std::string::npos);
+  EXPECT_NE(
+      first_problem(std::string(test::kMinimalScene) + "[run]\nparticle_ranks = 3\n[hosts]\nparticles = \"b:2,c:2\"\n")
+          .find("run.particle_ranks = 3 but the hosts b:2,c:2 give 4 ranks"),
+      std::string::npos);
   EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nparticles = \"b:0\"\n").find("hosts.particles"),
             std::string::npos);
   EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlauncher = \"slurm\"\n").find("hosts.launcher"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlaunch_command = \"ssh {host}\"\n").find("{command}"),
+  EXPECT_NE(
+      first_problem(std::string(test::kMinimalScene) + "[hosts]\nlaunch_command = \"ssh {host}\"\n").find("{command}"),
+      std::string::npos);
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nbus_ttl = 300\n").find("run.bus_ttl"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nbus_ttl = 300\n").find("run.bus_ttl"), std::string::npos);
   EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[run]\nbus_check_s = 0\n").find("run.bus_check_s"),
             std::string::npos);
 }

@@ -1,7 +1,7 @@
 // The node-port protocol over real LCM: lockstep order of data, and recovery from lost datagrams.
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "node_port.h"
 #include "cell_fields.h"
+#include "node_port.h"
 #include "test_helpers.h"
 
 #include <hemo/step_done_t.hpp>
@@ -88,9 +88,13 @@ void coordinate(Bus& bus, const RunContext& ctx, int steps) {
     double asked = 0;
     for (int i = 0; i < 400 && !(done["fluid"] >= k && done["particles"] >= k); ++i) {
       bus.poll(0.05, [&](const Received& m) {
-        if (m.kind == channel::step_done) done[m.as<step_done_t>().node] = std::max(done[m.as<step_done_t>().node], long(m.envelope.step));
+        if (m.kind == channel::step_done)
+          done[m.as<step_done_t>().node] = std::max(done[m.as<step_done_t>().node], long(m.envelope.step));
       });
-      if ((asked += 0.05) > ctx.retry_s) { bus.request_resend(channel::step_done, k); asked = 0; }
+      if ((asked += 0.05) > ctx.retry_s) {
+        bus.request_resend(channel::step_done, k);
+        asked = 0;
+      }
     }
     ASSERT_TRUE(done["fluid"] >= k && done["particles"] >= k) << "step " << k << " never finished";
   };

@@ -277,7 +277,8 @@ TEST(Scene, MissingRequiredKeyIsOneProblem) {
 // The numerical readings the paper leaves open: ours by default, CFDEM's by name, each listed
 // by `hemocosim check` with whose reading it is.
 TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
-  const Scene ours = load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
+  const Scene ours =
+      load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
   EXPECT_EQ(ours.fluid_velocity, "reconstructed");
   EXPECT_EQ(ours.fluid_force, "per_dem_step");
   EXPECT_FALSE(ours.pressure_gradient_force);
@@ -298,15 +299,18 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   EXPECT_NE(numerical_readings(paper).back().reading.find("Algorithm 1"), std::string::npos);
 
   std::map<std::string, std::string> by_key;
-  for (auto& p : problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
-                                                     "\"explicit\"\npressure_gradient_force = \"yes\"\n"))
+  for (auto& p :
+       problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
+                                                      "\"explicit\"\npressure_gradient_force = \"yes\"\n"))
     by_key[p.key] = p.message;
   EXPECT_NE(by_key["coupling.fluid_velocity"].find("reconstructed, cell"), std::string::npos);
   EXPECT_NE(by_key["coupling.fluid_force"].find("per_dem_step, held_implicit_drag, held"), std::string::npos);
   EXPECT_TRUE(by_key.count("coupling.pressure_gradient_force"));
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"face_flux\"\n").empty());
-  EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());
+  EXPECT_FALSE(
+      problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());
   // A held force has nothing to co-relax within the interval.
-  EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
+  EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) +
+                           "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
                    .empty());
 }

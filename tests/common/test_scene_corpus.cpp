@@ -82,22 +82,48 @@ std::vector<SceneProblem> problems_of_file(const std::string& path) {
   return {};
 }
 
-const std::set<std::string> kIntegerKeys = {
-    "run.seed",           "run.drop_every",          "run.max_restarts",       "run.fluid_ranks",
-    "run.particle_ranks", "mesh.core_cells",         "mesh.ring_cells",        "mesh.axial_cells",
-    "time.coupling_steps", "time.dem_substeps",      "time.closure_every_dem_steps", "output.every_steps",
-    "output.checkpoint_every_steps", "fluid.min_correctors", "fluid.max_correctors", "run.bus_ttl"};
+const std::set<std::string> kIntegerKeys = {"run.seed",
+                                            "run.drop_every",
+                                            "run.max_restarts",
+                                            "run.fluid_ranks",
+                                            "run.particle_ranks",
+                                            "mesh.core_cells",
+                                            "mesh.ring_cells",
+                                            "mesh.axial_cells",
+                                            "time.coupling_steps",
+                                            "time.dem_substeps",
+                                            "time.closure_every_dem_steps",
+                                            "output.every_steps",
+                                            "output.checkpoint_every_steps",
+                                            "fluid.min_correctors",
+                                            "fluid.max_correctors",
+                                            "run.bus_ttl"};
 // -1 is "chosen for you" (run.bus_ttl: 0 on one host, 1 across hosts); below it is refused.
 const std::set<std::string> kMinusOneIsAuto = {"run.bus_ttl"};
 // Numbers that may be negative; numbers and integers that may be zero.
 const std::set<std::string> kMayBeNegative = {"gravity.x_m_s2", "gravity.y_m_s2", "gravity.z_m_s2",
                                               "contact.cell_poisson_ratio", "contact.wall_poisson_ratio"};
-const std::set<std::string> kMayBeZero = {
-    "run.seed", "run.drop_every", "run.max_restarts", "driving.pressure_drop_Pa", "driving.wall_shear_rate_per_s",
-    "run.bus_ttl", "rbc.hematocrit", "rbc.mass_scaling", "platelet.number_density_per_ul", "platelet.mass_scaling",
-    "contact.cell_poisson_ratio", "contact.wall_poisson_ratio", "contact.friction", "time.dem_substeps",
-    "time.dem_step_max_relaxation_times", "time.coupling_relaxation_times", "output.checkpoint_every_steps",
-    "gravity.x_m_s2", "gravity.y_m_s2", "gravity.z_m_s2", "fluid.pressure_relative_tolerance"};
+const std::set<std::string> kMayBeZero = {"run.seed",
+                                          "run.drop_every",
+                                          "run.max_restarts",
+                                          "driving.pressure_drop_Pa",
+                                          "driving.wall_shear_rate_per_s",
+                                          "run.bus_ttl",
+                                          "rbc.hematocrit",
+                                          "rbc.mass_scaling",
+                                          "platelet.number_density_per_ul",
+                                          "platelet.mass_scaling",
+                                          "contact.cell_poisson_ratio",
+                                          "contact.wall_poisson_ratio",
+                                          "contact.friction",
+                                          "time.dem_substeps",
+                                          "time.dem_step_max_relaxation_times",
+                                          "time.coupling_relaxation_times",
+                                          "output.checkpoint_every_steps",
+                                          "gravity.x_m_s2",
+                                          "gravity.y_m_s2",
+                                          "gravity.z_m_s2",
+                                          "fluid.pressure_relative_tolerance"};
 
 enum class Kind { string, boolean, integer, number };
 Kind kind_of(const SceneKey& k) {
@@ -108,9 +134,9 @@ Kind kind_of(const SceneKey& k) {
 }
 
 struct Case {
-  std::string name;   // what the variant is
-  std::string key;    // the key that must be named ("(file)", "(syntax)" for the file as a whole)
-  std::string text;   // the scene
+  std::string name;  // what the variant is
+  std::string key;   // the key that must be named ("(file)", "(syntax)" for the file as a whole)
+  std::string text;  // the scene
 };
 
 std::vector<Case> key_cases() {
@@ -118,11 +144,23 @@ std::vector<Case> key_cases() {
   for (const auto& k : scene_keys()) {
     std::vector<std::string> bad;
     switch (kind_of(k)) {
-      case Kind::string: bad = {"12", "true", "[\"a\"]", "{ a = 1 }", "1979-05-27"}; break;
-      case Kind::boolean: bad = {"1", "0", "\"true\"", "1.0", "[true]"}; break;
+      case Kind::string:
+        bad = {"12", "true", "[\"a\"]", "{ a = 1 }", "1979-05-27"};
+        break;
+      case Kind::boolean:
+        bad = {"1", "0", "\"true\"", "1.0", "[true]"};
+        break;
       case Kind::integer:
-        bad = {"\"3\"", "1.5", "true", "4294967299", "-4294967293", "9223372036854775807", "-9223372036854775808",
-               "nan", "inf", kMinusOneIsAuto.count(k.key) ? "-2" : "-1"};
+        bad = {"\"3\"",
+               "1.5",
+               "true",
+               "4294967299",
+               "-4294967293",
+               "9223372036854775807",
+               "-9223372036854775808",
+               "nan",
+               "inf",
+               kMinusOneIsAuto.count(k.key) ? "-2" : "-1"};
         if (!kMayBeZero.count(k.key)) bad.push_back("0");
         break;
       case Kind::number:
@@ -144,7 +182,9 @@ bool names(const std::vector<SceneProblem>& ps, const std::string& key) {
 
 }  // namespace
 
-TEST(SceneCorpus, TheBaseSceneIsValid) { EXPECT_TRUE(problems_of_file(write_file("base.toml", text_of(kBase))).empty()); }
+TEST(SceneCorpus, TheBaseSceneIsValid) {
+  EXPECT_TRUE(problems_of_file(write_file("base.toml", text_of(kBase))).empty());
+}
 
 TEST(SceneCorpus, EveryKeyWithEveryKindOfBadValueIsRefusedNamingIt) {
   const auto cases = key_cases();
@@ -219,35 +259,44 @@ std::vector<Case> file_cases() {
       {"invalid utf-8", "(syntax)", base + "[w]\nq = \"\xff\xfe\"\n"},
       {"unknown table", "bogus", base + "[bogus]\nx = 1\n"},
       {"unknown key", "vessel.width_um", with("vessel.width_um", "3")},
-      {"a value for a table", "vessel", "vessel = 3\n" + [] {
-         Tables t = kBase;
-         t.erase("vessel");
-         return text_of(t);
-       }()},
-      {"binary", "(file)", [] {
+      {"a value for a table", "vessel",
+       "vessel = 3\n" +
+           [] {
+             Tables t = kBase;
+             t.erase("vessel");
+             return text_of(t);
+           }()},
+      {"binary", "(file)",
+       [] {
          // Its length from the array: the 18 bytes with their NULs (a count of 20 read past it).
-         static const char elf[] = "\x7f" "ELF\x02\x01\x01\0\0\0\0garbage";
+         static const char elf[] =
+             "\x7f"
+             "ELF\x02\x01\x01\0\0\0\0garbage";
          return std::string(elf, sizeof elf - 1);
        }()},
       {"huge", "(file)", std::string(kMaxSceneBytes + 10, '#')},
-      {"dotted 50,000 levels", "(file)", [] {
+      {"dotted 50,000 levels", "(file)",
+       [] {
          std::string k = "a";
          for (int i = 0; i < 50000; ++i) k += ".a";
          return k + " = 1\n";
        }()},
-      {"dotted 70 levels", "(file)", [] {
+      {"dotted 70 levels", "(file)",
+       [] {
          std::string k = "a";
          for (int i = 0; i < 70; ++i) k += ".a";
          return k + " = 1\n";
        }()},
-      {"header 40 + key 40 levels", "(file)", [] {
+      {"header 40 + key 40 levels", "(file)",
+       [] {
          std::string h = "[a", k = "b";
          for (int i = 0; i < 40; ++i) h += ".a", k += ".b";
          return h + "]\n" + k + " = 1\n";
        }()},
       {"nested arrays", "(file)", std::string(5000, '[') + std::string(5000, ']')},
       {"x = nested arrays", "(file)", "x = " + std::string(100, '[') + std::string(100, ']') + "\n"},
-      {"nested inline tables", "(file)", [] {
+      {"nested inline tables", "(file)",
+       [] {
          std::string s = "x = ";
          for (int i = 0; i < 100; ++i) s += "{ a = ";
          s += "1";
@@ -305,7 +354,8 @@ TEST(SceneCorpus, HemocosimCheckRefusesASampleWithExitCode2) {
   for (std::size_t i = 0; i < keys.size(); i += 17)
     sample.push_back({write_file("sample-" + std::to_string(i) + ".toml", keys[i].text), keys[i].key});
   int i = 0;
-  for (const auto& c : file_cases()) sample.push_back({write_file("fsample-" + std::to_string(i++) + ".toml", c.text), c.key});
+  for (const auto& c : file_cases())
+    sample.push_back({write_file("fsample-" + std::to_string(i++) + ".toml", c.text), c.key});
   const std::string fifo = scratch() + "/fifo2.toml";
   ::unlink(fifo.c_str());
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);

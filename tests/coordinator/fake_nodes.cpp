@@ -19,9 +19,7 @@
 namespace hemo::test {
 
 namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 std::string argument(const std::vector<std::string>& argv, const std::string& option) {
   const auto it = std::find(argv.begin(), argv.end(), option);
@@ -84,7 +82,8 @@ class FakeNode : public NodeHandle {
         if (msg.kind != channel::step || orders_.count(msg.envelope.step)) return;
         const auto order = msg.as<step_order_t>();
         orders_[msg.envelope.step] = order;
-        owner_.ledger.add({Event::ordered, node_, launch_, msg.envelope.step, order.write_checkpoint != 0, order.stop != 0});
+        owner_.ledger.add(
+            {Event::ordered, node_, launch_, msg.envelope.step, order.write_checkpoint != 0, order.stop != 0});
       });
     } while (now() < until);
     return !stop_;
@@ -111,8 +110,10 @@ class FakeNode : public NodeHandle {
   void body() {
     const double start_at = now() + owner_.start_delay_s(node_, launch_);
     while (now() < start_at)
-      if (stop_) return;
-      else std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      if (stop_)
+        return;
+      else
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
     Bus bus(ctx_, node_, {channel::step, channel::resend});
     auto heartbeat = std::make_unique<Heartbeat>(ctx_, node_, 0.1);
     // Start-up (step 0, or the checkpoint resumed), with its set-up time as a node reports it.
@@ -189,7 +190,8 @@ std::unique_ptr<NodeHandle> FakeLauncher::launch(const std::string& node, const 
 
 int FakeLauncher::launches_of(const std::string& node) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return static_cast<int>(std::count_if(launches_.begin(), launches_.end(), [&](const Launch& l) { return l.node == node; }));
+  return static_cast<int>(
+      std::count_if(launches_.begin(), launches_.end(), [&](const Launch& l) { return l.node == node; }));
 }
 
 }  // namespace hemo::test

@@ -47,7 +47,8 @@ class RuntimeTest : public ::testing::Test {
   }
 
   // Runs from step 0 to `last` (0: the scene's end); `interrupted` stands for the signal handler.
-  Reached drive_run(long last = 0, const std::function<bool()>& interrupted = [] { return false; }) {
+  Reached drive_run(
+      long last = 0, const std::function<bool()>& interrupted = [] { return false; }) {
     return drive(scene_, dir_, ctx_, {0, last > 0 ? last : scene_.time.coupling_steps}, launcher_, interrupted);
   }
 

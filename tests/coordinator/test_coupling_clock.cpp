@@ -85,7 +85,8 @@ TEST(CouplingClock, AdaptiveIntervalsLandOnTheFixedOutputTimes) {
   EXPECT_TRUE(clock.adaptive());
   EXPECT_EQ(clock.total_steps(), 0);
   // tau wanders over two decades: intervals of dt / 2^0 .. dt / 2^7.
-  const auto made = run_to_end(clock, [&](long k) { return dt / 5.0 * std::pow(10.0, -2.0 * std::abs(std::sin(0.37 * k))); });
+  const auto made =
+      run_to_end(clock, [&](long k) { return dt / 5.0 * std::pow(10.0, -2.0 * std::abs(std::sin(0.37 * k))); });
   double sum = 0;
   std::vector<double> outputs;
   for (const auto& s : made) {

@@ -147,8 +147,7 @@ TEST_F(RuntimeTest, NodeThatNeverStartsIsLostAfterTheStartupTimeout) {
     drive_run();
     FAIL() << "a node that never started went unnoticed";
   } catch (const NodeLost& e) {
-    EXPECT_NE(std::string(e.what()).find("fluid node did not start at step 0: no heartbeat for 2 s"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("fluid node did not start at step 0: no heartbeat for 2 s"), std::string::npos)
         << e.what();
   }
   const double waited = seconds_since(start);

@@ -69,7 +69,8 @@ TEST_F(RuntimeTest, RestartGoesOnFromTheNewestCheckpointBothNodesAcknowledged) {
   // The fluid's acknowledgement of step 4 was seen before the restart: the choice was there.
   bool fluid_acknowledged_4 = false;
   for (const Event& e : launcher_.ledger.events())
-    fluid_acknowledged_4 |= e.kind == Event::reported && e.node == "fluid" && e.launch == 0 && e.step == 4 && e.checkpoint;
+    fluid_acknowledged_4 |=
+        e.kind == Event::reported && e.node == "fluid" && e.launch == 0 && e.step == 4 && e.checkpoint;
   EXPECT_TRUE(fluid_acknowledged_4);
   EXPECT_EQ(first_order_by_launch(launcher_.ledger, "fluid")[1], 3);
   EXPECT_EQ(first_order_by_launch(launcher_.ledger, "particles")[1], 3);
@@ -155,8 +156,9 @@ TEST_F(RuntimeTest, SwapRelaunchesTheNodeWithTheOtherCommandFromTheStepItCameIn)
   EXPECT_EQ(RunDirectory::open(dir_.path).first.particle_command, "fake-other-particles --fast");
   const auto a = answer.get();
   EXPECT_EQ(a.action, "done");
-  EXPECT_NE(a.detail.find(fmt::format("particles node swapped for `fake-other-particles --fast` at step {}", checkpointed)),
-            std::string::npos)
+  EXPECT_NE(
+      a.detail.find(fmt::format("particles node swapped for `fake-other-particles --fast` at step {}", checkpointed)),
+      std::string::npos)
       << a.detail;
 }
 

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "fluid_run.h"
 
+#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,7 +9,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-#include <sys/wait.h>
 
 namespace hemo::fluidtest {
 
@@ -20,7 +20,8 @@ std::string SceneSpec::text() const {
   if (!fluid_command.empty()) s << "fluid_command = \"" << fluid_command << "\"\n";
   s << "\n[vessel]\ndiameter_um = " << diameter_um << "\nlength_um = " << length_um << "\n"
     << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial << "\n"
-    << "\n[driving]\n" << driving << "\n"
+    << "\n[driving]\n"
+    << driving << "\n"
     << "\n[time]\ncoupling_interval_s = " << dt << "\ncoupling_steps = " << steps << "\n"
     << (relaxation_times > 0 ? "coupling_relaxation_times = " + std::to_string(relaxation_times) + "\n" : "")
     << "\n[output]\nevery_steps = " << every_steps << "\n\n"

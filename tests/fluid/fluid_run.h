@@ -29,10 +29,10 @@ struct SceneSpec {
   double dt = 2e-3;
   long steps = 20;
   long every_steps = 100000;
-  double relaxation_times = 0;    // time.coupling_relaxation_times (0: fixed intervals)
-  std::string particle_command;   // empty: the real particle node
-  std::string fluid_command;      // empty: the real fluid node
-  std::string extra;              // more TOML (species, run keys)
+  double relaxation_times = 0;   // time.coupling_relaxation_times (0: fixed intervals)
+  std::string particle_command;  // empty: the real particle node
+  std::string fluid_command;     // empty: the real fluid node
+  std::string extra;             // more TOML (species, run keys)
   std::string text() const;
 };
 

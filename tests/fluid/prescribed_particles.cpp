@@ -62,19 +62,19 @@ enum class Mode { none, uniform, blob, source, nan, wrong_size, wrong_mesh };
 
 struct Options {
   Mode mode = Mode::none;
-  double phi = 0;                 // uniform background solid fraction
-  double blob_phi = 0.3;          // peak of the moving blob
-  double blob_sigma = 10e-6;      // m
-  double blob_x = 10e-6;          // m, off-axis position of the blob centre
-  double blob_z0 = -1;            // m, initial axial position (default: mid-length)
-  double blob_speed = 0.05;       // m/s along z
+  double phi = 0;                        // uniform background solid fraction
+  double blob_phi = 0.3;                 // peak of the moving blob
+  double blob_sigma = 10e-6;             // m
+  double blob_x = 10e-6;                 // m, off-axis position of the blob centre
+  double blob_z0 = -1;                   // m, initial axial position (default: mid-length)
+  double blob_speed = 0.05;              // m/s along z
   std::array<double, 3> force{0, 0, 0};  // N, total explicit source
-  double drag_coefficient = 0;    // N s/m^4, uniform
-  long bad_at_step = 1;           // first step whose feedback is bad (bad modes)
-  std::string record;             // file (in the run dir) for the last fluid state received
-  double relaxation_time = 0;     // s, reported as min_relaxation_time_s (0: not reported)
-  double relaxation_time_later = 0;  // s, reported from later_from on (0: the same)
-  double later_from = 0;          // s
+  double drag_coefficient = 0;           // N s/m^4, uniform
+  long bad_at_step = 1;                  // first step whose feedback is bad (bad modes)
+  std::string record;                    // file (in the run dir) for the last fluid state received
+  double relaxation_time = 0;            // s, reported as min_relaxation_time_s (0: not reported)
+  double relaxation_time_later = 0;      // s, reported from later_from on (0: the same)
+  double later_from = 0;                 // s
   // The relaxation time to report at the end of a step ending at time_s.
   std::optional<double> relaxation_at(double time_s) const {
     if (relaxation_time <= 0) return std::nullopt;
@@ -167,8 +167,7 @@ class Prescription {
 
 // What this node saw of the fluid and what it sent, for STEP_DONE (and so metrics.csv).
 hemo::Diagnostics diagnostics(const hemo::mesh_t& mesh, const hemo::particle_feedback_t& sent_before,
-                              const hemo::particle_feedback_t& sent, const hemo::fluid_state_t* fluid,
-                              double density) {
+                              const hemo::particle_feedback_t& sent, const hemo::fluid_state_t* fluid, double density) {
   hemo::Diagnostics d;
   double solid = 0, source[3] = {0, 0, 0};
   const bool sized = sent.n_cells == mesh.n_cells;
@@ -228,14 +227,18 @@ void record_state(const std::string& path, const hemo::mesh_t& mesh, const hemo:
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"hemocosim-prescribed-particles: a particle node that publishes prescribed feedback "
-               "(for verifying the fluid node over the real bus)"};
+  CLI::App app{
+      "hemocosim-prescribed-particles: a particle node that publishes prescribed feedback "
+      "(for verifying the fluid node over the real bus)"};
   Options opt;
   std::string scene_path, run_dir, force_text;
   hemo::RunContext ctx;
-  const std::map<std::string, Mode> modes{{"none", Mode::none},       {"uniform", Mode::uniform},
-                                          {"blob", Mode::blob},       {"source", Mode::source},
-                                          {"nan", Mode::nan},         {"wrong-size", Mode::wrong_size},
+  const std::map<std::string, Mode> modes{{"none", Mode::none},
+                                          {"uniform", Mode::uniform},
+                                          {"blob", Mode::blob},
+                                          {"source", Mode::source},
+                                          {"nan", Mode::nan},
+                                          {"wrong-size", Mode::wrong_size},
                                           {"wrong-mesh", Mode::wrong_mesh}};
   app.add_option("--mode", opt.mode, "What to publish")
       ->transform(CLI::CheckedTransformer(modes, CLI::ignore_case))

@@ -36,8 +36,8 @@ TEST(AnalyticFlow, PoiseuilleOfTheScenesPressureDrop) {
   const double R = 50e-6;
   EXPECT_NEAR(flow.velocity({0, 0, 1e-4})[2], 799 * R / 2, 1e-12);  // u_max = gamma_w R / 2
   EXPECT_NEAR(flow.velocity({R, 0, 0})[2], 0, 1e-15);
-  EXPECT_NEAR(flow.velocity({0.3 * R, 0.2 * R, 0})[2], hemo::poiseuille_velocity(fluid, s.vessel, std::hypot(0.3, 0.2) * R),
-              1e-15);
+  EXPECT_NEAR(flow.velocity({0.3 * R, 0.2 * R, 0})[2],
+              hemo::poiseuille_velocity(fluid, s.vessel, std::hypot(0.3, 0.2) * R), 1e-15);
   EXPECT_NEAR(flow.wall_shear_rate(), 799, 1e-9);
   expect_consistent(flow, {0.3 * R, -0.4 * R, 2e-4}, 799);
 }

@@ -58,8 +58,8 @@ TEST(AnalyticFluid, PublishesPoiseuilleAndShearAtCellCentres) {
     }
     EXPECT_LT(worst, 1e-12) << flow;
     const auto m = read_metrics(r.dir);
-    EXPECT_NEAR(last(m, "fluid", "wall_shear_stress_Pa"), 1.2e-3 * (flow.find("shear-rate") != std::string::npos ? 300 : 800),
-                1e-12);
+    EXPECT_NEAR(last(m, "fluid", "wall_shear_stress_Pa"),
+                1.2e-3 * (flow.find("shear-rate") != std::string::npos ? 300 : 800), 1e-12);
   }
 }
 
@@ -108,7 +108,8 @@ class PrismLocator {
         auto& c = cells_[static_cast<std::size_t>(cell)];
         const double z = mesh.points[static_cast<std::size_t>(mesh.faces[static_cast<std::size_t>(f)][0])][2];
         if (c.polygon.empty()) {
-          for (int p : mesh.faces[static_cast<std::size_t>(f)]) c.polygon.push_back(mesh.points[static_cast<std::size_t>(p)]);
+          for (int p : mesh.faces[static_cast<std::size_t>(f)])
+            c.polygon.push_back(mesh.points[static_cast<std::size_t>(p)]);
           c.z0 = c.z1 = z;
         }
         c.z0 = std::min(c.z0, z);
@@ -185,9 +186,10 @@ TEST(AnalyticFluid, CoreParticlesOfTheRealParticleNodeMoveWithTheAnalyticFlow) {
   EXPECT_EQ(n, static_cast<int>(count));
   analytic /= n;
   reconstructed /= n;
-  std::printf("analytic Poiseuille, %d core platelets: particles %.6e m/s, node's sample %.6e m/s, "
-              "reconstruction %.6e m/s, analytic %.6e m/s (particles/analytic - 1 = %.2e)\n",
-              n, particle, sampled, reconstructed, analytic, particle / analytic - 1);
+  std::printf(
+      "analytic Poiseuille, %d core platelets: particles %.6e m/s, node's sample %.6e m/s, "
+      "reconstruction %.6e m/s, analytic %.6e m/s (particles/analytic - 1 = %.2e)\n",
+      n, particle, sampled, reconstructed, analytic, particle / analytic - 1);
   EXPECT_NEAR(sampled / reconstructed, 1, 1e-9);
   EXPECT_NEAR(particle / sampled, 1, 1e-3);
   EXPECT_NEAR(particle / analytic, 1, 0.03);

@@ -44,8 +44,7 @@ TEST(FluidCase, SettingsAndPoiseuille) {
   EXPECT_DOUBLE_EQ(f.largest_particle_diameter, 5.56e-6);
   // The wall shear rate of the analytic profile is the one asked for.
   const double R = 50e-6, h = 1e-9;
-  const double rate = -(hemo::poiseuille_velocity(f, s.vessel, R) -
-                        hemo::poiseuille_velocity(f, s.vessel, R - h)) / h;
+  const double rate = -(hemo::poiseuille_velocity(f, s.vessel, R) - hemo::poiseuille_velocity(f, s.vessel, R - h)) / h;
   EXPECT_NEAR(rate, 799, 0.02);  // one-sided difference: error 799 h / (2R)
   EXPECT_DOUBLE_EQ(hemo::poiseuille_velocity(f, s.vessel, R), 0);
 }
@@ -67,10 +66,9 @@ TEST(FluidCase, WritesTheCase) {
   const auto mesh = hemo::make_vessel_mesh(s.vessel, hemo::MeshSpec{2, 1, 2});
   const auto dir = std::filesystem::temp_directory_path() / "hemocosim_test_case";
   std::filesystem::remove_all(dir);
-  hemo::write_case(dir.string(), f, s.vessel, mesh, hemo::compute_geometry(mesh),
-                   hemo::InitialFlow::poiseuille);
-  for (const char* p : {"system/controlDict", "system/fvSchemes", "system/fvSolution", "0/U", "0/p",
-                        "constant/polyMesh/boundary"})
+  hemo::write_case(dir.string(), f, s.vessel, mesh, hemo::compute_geometry(mesh), hemo::InitialFlow::poiseuille);
+  for (const char* p :
+       {"system/controlDict", "system/fvSchemes", "system/fvSolution", "0/U", "0/p", "constant/polyMesh/boundary"})
     EXPECT_TRUE(std::filesystem::exists(dir / p)) << p;
   std::filesystem::remove_all(dir);
 }

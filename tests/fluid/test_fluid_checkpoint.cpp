@@ -76,11 +76,11 @@ struct Drive {
   std::string scene_file;
   std::string run_dir;
   int ranks = 1;
-  long first = 0;                 // the step the node starts at (> 0: --resume-step)
-  long last = 0;                  // the last step ordered
+  long first = 0;  // the step the node starts at (> 0: --resume-step)
+  long last = 0;   // the last step ordered
   double dt = 0;
-  long output_every = 0;          // write_output every this many steps (0: never)
-  std::set<long> checkpoints;     // steps ordered with write_checkpoint
+  long output_every = 0;       // write_output every this many steps (0: never)
+  std::set<long> checkpoints;  // steps ordered with write_checkpoint
   Prescription feedback = moving_blob;
 };
 
@@ -88,10 +88,10 @@ struct Drive {
 struct Published {
   std::map<long, hemo::fluid_state_t> states;
   std::map<long, std::map<std::string, double>> diagnostics;  // STEP_DONE's, per step
-  std::string failure;             // a STEP_DONE with ok = false
+  std::string failure;                                        // a STEP_DONE with ok = false
   long failed_at = -1;
   hemo::test::CommandResult command;
-  bool complete = false;           // every ordered step done and the node exited
+  bool complete = false;  // every ordered step done and the node exited
 };
 
 std::string shell_quoted(const std::string& s) { return "'" + s + "'"; }
@@ -102,8 +102,8 @@ Published drive(const Drive& d) {
   std::random_device rd;
   hemo::RunContext ctx;
   ctx.run_id = "fluid-ckpt-" + std::to_string(rd() % 1000000);
-  ctx.lcm_url = "udpm://239.255.78." + std::to_string(1 + rd() % 250) + ":" + std::to_string(20000 + rd() % 40000) +
-                "?ttl=0";
+  ctx.lcm_url =
+      "udpm://239.255.78." + std::to_string(1 + rd() % 250) + ":" + std::to_string(20000 + rd() % 40000) + "?ttl=0";
   ctx.secret.resize(32);
   for (auto& b : ctx.secret) b = static_cast<std::uint8_t>(rd());
   ctx.secret_file = d.run_dir + ".secret";
@@ -116,9 +116,9 @@ Published drive(const Drive& d) {
   // Listen before the node starts (its first reports must be heard).
   hemo::Bus bus(ctx, "coordinator");
   std::string command = bin("hemocosim-fluid") + " --scene " + shell_quoted(d.scene_file) + " --run-dir " +
-                        shell_quoted(d.run_dir) + " --run-id " + ctx.run_id + " --lcm-url " + shell_quoted(ctx.lcm_url) +
-                        " --secret-file " + shell_quoted(ctx.secret_file) + " --timeout 60 --ranks " +
-                        std::to_string(d.ranks);
+                        shell_quoted(d.run_dir) + " --run-id " + ctx.run_id + " --lcm-url " +
+                        shell_quoted(ctx.lcm_url) + " --secret-file " + shell_quoted(ctx.secret_file) +
+                        " --timeout 60 --ranks " + std::to_string(d.ranks);
   if (d.first > 0) command += " --resume-step " + std::to_string(d.first);
   auto process = std::async(std::launch::async, [command] { return run(command); });
   auto exited = [&] { return process.wait_for(std::chrono::seconds(0)) == std::future_status::ready; };
@@ -244,8 +244,8 @@ std::vector<std::string> differing_diagnostics(const Published& a, const Publish
       if (ia == da.end() || ib == db.end() || !(ia->second == ib->second)) {
         std::ostringstream line;
         line.precision(17);
-        line << "step " << k << ": " << n << " " << (ia == da.end() ? NAN : ia->second) << " != "
-             << (ib == db.end() ? NAN : ib->second);
+        line << "step " << k << ": " << n << " " << (ia == da.end() ? NAN : ia->second)
+             << " != " << (ib == db.end() ? NAN : ib->second);
         out.push_back(line.str());
       }
     }
@@ -373,10 +373,11 @@ void resumed_equals_uninterrupted(int ranks) {
   EXPECT_TRUE(pb.diagnostics.at(K).empty());
   const Difference diff = compare_states(pa, pb, K);
   const auto differing = differing_diagnostics(pa, pb, K);
-  std::printf("fluid checkpoint (%s, moving blob 4/3/4, dt = 1e-4 s): resumed from step %ld, steps %ld..%ld vs "
-              "uninterrupted: max |du| = %.3e m/s (max |u| %.3e), max |dG| = %.3e 1/s, max |dt| = %.3e s; "
-              "%zu of the diagnostics differ\n",
-              tag.c_str(), K, K, L, diff.velocity, diff.velocity_scale, diff.gradient, diff.time, differing.size());
+  std::printf(
+      "fluid checkpoint (%s, moving blob 4/3/4, dt = 1e-4 s): resumed from step %ld, steps %ld..%ld vs "
+      "uninterrupted: max |du| = %.3e m/s (max |u| %.3e), max |dG| = %.3e 1/s, max |dt| = %.3e s; "
+      "%zu of the diagnostics differ\n",
+      tag.c_str(), K, K, L, diff.velocity, diff.velocity_scale, diff.gradient, diff.time, differing.size());
   EXPECT_EQ(diff.steps, L - K + 1);
   EXPECT_EQ(diff.velocity, 0.0) << "bit for bit";
   EXPECT_EQ(diff.gradient, 0.0) << "bit for bit";
@@ -481,10 +482,11 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
     ASSERT_TRUE(pb.complete) << pb.failure << "\n" << pb.command.output;
     const Difference diff = compare_states(pa, pb, K);
     const auto differing = differing_diagnostics(pa, pb, K);
-    std::printf("fluid checkpoint (%s, one-way, steady skip): resumed from step %ld (%s), steps %ld..%ld: max |du| = "
-                "%.3e m/s, max |dG| = %.3e 1/s; %zu of the diagnostics differ; fluid_solves at the end %.0f vs %.0f\n",
-                tag.c_str(), K, K == K1 ? "still solving" : "steady", K, L, diff.velocity, diff.gradient,
-                differing.size(), pb.diagnostics.at(L).at("fluid_solves"), pa.diagnostics.at(L).at("fluid_solves"));
+    std::printf(
+        "fluid checkpoint (%s, one-way, steady skip): resumed from step %ld (%s), steps %ld..%ld: max |du| = "
+        "%.3e m/s, max |dG| = %.3e 1/s; %zu of the diagnostics differ; fluid_solves at the end %.0f vs %.0f\n",
+        tag.c_str(), K, K == K1 ? "still solving" : "steady", K, L, diff.velocity, diff.gradient, differing.size(),
+        pb.diagnostics.at(L).at("fluid_solves"), pa.diagnostics.at(L).at("fluid_solves"));
     EXPECT_EQ(diff.steps, L - K + 1);
     EXPECT_EQ(diff.velocity, 0.0);
     EXPECT_EQ(diff.gradient, 0.0);
@@ -554,9 +556,10 @@ void coordinator_resume_equals_one_go(int ranks) {
                     << " resumed";
     }
   }
-  std::printf("hemocosim run --stop-after-step 5 + resume (%s) vs one go, 10 steps: max |du| = %.3e, max |dG| = %.3e "
-              "at the end; %zu fluid metrics, %ld differ, %d written twice\n",
-              tag.c_str(), du, dg, rows_a.size(), differing, repeats_b);
+  std::printf(
+      "hemocosim run --stop-after-step 5 + resume (%s) vs one go, 10 steps: max |du| = %.3e, max |dG| = %.3e "
+      "at the end; %zu fluid metrics, %ld differ, %d written twice\n",
+      tag.c_str(), du, dg, rows_a.size(), differing, repeats_b);
   EXPECT_EQ(du, 0.0);
   EXPECT_EQ(dg, 0.0);
   EXPECT_EQ(rows_a.size(), rows_b.size());

@@ -25,8 +25,9 @@ SceneSpec one_way(const std::string& name, const std::string& fluid_keys, bool t
   s.axial = 4;
   s.dt = 2e-4;
   s.steps = 80;
-  s.particle_command = bin("hemocosim-prescribed-particles") +
-                       " --mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-speed-m-s 0.05 --record state.csv";
+  s.particle_command =
+      bin("hemocosim-prescribed-particles") +
+      " --mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-speed-m-s 0.05 --record state.csv";
   s.extra = std::string("[coupling]\ntwo_way = ") + (two_way ? "true" : "false") + "\n\n[fluid]\n" + fluid_keys + "\n";
   return s;
 }
@@ -74,20 +75,22 @@ TEST(FluidSteadySkip, OneWayRunStopsSolvingOnceSteadyWithTheSameFlow) {
     }
   }
   const double mean_skip = last(ms, "fluid", "mean_velocity_m_s"), mean_every = last(me, "fluid", "mean_velocity_m_s");
-  std::printf("one-way steady skip (4/3/4, dt = 2e-4 s, %ld steps): fluid solves %.0f (skip) vs %.0f (every step) vs "
-              "%.0f (two-way); first step not solved %ld; max |du|/u_max = %.3e, max |dG|/G_max = %.3e, "
-              "mean velocity %.10e vs %.10e (rel %.2e); fluid compute %.3f s vs %.3f s\n",
-              n, solves_skip, solves_every, solves_two_way, first_skipped, du / umax, dg / gmax, mean_skip,
-              mean_every, std::abs(mean_skip / mean_every - 1), [&] {
-                double t = 0;
-                for (const auto& [k, v] : ms.at({"fluid", "compute_s"})) t += k >= 1 ? v : 0;
-                return t;
-              }(),
-              [&] {
-                double t = 0;
-                for (const auto& [k, v] : me.at({"fluid", "compute_s"})) t += k >= 1 ? v : 0;
-                return t;
-              }());
+  std::printf(
+      "one-way steady skip (4/3/4, dt = 2e-4 s, %ld steps): fluid solves %.0f (skip) vs %.0f (every step) vs "
+      "%.0f (two-way); first step not solved %ld; max |du|/u_max = %.3e, max |dG|/G_max = %.3e, "
+      "mean velocity %.10e vs %.10e (rel %.2e); fluid compute %.3f s vs %.3f s\n",
+      n, solves_skip, solves_every, solves_two_way, first_skipped, du / umax, dg / gmax, mean_skip, mean_every,
+      std::abs(mean_skip / mean_every - 1),
+      [&] {
+        double t = 0;
+        for (const auto& [k, v] : ms.at({"fluid", "compute_s"})) t += k >= 1 ? v : 0;
+        return t;
+      }(),
+      [&] {
+        double t = 0;
+        for (const auto& [k, v] : me.at({"fluid", "compute_s"})) t += k >= 1 ? v : 0;
+        return t;
+      }());
   EXPECT_EQ(solves_every, n);
   EXPECT_EQ(solves_two_way, n) << "a two-way scene solves every step";
   EXPECT_GT(first_skipped, 1);

@@ -56,21 +56,20 @@ std::vector<double> cell_mean_r2(const hemo::PolyMesh& mesh) {
 
 struct PoiseuilleRun {
   int core = 0, ring = 0;
-  double h = 0;                 // relative cell size, 1/core
-  double error_average = 0;     // L2 relative error of u_z against the cell averages of the analytic profile
-  double error_centre = 0;      // ... against its values at the cell centres
-  double error_max = 0;         // max |u_z - average| / u_max
-  double tau = 0;               // wall_shear_stress_Pa reported
-  double tau_polygon = 0;       // dP/l * A_h/P_h: the force balance on the polygonal cross-section
-  double wall_over_driving = 0; // wall force / driving force at the end
+  double h = 0;                  // relative cell size, 1/core
+  double error_average = 0;      // L2 relative error of u_z against the cell averages of the analytic profile
+  double error_centre = 0;       // ... against its values at the cell centres
+  double error_max = 0;          // max |u_z - average| / u_max
+  double tau = 0;                // wall_shear_stress_Pa reported
+  double tau_polygon = 0;        // dP/l * A_h/P_h: the force balance on the polygonal cross-section
+  double wall_over_driving = 0;  // wall force / driving force at the end
   double seconds = 0;
   std::vector<hemo::fluidtest::CellState> cells;
 };
 
 // A steady particle-free Poiseuille run: d = 100 um, l = 600 um, gamma_w = 799 1/s, 2 axial
 // cells (the flow does not vary along z), 20 implicit steps of 2 ms (10 viscous times R^2/nu).
-PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode none",
-                         const std::string& extra = "") {
+PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode none", const std::string& extra = "") {
   SceneSpec s;
   s.name = "poiseuille-" + std::to_string(core);
   s.extra = extra;
@@ -149,8 +148,9 @@ double tau_exact() { return 100e-6 * (4 * kMu * 600e-6 * 799 / 100e-6) / (4 * 60
 TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
   std::vector<PoiseuilleRun> runs{poiseuille(4, 3), poiseuille(8, 6), poiseuille(16, 12)};
   std::vector<double> h, ea, ec;
-  std::printf("Poiseuille, d = 100 um, gamma_w = 799 1/s, steady:\n"
-              "  core/ring  cells/section  L2 err (cell avg)  L2 err (centre)  max err/u_max  run s\n");
+  std::printf(
+      "Poiseuille, d = 100 um, gamma_w = 799 1/s, steady:\n"
+      "  core/ring  cells/section  L2 err (cell avg)  L2 err (centre)  max err/u_max  run s\n");
   for (const auto& r : runs) {
     std::printf("  %4d/%-4d  %13d  %17.4e  %15.4e  %13.4e  %5.1f\n", r.core, r.ring,
                 r.core * r.core + 4 * r.core * r.ring, r.error_average, r.error_centre, r.error_max, r.seconds);
@@ -160,9 +160,8 @@ TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
   }
   for (std::size_t i = 1; i < runs.size(); ++i) {
     const double p = std::log(ea[i - 1] / ea[i]) / std::log(h[i - 1] / h[i]);
-    std::printf("  order %d/%d -> %d/%d: %.3f (cell averages), %.3f (centres)\n", runs[i - 1].core,
-                runs[i - 1].ring, runs[i].core, runs[i].ring, p,
-                std::log(ec[i - 1] / ec[i]) / std::log(h[i - 1] / h[i]));
+    std::printf("  order %d/%d -> %d/%d: %.3f (cell averages), %.3f (centres)\n", runs[i - 1].core, runs[i - 1].ring,
+                runs[i].core, runs[i].ring, p, std::log(ec[i - 1] / ec[i]) / std::log(h[i - 1] / h[i]));
     EXPECT_LT(ea[i], ea[i - 1]);
   }
   const double order = observed_order(h, ea);
@@ -170,8 +169,8 @@ TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
               observed_order(h, ec));
   EXPECT_GT(order, 1.3);
   EXPECT_LT(order, 2.0);
-  EXPECT_LT(ea.front(), 0.06);   // paper mesh: a few per cent
-  EXPECT_LT(ea.back(), 0.006);   // 16/12
+  EXPECT_LT(ea.front(), 0.06);  // paper mesh: a few per cent
+  EXPECT_LT(ea.back(), 0.006);  // 16/12
 
   // Wall shear stress. The reported value is -mu dU_z/dn from the wall cells, exactly the wall
   // flux of the discrete Laplacian: in the steady state it balances the driving force to solver
@@ -183,8 +182,8 @@ TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
   std::vector<double> et;
   for (const auto& r : runs) {
     const double err = r.tau / tau_exact() - 1;
-    std::printf("  %4d/%-4d  %.6f  %+17.4e  %+24.3e  %+16.3e\n", r.core, r.ring, r.tau, err,
-                r.tau / r.tau_polygon - 1, r.wall_over_driving - 1);
+    std::printf("  %4d/%-4d  %.6f  %+17.4e  %+24.3e  %+16.3e\n", r.core, r.ring, r.tau, err, r.tau / r.tau_polygon - 1,
+                r.wall_over_driving - 1);
     EXPECT_NEAR(r.tau / r.tau_polygon, 1, 1e-8);
     EXPECT_NEAR(r.wall_over_driving, 1, 1e-8);
     et.push_back(std::abs(err));
@@ -207,7 +206,8 @@ TEST(FluidPoiseuille, DISABLED_FourResolutionsForTheDocs) {
     std::printf("  %4d/%-4d  %17.4e  %15.4e  %13.4e  %+11.4e  %5.1f", r.core, r.ring, r.error_average, r.error_centre,
                 r.error_max, r.tau / tau_exact() - 1, r.seconds);
     if (i > 0)
-      std::printf("   order %.3f (avg) %.3f (centre) %.3f (max)", std::log(runs[i - 1].error_average / r.error_average) / std::log(2.0),
+      std::printf("   order %.3f (avg) %.3f (centre) %.3f (max)",
+                  std::log(runs[i - 1].error_average / r.error_average) / std::log(2.0),
                   std::log(runs[i - 1].error_centre / r.error_centre) / std::log(2.0),
                   std::log(runs[i - 1].error_max / r.error_max) / std::log(2.0));
     std::printf("\n");
@@ -268,9 +268,10 @@ TEST(FluidContinuity, MovingSolidFractionBlobKeepsFluidMassToSolverTolerance) {
     worst_removed = std::max(worst_removed, std::abs(removed.at(k)));
     EXPECT_NEAR(solid.at(k) / solid.at(0), 1, 1e-12) << "the prescription keeps the solid volume";
   }
-  std::printf("moving blob (paper mesh, dt = 1e-4 s): d(alpha)/dt norm >= %.3e, continuity residual / it <= %.3e, "
-              "net d(alpha)/dt removed <= %.3e 1/s\n",
-              smallest_ddt, worst, worst_removed);
+  std::printf(
+      "moving blob (paper mesh, dt = 1e-4 s): d(alpha)/dt norm >= %.3e, continuity residual / it <= %.3e, "
+      "net d(alpha)/dt removed <= %.3e 1/s\n",
+      smallest_ddt, worst, worst_removed);
   EXPECT_GT(smallest_ddt, 1e-4) << "the blob must really move";
   EXPECT_LT(worst, 1e-9);
   EXPECT_LT(worst_removed, 1e-6);
@@ -304,8 +305,10 @@ TEST(FluidContinuity, BlobsSourceGoesOnSmoothlyWhenTheIntervalHalves) {
   for (long k = 3; k <= time.rbegin()->first; ++k)  // step 1: alpha does not move yet
     if (k != first_short) worst_elsewhere = std::max(worst_elsewhere, std::abs(rate(k) / rate(k - 1) - 1));
   const double at_change = rate(first_short) / rate(first_short - 1) - 1;
-  std::printf("moving blob, interval 1e-4 -> 5e-5 s at step %ld: d(alpha)/dt changes by %+.2e there, at most "
-              "%.2e from step to step elsewhere\n", first_short, at_change, worst_elsewhere);
+  std::printf(
+      "moving blob, interval 1e-4 -> 5e-5 s at step %ld: d(alpha)/dt changes by %+.2e there, at most "
+      "%.2e from step to step elsewhere\n",
+      first_short, at_change, worst_elsewhere);
   EXPECT_LT(std::abs(at_change), 0.02);
   EXPECT_LT(worst_elsewhere, 0.02);
 }
@@ -336,8 +339,10 @@ TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   const auto& returned = m.at({"fluid", "returned_force_z_N"});
   const auto& own = m.at({"fluid", "momentum_budget_residual_z_N"});
   double worst = 0, worst_own = 0;
-  std::printf("momentum source F = %g N (phi = 0.2, K = 1e6 N s/m^4, at rest, no driving):\n"
-              "  step  dP/dt N         F - drag + ret + wall N  wall/F  residual/F\n", F);
+  std::printf(
+      "momentum source F = %g N (phi = 0.2, K = 1e6 N s/m^4, at rest, no driving):\n"
+      "  step  dP/dt N         F - drag + ret + wall N  wall/F  residual/F\n",
+      F);
   for (long k = 1; k <= s.steps; ++k) {
     EXPECT_NEAR(sent.at(k - 1), F, 1e-12 * F);
     const double before = k == 1 ? 0.0 : P.at(k - 1);  // the fluid starts at rest
@@ -421,11 +426,13 @@ TEST(FluidBadInput, NanFeedbackIsRefused) {
 }
 
 TEST(FluidBadInput, WrongSizedFeedbackIsRefused) {
-  expect_refused(small_scene("wrong-size", "--mode wrong-size --bad-at-step 2"), "particle feedback has 119 cells, the fluid mesh 120", 3);
+  expect_refused(small_scene("wrong-size", "--mode wrong-size --bad-at-step 2"),
+                 "particle feedback has 119 cells, the fluid mesh 120", 3);
 }
 
 TEST(FluidBadInput, FeedbackForAnotherMeshIsRefused) {
-  expect_refused(small_scene("wrong-mesh", "--mode wrong-mesh --bad-at-step 1"), "particle feedback is for mesh '0123456789abcdef'", 2);
+  expect_refused(small_scene("wrong-mesh", "--mode wrong-mesh --bad-at-step 1"),
+                 "particle feedback is for mesh '0123456789abcdef'", 2);
 }
 
 // --- decomposed fluid: hemocosim-fluid --ranks N runs N solver ranks under mpirun ---
@@ -469,8 +476,9 @@ TEST(FluidParallel, TwoRanksPublishTheSerialFields) {
   s.axial = 24;
   s.dt = 1e-4;
   s.steps = 10;
-  s.particle_command = prescribed("--mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-x-um 15 "
-                                  "--blob-speed-m-s 0.05 --record state.csv");
+  s.particle_command = prescribed(
+      "--mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-x-um 15 "
+      "--blob-speed-m-s 0.05 --record state.csv");
   const auto serial = run_scene(s);
   ASSERT_EQ(serial.command.exit_code, 0) << serial.command.output;
   s.name = "blob-2-ranks";
@@ -482,10 +490,12 @@ TEST(FluidParallel, TwoRanksPublishTheSerialFields) {
   const auto ms = read_metrics(serial.dir), mp = read_metrics(parallel.dir);
   double worst_cont = 0;
   for (long k = 2; k <= s.steps; ++k)
-    worst_cont = std::max(worst_cont, mp.at({"fluid", "continuity_error"}).at(k) / mp.at({"fluid", "alpha_ddt_norm"}).at(k));
-  std::printf("2 ranks vs serial (moving blob, paper mesh, %ld steps): max |du|/u_max = %.3e, max |dG|/G_max = %.3e; "
-              "continuity residual / d(alpha)/dt norm on 2 ranks <= %.3e; wall %.1f s vs %.1f s\n",
-              s.steps, d.velocity, d.gradient, worst_cont, parallel.command.seconds, serial.command.seconds);
+    worst_cont =
+        std::max(worst_cont, mp.at({"fluid", "continuity_error"}).at(k) / mp.at({"fluid", "alpha_ddt_norm"}).at(k));
+  std::printf(
+      "2 ranks vs serial (moving blob, paper mesh, %ld steps): max |du|/u_max = %.3e, max |dG|/G_max = %.3e; "
+      "continuity residual / d(alpha)/dt norm on 2 ranks <= %.3e; wall %.1f s vs %.1f s\n",
+      s.steps, d.velocity, d.gradient, worst_cont, parallel.command.seconds, serial.command.seconds);
   EXPECT_LT(d.velocity, 1e-6);
   EXPECT_LT(d.gradient, 1e-6);
   EXPECT_LT(worst_cont, 1e-9);
@@ -540,13 +550,13 @@ namespace {
 
 struct SettingsRun {
   std::string label, keys;
-  double ms_per_step = 0;         // median fluid compute_s over steps 3..
+  double ms_per_step = 0;                                     // median fluid compute_s over steps 3..
   double correctors = 0, p_iterations = 0, U_iterations = 0;  // per step
-  double continuity = 0;          // max continuity_error / alpha_ddt_norm, steps 2..
-  double budget = 0;              // max |momentum_budget_residual_z_N| / driving_force_z_N
-  std::map<long, double> mean;    // mean_velocity_m_s per step
-  std::vector<CellState> cells;   // last state
-  double poiseuille_error = 0;    // L2 error (cell averages), steady particle-free 4/3
+  double continuity = 0;                                      // max continuity_error / alpha_ddt_norm, steps 2..
+  double budget = 0;                                          // max |momentum_budget_residual_z_N| / driving_force_z_N
+  std::map<long, double> mean;                                // mean_velocity_m_s per step
+  std::vector<CellState> cells;                               // last state
+  double poiseuille_error = 0;                                // L2 error (cell averages), steady particle-free 4/3
 };
 
 SettingsRun settings_run(const std::string& label, const std::string& keys, long steps) {
@@ -555,11 +565,12 @@ SettingsRun settings_run(const std::string& label, const std::string& keys, long
   out.keys = keys;
   SceneSpec s;
   s.name = "settings-" + label;
-  s.axial = 24;      // the calibration scene's 1,536 cells
-  s.dt = 1e-4;       // its coupling interval
+  s.axial = 24;  // the calibration scene's 1,536 cells
+  s.dt = 1e-4;   // its coupling interval
   s.steps = steps;
-  s.particle_command = prescribed("--mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-x-um 15 "
-                                  "--blob-speed-m-s 0.05 --record state.csv");
+  s.particle_command = prescribed(
+      "--mode blob --phi 0.1 --blob-phi 0.3 --blob-sigma-um 12 --blob-x-um 15 "
+      "--blob-speed-m-s 0.05 --record state.csv");
   s.extra = "[fluid]\n" + keys + "\n";
   const auto r = run_scene(s);
   EXPECT_EQ(r.command.exit_code, 0) << r.command.output;
@@ -574,8 +585,8 @@ SettingsRun settings_run(const std::string& label, const std::string& keys, long
   std::sort(t.begin(), t.end());
   out.ms_per_step = 1e3 * (t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]));
   for (long k = 2; k <= steps; ++k) {
-    out.continuity = std::max(out.continuity, m.at({"fluid", "continuity_error"}).at(k) /
-                                                  m.at({"fluid", "alpha_ddt_norm"}).at(k));
+    out.continuity =
+        std::max(out.continuity, m.at({"fluid", "continuity_error"}).at(k) / m.at({"fluid", "alpha_ddt_norm"}).at(k));
     out.budget = std::max(out.budget, std::abs(m.at({"fluid", "momentum_budget_residual_z_N"}).at(k)) /
                                           m.at({"fluid", "driving_force_z_N"}).at(k));
   }
@@ -600,17 +611,19 @@ SettingsRun settings_run(const std::string& label, const std::string& keys, long
 TEST(FluidSolverSettings, DefaultsGiveTheTightSettingsFlow) {
   const long steps = 30;
   std::vector<SettingsRun> runs;
-  runs.push_back(settings_run("tight", "pressure_relative_tolerance = 0\nvelocity_tolerance = 1e-12\npressure_tolerance = 1e-10", steps));
+  runs.push_back(settings_run(
+      "tight", "pressure_relative_tolerance = 0\nvelocity_tolerance = 1e-12\npressure_tolerance = 1e-10", steps));
   runs.push_back(settings_run("defaults", "", steps));
   runs.push_back(settings_run("U-1e-6", "velocity_tolerance = 1e-6", steps));
   runs.push_back(settings_run("corr-1e-2", "corrector_tolerance = 1e-2", steps));
   runs.push_back(settings_run("p-1e-7", "pressure_tolerance = 1e-7", steps));
   runs.push_back(settings_run("PCG", "pressure_solver = \"PCG\"", steps));
   const auto& tight = runs.front();
-  std::printf("fluid solver settings, calibration mesh 4/3/24, dt = 1e-4 s, moving blob, %ld steps:\n"
-              "  %-10s %8s %6s %7s %6s %12s %12s %11s %11s %12s\n",
-              steps, "settings", "ms/step", "corr", "p it", "U it", "mean U err", "max du/umax", "contin.",
-              "budget", "Poiseuille");
+  std::printf(
+      "fluid solver settings, calibration mesh 4/3/24, dt = 1e-4 s, moving blob, %ld steps:\n"
+      "  %-10s %8s %6s %7s %6s %12s %12s %11s %11s %12s\n",
+      steps, "settings", "ms/step", "corr", "p it", "U it", "mean U err", "max du/umax", "contin.", "budget",
+      "Poiseuille");
   for (const auto& r : runs) {
     double mean_err = 0, du = 0, umax = 0;
     for (const auto& [k, v] : r.mean)
@@ -620,9 +633,9 @@ TEST(FluidSolverSettings, DefaultsGiveTheTightSettingsFlow) {
         umax = std::max(umax, std::abs(tight.cells[i].u[c]));
         du = std::max(du, std::abs(r.cells[i].u[c] - tight.cells[i].u[c]));
       }
-    std::printf("  %-10s %8.2f %6.2f %7.1f %6.1f %12.3e %12.3e %11.2e %11.2e %12.6e\n", r.label.c_str(),
-                r.ms_per_step, r.correctors, r.p_iterations, r.U_iterations, mean_err, du / umax, r.continuity,
-                r.budget, r.poiseuille_error);
+    std::printf("  %-10s %8.2f %6.2f %7.1f %6.1f %12.3e %12.3e %11.2e %11.2e %12.6e\n", r.label.c_str(), r.ms_per_step,
+                r.correctors, r.p_iterations, r.U_iterations, mean_err, du / umax, r.continuity, r.budget,
+                r.poiseuille_error);
     if (r.label == "defaults" || r.label == "PCG") {  // the defaults, and the other p solver
       EXPECT_LT(mean_err, 1e-4);
       EXPECT_LT(du / umax, 1e-4);
@@ -662,11 +675,13 @@ TEST(FluidState, FaceFluxVelocityIsTheSameFlowWhereNothingForcesTheCells) {
   const auto b_flux = run_scene(blob);
   ASSERT_EQ(b_flux.command.exit_code, 0) << b_flux.command.output;
   const auto moving = compare(read_state(b_centre.dir + "/state.csv"), read_state(b_flux.dir + "/state.csv"));
-  std::printf("face-flux against cell-centre velocity, max |du| / u_max: Poiseuille %.3e (gradient %.3e), moving blob "
-              "%.3e\n", still.velocity, still.gradient, moving.velocity);
-  EXPECT_GT(still.velocity, 0.0);   // the option is in effect
-  EXPECT_LT(still.velocity, 0.05);  // the same flow, to discretisation error
-  EXPECT_GT(moving.velocity, 1e-4); // far above solver tolerance where the solid fraction moves
+  std::printf(
+      "face-flux against cell-centre velocity, max |du| / u_max: Poiseuille %.3e (gradient %.3e), moving blob "
+      "%.3e\n",
+      still.velocity, still.gradient, moving.velocity);
+  EXPECT_GT(still.velocity, 0.0);    // the option is in effect
+  EXPECT_LT(still.velocity, 0.05);   // the same flow, to discretisation error
+  EXPECT_GT(moving.velocity, 1e-4);  // far above solver tolerance where the solid fraction moves
   EXPECT_EQ(last(read_metrics(b_centre.dir), "fluid", "mean_velocity_m_s"),
             last(read_metrics(b_flux.dir), "fluid", "mean_velocity_m_s"));
 }

@@ -95,8 +95,8 @@ TEST(VesselMesh, InternalFacesAreUpperTriangularAndPointOwnerToNeighbour) {
   for (int f = 0; f < m.n_internal_faces(); ++f) {
     EXPECT_LT(m.owner[f], m.neighbour[f]);
     if (f > 0) {
-      const bool ordered = m.owner[f - 1] < m.owner[f] ||
-                           (m.owner[f - 1] == m.owner[f] && m.neighbour[f - 1] < m.neighbour[f]);
+      const bool ordered =
+          m.owner[f - 1] < m.owner[f] || (m.owner[f - 1] == m.owner[f] && m.neighbour[f - 1] < m.neighbour[f]);
       EXPECT_TRUE(ordered) << "face " << f;
     }
     const Vec3 d = sub(b.geo.cell_centres[m.neighbour[f]], b.geo.cell_centres[m.owner[f]]);

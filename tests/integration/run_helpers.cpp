@@ -3,6 +3,7 @@
 
 #include <hdf5.h>
 
+#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -10,7 +11,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-#include <sys/wait.h>
 
 namespace hemo::test {
 

@@ -7,8 +7,8 @@
 
 #include "bus.h"
 
-#include <lcm/lcm-cpp.hpp>
 #include <toml++/toml.h>
+#include <lcm/lcm-cpp.hpp>
 
 #include <gtest/gtest.h>
 
@@ -95,14 +95,15 @@ void expect_same_run(const std::string& whole, const std::string& parts, double 
       speed_scale = std::max(speed_scale, std::abs(sa.velocity[i]));
     }
   }
-  std::printf("interrupted vs uninterrupted run, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
-              names.size(), worst_position, worst_velocity, speed_scale);
+  std::printf(
+      "interrupted vs uninterrupted run, %zu snapshots: max |dx| = %.3e m, max |dv| = %.3e m/s (max |v| %.3e)\n",
+      names.size(), worst_position, worst_velocity, speed_scale);
   EXPECT_LE(worst_position, round_off);
   EXPECT_LE(worst_velocity, round_off / 1e-5 * speed_scale);
   EXPECT_GT(speed_scale, 1e-3) << "the cells move";
 
   const auto ma = read_metrics(whole), mb = read_metrics(parts);
-  const auto& ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
+  const auto &ua = ma.at({"fluid", "mean_velocity_m_s"}), &ub = mb.at({"fluid", "mean_velocity_m_s"});
   ASSERT_EQ(ua.size(), ub.size());
   for (const auto& [step, value] : ua) EXPECT_NEAR(ub.at(step), value, round_off / 1e-5 * std::abs(value)) << step;
   EXPECT_EQ(metric_rows(whole, round_off == 0), metric_rows(parts, round_off == 0)) << "each step's metrics once";
@@ -204,12 +205,14 @@ void expect_restart_after(const std::string& name, const std::string& node, int 
   std::string text = scene_with_checkpoints(300, 8);
   const std::string own_timeout = "node_timeout_s = 10";
   ASSERT_NE(text.find(own_timeout), std::string::npos) << "coupled_small.toml lost its node_timeout_s";
-  if (!node_timeout.empty()) text.replace(text.find(own_timeout), own_timeout.size(), "node_timeout_s = " + node_timeout);
+  if (!node_timeout.empty())
+    text.replace(text.find(own_timeout), own_timeout.size(), "node_timeout_s = " + node_timeout);
   std::ofstream(whole + ".toml") << text;
   const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
   ASSERT_EQ(a.exit_code, 0) << a.output;
 
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + whole + ".toml --out " + hurt); });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + whole + ".toml --out " + hurt); });
   signal_node_after_a_checkpoint(hurt, "", node, signal);
   const auto r = result.get();
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -261,7 +264,8 @@ void wait_for_step(const std::string& dir, long step) {
 std::string expect_asked_restart(const std::string& name, std::string ask) {
   const std::string asked = fresh_run_dir(name + "-asked"), resumed = fresh_run_dir(name + "-resumed");
   std::ofstream(asked + ".toml") << scene_with_checkpoints(600, 0);
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + asked + ".toml --out " + asked); });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + asked + ".toml --out " + asked); });
   wait_for_step(asked, 30);
   ask.replace(ask.find("{}"), 2, asked);
   const auto answer = run(bin("hemocosim") + " " + ask + " --timeout 120");
@@ -274,8 +278,8 @@ std::string expect_asked_restart(const std::string& name, std::string ask) {
   EXPECT_NE(answer.output.find(" at step " + std::to_string(k)), std::string::npos) << answer.output;
   EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
 
-  const auto first = run(bin("hemocosim") + " run " + asked + ".toml --out " + resumed + " --stop-after-step " +
-                         std::to_string(k));
+  const auto first =
+      run(bin("hemocosim") + " run " + asked + ".toml --out " + resumed + " --stop-after-step " + std::to_string(k));
   EXPECT_EQ(first.exit_code, 0) << first.output;
   const auto second = run(bin("hemocosim") + " resume " + resumed);
   EXPECT_EQ(second.exit_code, 0) << second.output;
@@ -327,7 +331,8 @@ TEST(Checkpoint, RestartOfARunThatIsNotGoingFailsInOneLine) {
 TEST(Checkpoint, RunWhoseNodeDiesGoesOnFromItsLastCheckpoint) {
   const std::string dir = fresh_run_dir("checkpoint-killed");
   std::ofstream(dir + ".toml") << scene_with_checkpoints(100000, 5, "max_restarts = 0\n");
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   // Until a checkpoint of both nodes is complete (the second: the run has gone past the first).
   signal_node_after_a_checkpoint(dir, "step-5", "particles", SIGKILL);
   const auto r = result.get();
@@ -438,7 +443,8 @@ struct Fuzzed {
 // `enough` or the run reached its step `to`.
 Fuzzed fuzz_run(const std::string& dir, long from, long to, long enough, const std::future<CommandResult>& done) {
   auto running = [&] { return done.wait_for(std::chrono::milliseconds(0)) != std::future_status::ready; };
-  for (int i = 0; i < 1200 && running() && last_metrics_step(dir) < from; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  for (int i = 0; i < 1200 && running() && last_metrics_step(dir) < from; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const auto info = toml::parse_file(dir + "/run.toml");
   hemo::RunContext ctx;
   ctx.run_id = info["run_id"].value_or(std::string());
@@ -467,11 +473,16 @@ Fuzzed fuzz_run(const std::string& dir, long from, long to, long enough, const s
     for (const auto& [process, kinds_heard] : heard) {
       if (std::find(kinds_heard.begin(), kinds_heard.end(), kind) == kinds_heard.end()) continue;
       auto& e = channel.size() + 1 + b.size() <= 1400 ? f.expected[process].single : f.expected[process].multi;
-      if (!env) ++e.short_or_malformed;
-      else if (env->envelope.run_id != ctx.run_id) ++e.other_run;
-      else if (env->envelope.sender == process) continue;  // counted as its own echo
-      else if (!hemo::verify(b.data(), b.size(), ctx.secret)) ++e.bad_tag;
-      else ++e.authentic;
+      if (!env)
+        ++e.short_or_malformed;
+      else if (env->envelope.run_id != ctx.run_id)
+        ++e.other_run;
+      else if (env->envelope.sender == process)
+        continue;  // counted as its own echo
+      else if (!hemo::verify(b.data(), b.size(), ctx.secret))
+        ++e.bad_tag;
+      else
+        ++e.authentic;
     }
   };
   for (long round = 0; running() && f.sent < enough && (round % 50 != 0 || last_metrics_step(dir) < to); ++round) {
@@ -517,10 +528,12 @@ Fuzzed fuzz_run(const std::string& dir, long from, long to, long enough, const s
 std::map<std::string, long> bus_counts(const std::string& text, const std::string& who) {
   std::map<std::string, long> sum;
   std::istringstream in(text);
-  const std::regex cause("(received|accepted|too short/malformed|other run|bad tag|pre-start|replay|undecodable|own echoes) ([0-9]+)");
+  const std::regex cause(
+      "(received|accepted|too short/malformed|other run|bad tag|pre-start|replay|undecodable|own echoes) ([0-9]+)");
   for (std::string line; std::getline(in, line);) {
     if (line.find("] " + who + " bus: received ") == std::string::npos) continue;
-    for (std::sregex_iterator m(line.begin(), line.end(), cause), end; m != end; ++m) sum[(*m)[1]] += std::stol((*m)[2]);
+    for (std::sregex_iterator m(line.begin(), line.end(), cause), end; m != end; ++m)
+      sum[(*m)[1]] += std::stol((*m)[2]);
   }
   return sum;
 }
@@ -545,7 +558,6 @@ long udp_receive_buffer_errors() {
   return -1;
 }
 
-
 }  // namespace
 
 // Issue #21 on a live coupled run: tens of thousands of hostile datagrams on every channel while it
@@ -560,7 +572,8 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
   ASSERT_EQ(a.exit_code, 0) << a.output;
 
   const long kernel_drops_before = udp_receive_buffer_errors();
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + peace + ".toml --out " + war); });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + peace + ".toml --out " + war); });
   auto monitor = std::async(std::launch::async, [&] {
     for (int i = 0; i < 600 && !std::filesystem::exists(war + "/metrics.csv"); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -571,12 +584,15 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
   const auto mon = monitor.get();
   const long kernel_drops = udp_receive_buffer_errors() - kernel_drops_before;
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  std::printf("%ld hostile datagrams sent during the run (%ld refused by the sending socket); the kernel dropped %ld "
-              "received datagrams meanwhile\n", f.sent, f.unsent, kernel_drops);
+  std::printf(
+      "%ld hostile datagrams sent during the run (%ld refused by the sending socket); the kernel dropped %ld "
+      "received datagrams meanwhile\n",
+      f.sent, f.unsent, kernel_drops);
   EXPECT_GE(f.sent, 10000);
 
-  const std::map<std::string, std::string> logs = {
-      {"coordinator", r.output}, {"fluid", file_text(war + "/fluid.log")}, {"particles", file_text(war + "/particles.log")}};
+  const std::map<std::string, std::string> logs = {{"coordinator", r.output},
+                                                   {"fluid", file_text(war + "/fluid.log")},
+                                                   {"particles", file_text(war + "/particles.log")}};
   for (const auto& [process, log] : logs) {
     const auto got = bus_counts(log, process);
     const auto& want = f.expected.at(process);
@@ -584,7 +600,8 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
     EXPECT_GT(want.single.short_or_malformed + want.single.other_run + want.single.bad_tag, 1000) << process;
     std::printf("%s: short %ld (+%ld multi-packet), other run %ld (+%ld), bad tag %ld (+%ld), replays %ld (+%ld)\n",
                 process.c_str(), want.single.short_or_malformed, want.multi.short_or_malformed, want.single.other_run,
-                want.multi.other_run, want.single.bad_tag, want.multi.bad_tag, want.single.authentic, want.multi.authentic);
+                want.multi.other_run, want.single.bad_tag, want.multi.bad_tag, want.single.authentic,
+                want.multi.authentic);
     EXPECT_EQ(got.at("undecodable"), 0) << process;
     // The counts add up: received = accepted + own echoes + every cause of drop.
     EXPECT_EQ(got.at("received"), got.at("accepted") + got.at("own echoes") + got.at("too short/malformed") +

@@ -151,11 +151,13 @@ TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
   auto scene_with = [](const std::string& run_keys, const std::string& more) {
     return small_scene_text(15, run_keys, more);
   };
-  auto run_text = [](const std::string& name, const std::string& text) { return read_metrics(run_scene_text(name, text)); };
+  auto run_text = [](const std::string& name, const std::string& text) {
+    return read_metrics(run_scene_text(name, text));
+  };
   const auto one_way = run_text("one-way", scene_with("", "[coupling]\ntwo_way = false\n"));
-  const auto no_particles = run_text(
-      "no-particles",
-      scene_with("particle_command = \"" + bin("hemocosim-prescribed-particles") + " --mode none\"\n", ""));
+  const auto no_particles =
+      run_text("no-particles",
+               scene_with("particle_command = \"" + bin("hemocosim-prescribed-particles") + " --mode none\"\n", ""));
   const auto two_way = run_text("two-way", scene_with("", ""));
 
   const auto& u1 = one_way.at({"fluid", "mean_velocity_m_s"});
@@ -202,10 +204,12 @@ TEST(CoupledRun, MixtureMomentumIsConservedOverTheExchange) {
   const double returned = not_received_over_particles(small_run());
   const std::string kept = "[coupling]\nreturn_held_back_momentum = false\n";
   const double response = not_received_over_particles(run_scene_text("kept-back", small_scene_text(40, "", kept)));
-  const double held = not_received_over_particles(
-      run_scene_text("kept-back-instantaneous", small_scene_text(40, "", kept + "implicit_drag = \"instantaneous\"\n")));
-  std::printf("[ info ] momentum the plasma did not get by step 40 / the cells' momentum: handed back %.2e; kept back "
-              "with interval_response %.3f, with instantaneous %.3f\n", returned, response, held);
+  const double held = not_received_over_particles(run_scene_text(
+      "kept-back-instantaneous", small_scene_text(40, "", kept + "implicit_drag = \"instantaneous\"\n")));
+  std::printf(
+      "[ info ] momentum the plasma did not get by step 40 / the cells' momentum: handed back %.2e; kept back "
+      "with interval_response %.3f, with instantaneous %.3f\n",
+      returned, response, held);
   EXPECT_LT(returned, 0.01);
   EXPECT_GT(response, 0.03);
   EXPECT_GT(held, 1.0);
@@ -244,11 +248,12 @@ void expect_same_snapshots(const std::string& a_dir, const std::string& b_dir) {
 TEST(CoupledRun, AdaptiveIntervalsOnOneLevelAreTheFixedRunAtThatInterval) {
   const std::string adaptive = run_scene_text("adaptive-quarter", adaptive_scene_text(10, 30));
   const std::string fixed = run_scene_text(
-      "fixed-quarter", replaced(replaced(small_scene_text(40), "coupling_interval_s = 2e-5", "coupling_interval_s = 5e-6"),
-                                "every_steps = 10", "every_steps = 40"));
+      "fixed-quarter",
+      replaced(replaced(small_scene_text(40), "coupling_interval_s = 2e-5", "coupling_interval_s = 5e-6"),
+               "every_steps = 10", "every_steps = 40"));
   const auto m = read_metrics(adaptive);
   const auto& tau = m.at({"particles", "min_relaxation_time_s"});
-  ASSERT_EQ(tau.size(), 41u);  // start-up and 40 steps
+  ASSERT_EQ(tau.size(), 41u);       // start-up and 40 steps
   for (const auto& [k, t] : tau) {  // the premise: N tau within [dt/4, dt/2) throughout
     EXPECT_GE(30 * t, 5e-6) << "step " << k;
     EXPECT_LT(30 * t, 1e-5) << "step " << k;
@@ -284,9 +289,10 @@ TEST(CoupledRun, AdaptiveIntervalsAboveTheLongestAreTheFixedRun) {
 TEST(CoupledRun, ParallelSchemeDiffersFromSerialOnlyByTheFlowsLag) {
   const std::string parallel = "[coupling]\nscheme = \"parallel\"\n";
   const std::string analytic = "fluid_command = \"" + bin("hemocosim-analytic-fluid") + " --flow poiseuille\"\n";
-  const auto a = read_snapshot(run_scene_text("analytic-serial", small_scene_text(10, analytic)) + "/particles.h5", "00000010");
-  const auto b =
-      read_snapshot(run_scene_text("analytic-parallel", small_scene_text(10, analytic, parallel)) + "/particles.h5", "00000010");
+  const auto a =
+      read_snapshot(run_scene_text("analytic-serial", small_scene_text(10, analytic)) + "/particles.h5", "00000010");
+  const auto b = read_snapshot(
+      run_scene_text("analytic-parallel", small_scene_text(10, analytic, parallel)) + "/particles.h5", "00000010");
   ASSERT_EQ(a.id, b.id);
   ASSERT_GT(a.id.size(), 20u);
   EXPECT_EQ(a.position, b.position);  // bit for bit

@@ -22,9 +22,8 @@ CommandResult run_and_signal(const std::string& node, int signal, const std::str
   const std::string text = small_scene_text(100000);
   const std::string long_scene = dir + ".toml";
   std::ofstream(long_scene) << text;
-  auto result = std::async(std::launch::async, [&] {
-    return run(bin("hemocosim") + " run " + long_scene + " --out " + dir);
-  });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + long_scene + " --out " + dir); });
   // Wait until the run has written a few steps of metrics, then signal the node.
   for (int i = 0; i < 600; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -91,7 +90,8 @@ TEST(Failures, ANodeSlowToStartIsGivenTheStartUpAllowance) {
 TEST(Failures, ANodeThatNeverStartsIsNamedAfterTheStartUpAllowance) {
   const auto r = run_with_slow_particle_start("never-starts", 60, "node_timeout_s = 1\nstartup_timeout_s = 4\n");
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.output.find("particles node did not start at step 0: no heartbeat for 4 s"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("particles node did not start at step 0: no heartbeat for 4 s"), std::string::npos)
+      << r.output;
   EXPECT_LT(r.seconds, 40) << r.output;
 }
 
@@ -139,11 +139,11 @@ TEST(Failures, UnknownSceneKeyIsRefusedInOneLineNamingIt) {
 }
 
 TEST(Failures, HelpWorksForEveryCommand) {
-  for (const std::string cmd : {"hemocosim --help", "hemocosim run --help", "hemocosim check --help",
-                                "hemocosim monitor --help", "hemocosim resume --help", "hemocosim analyze --help",
-                                "hemocosim plot --help", "hemocosim study --help", "hemocosim bench --help",
-                                "hemocosim restart --help", "hemocosim swap --help",
-                                "hemocosim-fluid --help", "hemocosim-particles --help"}) {
+  for (const std::string cmd :
+       {"hemocosim --help", "hemocosim run --help", "hemocosim check --help", "hemocosim monitor --help",
+        "hemocosim resume --help", "hemocosim analyze --help", "hemocosim plot --help", "hemocosim study --help",
+        "hemocosim bench --help", "hemocosim restart --help", "hemocosim swap --help", "hemocosim-fluid --help",
+        "hemocosim-particles --help"}) {
     const auto r = run(bin("") + cmd);
     EXPECT_EQ(r.exit_code, 0) << cmd << "\n" << r.output;
     EXPECT_NE(r.output.find("--"), std::string::npos) << cmd;
@@ -156,7 +156,8 @@ TEST(Monitor, ShowsTheTrafficOfARunningRun) {
   const std::string dir = fresh_run_dir("monitored");
   const std::string text = small_scene_text(100000);
   std::ofstream(dir + ".toml") << text;
-  auto result = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const auto mon = run(bin("hemocosim") + " monitor " + dir + " --duration 4 --plain");
@@ -173,8 +174,10 @@ TEST(Monitor, ShowsTheTrafficOfARunningRun) {
   // Each process's drops by cause, from its heartbeat: a clean run drops nothing.
   EXPECT_NE(mon.output.find("dropped by"), std::string::npos) << mon.output;
   for (const char* who : {"coordinator", "fluid", "particles", "\\(this monitor\\)"})
-    EXPECT_TRUE(std::regex_search(mon.output, std::regex(std::string("\n") + who + " +[1-9][0-9]* +0 +0 +0 +0 +0 +0\n")))
-        << who << " in\n" << mon.output;
+    EXPECT_TRUE(
+        std::regex_search(mon.output, std::regex(std::string("\n") + who + " +[1-9][0-9]* +0 +0 +0 +0 +0 +0\n")))
+        << who << " in\n"
+        << mon.output;
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("interrupted"), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(dir + "/particles.h5"));
@@ -222,7 +225,8 @@ SteppingRun start_stepping_run(const std::string& name, const std::string& writt
   r.dir = fresh_run_dir(name);
   std::ofstream(r.dir + ".toml") << small_scene_text(100000);  // node_timeout_s = 10
   const std::string dir = r.dir;
-  r.result = std::async(std::launch::async, [dir] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  r.result =
+      std::async(std::launch::async, [dir] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/" + written_once_stepping); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::this_thread::sleep_for(std::chrono::seconds(1));  // stepping
@@ -271,7 +275,8 @@ TEST(Failures, ASecondInterruptStopsAtOnce) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("interrupted twice: stopped at once"), std::string::npos) << r.output;
   EXPECT_LT(took, 2.0);
-  for (int i = 0; i < 50 && !(live_processes_in_group(fluid).empty() && live_processes_in_group(particles).empty()); ++i)
+  for (int i = 0; i < 50 && !(live_processes_in_group(fluid).empty() && live_processes_in_group(particles).empty());
+       ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_TRUE(live_processes_in_group(fluid).empty());
   EXPECT_TRUE(live_processes_in_group(particles).empty());

@@ -59,11 +59,13 @@ int main(int argc, char** argv) {
     auto t3 = std::chrono::steady_clock::now();
     const double run_s = std::chrono::duration<double>(t2 - t1).count();
     const double particle_steps = static_cast<double>(placed.size()) * timing.substeps * steps;
-    std::printf("[%s closures every %d DEM steps] %zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, run %.2f s, "
-                "%.1f ns per particle-step; diagnostics %.3f s; 2 s of physics would take %.0f min\n",
-                closures.c_str(), closure_every, placed.size(), steps, timing.substeps, timing.dt, std::chrono::duration<double>(t1 - t0).count(), run_s,
-                1e9 * run_s / particle_steps, std::chrono::duration<double>(t3 - t2).count(),
-                run_s / (steps * interval) * 2 / 60);
+    std::printf(
+        "[%s closures every %d DEM steps] %zu particles, %d coupling steps x %d substeps (dt %.3g s): setup %.2f s, "
+        "run %.2f s, "
+        "%.1f ns per particle-step; diagnostics %.3f s; 2 s of physics would take %.0f min\n",
+        closures.c_str(), closure_every, placed.size(), steps, timing.substeps, timing.dt,
+        std::chrono::duration<double>(t1 - t0).count(), run_s, 1e9 * run_s / particle_steps,
+        std::chrono::duration<double>(t3 - t2).count(), run_s / (steps * interval) * 2 / 60);
     std::printf("core particle v_z %.6g m/s, fluid %.6g m/s; max overlap %.3g; outside %ld\n",
                 diag.core_particle_axial_velocity, diag.core_fluid_axial_velocity, diag.max_overlap, diag.outside_mesh);
   }

@@ -10,8 +10,8 @@
 #include "deposition.h"
 #include "placement.h"
 
-#include <hemo/mesh_t.hpp>
 #include <vessel_mesh.h>
+#include <hemo/mesh_t.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
                          p.species == kRbc ? scene.rbc.volume : scene.platelet.volume, Vec3::Zero(), 0.0);
       }
       std::vector<double> phi(loc.n_cells());
-      for (int c = 0; c < loc.n_cells(); ++c) phi[c] = dep.data()[c * Deposition::kStride + Deposition::kVolume] / loc.volume(c);
+      for (int c = 0; c < loc.n_cells(); ++c)
+        phi[c] = dep.data()[c * Deposition::kStride + Deposition::kVolume] / loc.volume(c);
       return phi;
     };
     const auto t0 = std::chrono::steady_clock::now();
@@ -93,10 +94,10 @@ int main(int argc, char** argv) {
       }
       phi = next;
     }
-    std::printf("%-15s max phi %.3f; solid in the wall ring %.4g m^3 (%.1f %% of all); per coupling step of 20 us: "
-                "max |d phi| %.4f, RMS %.2e; %.0f ns per particle\n",
-                name, phi_max, wall_solid, 100 * wall_solid / dep.total_volume(), worst, std::sqrt(sum2 / n),
-                cost * 1e9);
+    std::printf(
+        "%-15s max phi %.3f; solid in the wall ring %.4g m^3 (%.1f %% of all); per coupling step of 20 us: "
+        "max |d phi| %.4f, RMS %.2e; %.0f ns per particle\n",
+        name, phi_max, wall_solid, 100 * wall_solid / dep.total_volume(), worst, std::sqrt(sum2 / n), cost * 1e9);
   }
   return 0;
 }

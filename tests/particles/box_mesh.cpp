@@ -9,8 +9,8 @@
 
 namespace hemo::particles::testing {
 
-mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length,
-                double diameter, const std::string& hash) {
+mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length, double diameter,
+                const std::string& hash) {
   mesh_t m;
   m.mesh_hash = hash;
   m.vessel_diameter_m = diameter;
@@ -29,9 +29,15 @@ mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double 
   };
   std::vector<Face> internal, patch[6];
   // Faces normal to x at i (points ordered so the area vector points to +x), etc.
-  auto fx = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i, j + 1, k), pid(i, j + 1, k + 1), pid(i, j, k + 1)}; };
-  auto fy = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i, j, k + 1), pid(i + 1, j, k + 1), pid(i + 1, j, k)}; };
-  auto fz = [&](int i, int j, int k) { return std::array<int, 4>{pid(i, j, k), pid(i + 1, j, k), pid(i + 1, j + 1, k), pid(i, j + 1, k)}; };
+  auto fx = [&](int i, int j, int k) {
+    return std::array<int, 4>{pid(i, j, k), pid(i, j + 1, k), pid(i, j + 1, k + 1), pid(i, j, k + 1)};
+  };
+  auto fy = [&](int i, int j, int k) {
+    return std::array<int, 4>{pid(i, j, k), pid(i, j, k + 1), pid(i + 1, j, k + 1), pid(i + 1, j, k)};
+  };
+  auto fz = [&](int i, int j, int k) {
+    return std::array<int, 4>{pid(i, j, k), pid(i + 1, j, k), pid(i + 1, j + 1, k), pid(i, j + 1, k)};
+  };
   auto flip = [](std::array<int, 4> p) { return std::array<int, 4>{p[0], p[3], p[2], p[1]}; };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
@@ -71,7 +77,8 @@ mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double 
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
-        m.cell_centres.push_back({x0 + (x1 - x0) * (i + 0.5) / nx, y0 + (y1 - y0) * (j + 0.5) / ny, length * (k + 0.5) / nz});
+        m.cell_centres.push_back(
+            {x0 + (x1 - x0) * (i + 0.5) / nx, y0 + (y1 - y0) * (j + 0.5) / ny, length * (k + 0.5) / nz});
         m.cell_volumes.push_back(vol);
       }
   return m;
@@ -103,7 +110,8 @@ mesh_t wedge_mesh(int n, int nz, double radius, double length, const std::string
       const int c = cell(i, k);
       // Side face between wedge i and i+1 (along ring point i+1); owner the smaller index.
       const int other = cell(i + 1, k);
-      internal.push_back({{axis(k), ring(i + 1, k), ring(i + 1, k + 1), axis(k + 1)}, std::min(c, other), std::max(c, other)});
+      internal.push_back(
+          {{axis(k), ring(i + 1, k), ring(i + 1, k + 1), axis(k + 1)}, std::min(c, other), std::max(c, other)});
       if (k + 1 < nz) internal.push_back({{axis(k + 1), ring(i, k + 1), ring(i + 1, k + 1)}, c, cell(i, k + 1)});
       wall.push_back({{ring(i, k), ring(i + 1, k), ring(i + 1, k + 1), ring(i, k + 1)}, c, -1});
       if (k == 0) zmin.push_back({{axis(0), ring(i + 1, 0), ring(i, 0)}, c, -1});
@@ -120,7 +128,8 @@ mesh_t wedge_mesh(int n, int nz, double radius, double length, const std::string
   };
   for (const auto& f : internal) add(f);
   m.n_internal_faces = static_cast<int>(internal.size());
-  const std::vector<std::pair<std::string, std::vector<Face>*>> patches = {{"wall", &wall}, {"zmin", &zmin}, {"zmax", &zmax}};
+  const std::vector<std::pair<std::string, std::vector<Face>*>> patches = {
+      {"wall", &wall}, {"zmin", &zmin}, {"zmax", &zmax}};
   for (const auto& [name, faces] : patches) {
     m.patch_names.push_back(name);
     m.patch_types.push_back(name == "wall" ? "wall" : "cyclic");
@@ -137,8 +146,8 @@ mesh_t wedge_mesh(int n, int nz, double radius, double length, const std::string
   for (int k = 0; k < nz; ++k)
     for (int i = 0; i < n; ++i) {
       const double a0 = 2 * pi * i / n, a1 = 2 * pi * (i + 1) / n;
-      m.cell_centres.push_back({radius * (std::cos(a0) + std::cos(a1)) / 3, radius * (std::sin(a0) + std::sin(a1)) / 3,
-                                dz * (k + 0.5)});
+      m.cell_centres.push_back(
+          {radius * (std::cos(a0) + std::cos(a1)) / 3, radius * (std::sin(a0) + std::sin(a1)) / 3, dz * (k + 0.5)});
       m.cell_volumes.push_back(area * dz);
     }
   return m;

@@ -2,9 +2,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <scene.h>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/mesh_t.hpp>
-#include <scene.h>
 
 #include <array>
 #include <functional>
@@ -15,8 +15,8 @@ namespace hemo::particles::testing {
 // faces first (owner < neighbour, area vector out of the owner), then the patches
 // x-min, x-max, y-min, y-max (walls) and z-min, z-max (cyclic). vessel_diameter_m is set to
 // `diameter`, vessel_length_m to `length`.
-mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length,
-                double diameter, const std::string& hash = "box");
+mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length, double diameter,
+                const std::string& hash = "box");
 
 // A polygonal vessel: n_around triangular prisms (axis, ring point i, ring point i+1) per layer,
 // nz layers over [0, length]; ring points on the circle of radius `radius`, so the wall faces
@@ -24,8 +24,8 @@ mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double 
 mesh_t wedge_mesh(int n_around, int nz, double radius, double length, const std::string& hash = "wedge");
 
 // A fluid state on `mesh` with u and grad u (G[i][j] = d u_j / d x_i) given at each cell centre.
-using FieldAt = std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u,
-                                   std::array<double, 9>& grad)>;
+using FieldAt =
+    std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& grad)>;
 fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
 
 // A scene with docs/model.md's default RBCs and platelets (Stokes drag) in a vessel of the given

@@ -56,7 +56,7 @@ inline hemo::step_order_t order(long k) {
 
 // One coupling step as main.cpp takes it; returns the feedback.
 inline hemo::particle_feedback_t take_step(ParticleNode& node, long k, const hemo::fluid_state_t& fluid,
-                                    bool write_checkpoint = false) {
+                                           bool write_checkpoint = false) {
   const auto o = order(k);
   EXPECT_EQ(node.check(fluid), "");
   EXPECT_EQ(node.advance(o, fluid), "") << "step " << k;
@@ -74,12 +74,14 @@ inline std::filesystem::path fresh_dir(const std::string& name) {
 }
 
 // Exact equality, or the first difference named.
-inline ::testing::AssertionResult same(const std::vector<double>& a, const std::vector<double>& b, const std::string& what) {
-  if (a.size() != b.size()) return ::testing::AssertionFailure() << what << ": " << a.size() << " vs " << b.size() << " values";
+inline ::testing::AssertionResult same(const std::vector<double>& a, const std::vector<double>& b,
+                                       const std::string& what) {
+  if (a.size() != b.size())
+    return ::testing::AssertionFailure() << what << ": " << a.size() << " vs " << b.size() << " values";
   for (std::size_t i = 0; i < a.size(); ++i)
     if (!(a[i] == b[i]))
-      return ::testing::AssertionFailure() << what << "[" << i << "]: " << a[i] << " vs " << b[i] << " (difference "
-                                           << a[i] - b[i] << ")";
+      return ::testing::AssertionFailure()
+             << what << "[" << i << "]: " << a[i] << " vs " << b[i] << " (difference " << a[i] - b[i] << ")";
   return ::testing::AssertionSuccess();
 }
 

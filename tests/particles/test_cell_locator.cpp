@@ -41,9 +41,9 @@ TEST(CellLocator, WrapsZPeriodically) {
   EXPECT_DOUBLE_EQ(loc.z0(), 0.0);
   EXPECT_EQ(loc.locate(Vec3(0.5, 0.5, 2.5)), expected_cell(0.5, 0.5, 0.5));
   EXPECT_EQ(loc.locate(Vec3(1.5, 0.5, -0.5)), expected_cell(1.5, 0.5, 1.5));
-  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, 2.0)), expected_cell(0.5, 1.5, 0.0));    // exactly one period
-  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, -4.25)), expected_cell(0.5, 1.5, 1.75)); // several periods
-  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, -1e-17)), expected_cell(0.5, 1.5, 0.0)); // rounds into range
+  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, 2.0)), expected_cell(0.5, 1.5, 0.0));     // exactly one period
+  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, -4.25)), expected_cell(0.5, 1.5, 1.75));  // several periods
+  EXPECT_EQ(loc.locate(Vec3(0.5, 1.5, -1e-17)), expected_cell(0.5, 1.5, 0.0));  // rounds into range
   const Vec3 w = loc.wrap(Vec3(0.1, 0.2, 7.3));
   EXPECT_NEAR(w.z(), 1.3, 1e-12);
 }

@@ -4,8 +4,8 @@
 // that keeps the plasma's volume -- gets a kick of (jump) / (coupling interval) at every crossing.
 #include "deposition.h"
 
-#include <hemo/mesh_t.hpp>
 #include <vessel_mesh.h>
+#include <hemo/mesh_t.hpp>
 
 #include <gtest/gtest.h>
 

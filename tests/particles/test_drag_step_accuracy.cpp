@@ -31,9 +31,8 @@ struct Outcome {
 };
 
 Outcome run(const SpeciesForces& forces, const OrientationIntegrator* rotation, SingleParticle p, double dt, double t) {
-  const SingleParticleStepper stepper(forces, rotation, [](const Vec3& x, const Vec3& v) {
-    return poiseuille_flow(x, kR, kUmax, v);
-  });
+  const SingleParticleStepper stepper(forces, rotation,
+                                      [](const Vec3& x, const Vec3& v) { return poiseuille_flow(x, kR, kUmax, v); });
   const long steps = std::lround(t / dt);
   for (long n = 0; n < steps; ++n) stepper.step(p, dt);
   return {p.x, p.v, p.q};
@@ -55,8 +54,9 @@ TEST(DragStepAccuracy, RedCellReleasedAtRestNearTheWall) {
   const double t = 2e-3;
   const Outcome ref = run(forces, nullptr, start, 0.01 * tau, t);
   const double migrated = 0.8 * kR - ref.x.x();
-  std::printf("[ info ] RBC at rest at 0.8 R, T = 2 ms, tau = %.3g us; reference: %.4f um inward, %.3f um along the axis\n",
-              tau * 1e6, migrated * 1e6, ref.x.z() * 1e6);
+  std::printf(
+      "[ info ] RBC at rest at 0.8 R, T = 2 ms, tau = %.3g us; reference: %.4f um inward, %.3f um along the axis\n",
+      tau * 1e6, migrated * 1e6, ref.x.z() * 1e6);
   std::printf("[ info ]   dt/tau   radial error (of the migration)   axial error   |v - v_ref| / |v_ref|\n");
   for (double ratio : {0.1, 0.3, 1.0, 3.0, 10.0}) {
     const Outcome o = run(forces, nullptr, start, ratio * tau, t);
@@ -80,16 +80,18 @@ TEST(DragStepAccuracy, OblatePlateletReleasedAtRestTilted) {
   s.semi_axis_c = 0.52e-6;
   s.drag = s.lift = s.torque = "oblate";
   const SpeciesForces forces(s, vessel());
-  const auto rotation = make_orientation_integrator("splitting", SymmetricTop::oblate_spheroid(s.mass, 2.06e-6, 0.52e-6));
+  const auto rotation =
+      make_orientation_integrator("splitting", SymmetricTop::oblate_spheroid(s.mass, 2.06e-6, 0.52e-6));
   const double tau = forces.mass() / forces.max_coefficient_at_rest();  // 0.21 us, broadside
   SingleParticle start;
   start.x = Vec3(0.8 * kR, 0, 0);
   start.q = Quat(Eigen::AngleAxisd(0.8, Vec3(0, 1, 0.2).normalized()));
   const double t = 0.5e-3;
   const Outcome ref = run(forces, rotation.get(), start, 0.01 * tau, t);
-  std::printf("[ info ] oblate platelet at rest at 0.8 R, axis tilted 46 deg, T = 0.5 ms, tau = %.3g us; reference: "
-              "%.3f um along the axis, radial %.3e um, axis turned %.3g rad\n",
-              tau * 1e6, ref.x.z() * 1e6, (ref.x.x() - start.x.x()) * 1e6, ref.q.angularDistance(start.q));
+  std::printf(
+      "[ info ] oblate platelet at rest at 0.8 R, axis tilted 46 deg, T = 0.5 ms, tau = %.3g us; reference: "
+      "%.3f um along the axis, radial %.3e um, axis turned %.3g rad\n",
+      tau * 1e6, ref.x.z() * 1e6, (ref.x.x() - start.x.x()) * 1e6, ref.q.angularDistance(start.q));
   std::printf("[ info ]   dt/tau   position error   axis error (rad)   |v - v_ref| / |v_ref|\n");
   for (double ratio : {0.1, 0.3, 1.0, 3.0, 10.0}) {
     const Outcome o = run(forces, rotation.get(), start, ratio * tau, t);

@@ -91,7 +91,9 @@ TEST(DemEngine, FollowsPoiseuilleAndConservesMomentum) {
     const Vec3 p_after = fx.momentum();
     const Vec3 impulse = fx.deposition.total_force(fx.interval) * fx.interval;
     worst = std::max(worst, (p_after - p_before - impulse).norm() / p_after.norm());
-    if (std::getenv("HEMO_VERBOSE")) std::printf("step %d dp %.6e impulse %.6e diff %.3e\n", step, (p_after - p_before).z(), impulse.z(), (p_after - p_before - impulse).norm());
+    if (std::getenv("HEMO_VERBOSE"))
+      std::printf("step %d dp %.6e impulse %.6e diff %.3e\n", step, (p_after - p_before).z(), impulse.z(),
+                  (p_after - p_before - impulse).norm());
     EXPECT_NEAR((p_after - p_before - impulse).norm(), 0.0, 1e-12 * (p_after.norm() + 1e-30))
         << "step " << step << ": dp = " << (p_after - p_before).transpose() << ", impulse = " << impulse.transpose();
     p_before = p_after;
@@ -102,10 +104,11 @@ TEST(DemEngine, FollowsPoiseuilleAndConservesMomentum) {
   EXPECT_NEAR(fx.deposition.total_volume(), expected_volume, 1e-12 * expected_volume);
 
   const auto d = fx.engine.diagnostics(&fx.fluid);
-  std::printf("[ info ] %ld particles, %d substeps of %.3g s; worst |dp - impulse| / |p| = %.2e; core v_z %.6g "
-              "vs fluid %.6g m/s (%ld particles); max overlap %.3g\n",
-              d.particles, fx.timing.substeps, fx.timing.dt, worst, d.core_particle_axial_velocity,
-              d.core_fluid_axial_velocity, d.core_particles, d.max_overlap);
+  std::printf(
+      "[ info ] %ld particles, %d substeps of %.3g s; worst |dp - impulse| / |p| = %.2e; core v_z %.6g "
+      "vs fluid %.6g m/s (%ld particles); max overlap %.3g\n",
+      d.particles, fx.timing.substeps, fx.timing.dt, worst, d.core_particle_axial_velocity, d.core_fluid_axial_velocity,
+      d.core_particles, d.max_overlap);
   EXPECT_EQ(d.outside_mesh, 0);
   EXPECT_EQ(d.particles, static_cast<long>(placed.size()));
   ASSERT_GT(d.core_particles, 20);
@@ -171,8 +174,10 @@ TEST(DemEngine, HeldClosuresAreExactWhereTheyCannotChange) {
   double worst = 0;
   for (std::size_t i = 0; i < 3 * end[0].size(); ++i)
     worst = std::max(worst, std::abs(end[0].position[i] - end[1].position[i]));
-  std::printf("[ info ] uniform flow, Stokes drag, %zu particles, 10 intervals: closures every 7 steps move them "
-              "%.3g m from the every-step run\n", end[0].size(), worst);
+  std::printf(
+      "[ info ] uniform flow, Stokes drag, %zu particles, 10 intervals: closures every 7 steps move them "
+      "%.3g m from the every-step run\n",
+      end[0].size(), worst);
   EXPECT_LT(worst, 1e-15);  // positions ~1e-5 m: a few ulps
 }
 
@@ -209,10 +214,11 @@ TEST(DemEngine, ClosuresEveryTenStepsConserveMomentumAndFollowTheEveryStepRun) {
     worst_radial = std::max(worst_radial, std::abs(std::hypot(a[0], a[1]) - std::hypot(b[0], b[1])));
   }
   const double travel = u_max * 2e-4;  // the core's axial travel in the run
-  std::printf("[ info ] paper closures, %zu particles, 0.2 ms: every 10 steps vs every step: axial %.3g m (%.2e of "
-              "the travel), radial %.3g m (%.2e of R); core v_z %.8g vs %.8g m/s\n",
-              end[0].size(), worst_axial, worst_axial / travel, worst_radial, worst_radial / R,
-              diag[1].core_particle_axial_velocity, diag[0].core_particle_axial_velocity);
+  std::printf(
+      "[ info ] paper closures, %zu particles, 0.2 ms: every 10 steps vs every step: axial %.3g m (%.2e of "
+      "the travel), radial %.3g m (%.2e of R); core v_z %.8g vs %.8g m/s\n",
+      end[0].size(), worst_axial, worst_axial / travel, worst_radial, worst_radial / R,
+      diag[1].core_particle_axial_velocity, diag[0].core_particle_axial_velocity);
   EXPECT_LT(worst_axial, 1e-4 * travel);
   EXPECT_LT(worst_radial, 1e-4 * R);
   EXPECT_NEAR(diag[1].core_particle_axial_velocity, diag[0].core_particle_axial_velocity,
@@ -268,18 +274,19 @@ TEST(DemEngine, DragCoefficientHandedToTheFluidIsTheSlopeOfTheIntervalImpulse) {
     const DemTiming timing = derive_dem_timing(fx.scene, fx.interval);
     const auto interval_impulse = [&](double u_z, double* response) {
       DemEngine engine(fx.scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
-      fx.fluid.set_state(fluid_state(fx.mesh, [u_z](const std::array<double, 3>&, std::array<double, 3>& u,
-                                                     std::array<double, 9>& g) {
-        u = {0.0, 0.0, u_z};
-        g.fill(0.0);
-      }));
+      fx.fluid.set_state(
+          fluid_state(fx.mesh, [u_z](const std::array<double, 3>&, std::array<double, 3>& u, std::array<double, 9>& g) {
+            u = {0.0, 0.0, u_z};
+            g.fill(0.0);
+          }));
       engine.create_particles({PlacedParticle{kRbc, fx.scene.rbc.diameter, Vec3(0, 0, 50e-6)}});
       EXPECT_EQ(engine.run(1, timing.substeps, timing.dt, fx.fluid), "");
       engine.deposit(fx.deposition);
       hemo::particle_feedback_t fb;
       fx.deposition.finish(fx.interval, &fx.fluid, fb);
       *response = 0;
-      for (int c = 0; c < fx.locator.n_cells(); ++c) *response += fb.drag_coefficient[c] * fx.locator.volume(c) * fx.interval;
+      for (int c = 0; c < fx.locator.n_cells(); ++c)
+        *response += fb.drag_coefficient[c] * fx.locator.volume(c) * fx.interval;
       return fx.deposition.total_force(fx.interval).z() * fx.interval;
     };
     const double u = 1e-3, du = 1e-4;
@@ -287,8 +294,10 @@ TEST(DemEngine, DragCoefficientHandedToTheFluidIsTheSlopeOfTheIntervalImpulse) {
     const double slope = (interval_impulse(u + du, &response_du) - interval_impulse(u, &response)) / du;
     const double beta = 3 * hemo::units::pi * fx.scene.plasma.viscosity * fx.scene.rbc.diameter;
     const double mass = scaling * fx.scene.rbc.mass, beta_time = beta * fx.interval;
-    std::printf("[ info ] mass scaling %g: interval / tau = %.3g; impulse slope %.6g kg, K V dt %.6g kg, beta dt %.6g "
-                "kg\n", scaling, beta_time / mass, slope, response, beta_time);
+    std::printf(
+        "[ info ] mass scaling %g: interval / tau = %.3g; impulse slope %.6g kg, K V dt %.6g kg, beta dt %.6g "
+        "kg\n",
+        scaling, beta_time / mass, slope, response, beta_time);
     EXPECT_NEAR(response, slope, 1e-3 * slope) << "mass scaling " << scaling;
     EXPECT_DOUBLE_EQ(response, response_du);  // a property of the particles, not of the flow
     EXPECT_NEAR(response, mass * -std::expm1(-beta_time / mass), 1e-9 * response);
@@ -311,7 +320,8 @@ TEST(DemEngine, UnwrapsZAcrossThePeriodicEnds) {
   fx.engine.create_particles(placed);
   const auto start = fx.engine.snapshot(0, 0);
   const int steps = 40;  // 0.4 ms: 2 periods
-  for (int step = 1; step <= steps; ++step) ASSERT_EQ(fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
+  for (int step = 1; step <= steps; ++step)
+    ASSERT_EQ(fx.engine.run(step, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
   const auto end = fx.engine.snapshot(steps, steps * fx.interval);
   const double travel = u * steps * fx.interval;  // 200 um
   for (std::size_t i = 0; i < end.size(); ++i) {
@@ -376,9 +386,10 @@ TEST(DemEngine, RedCellMigratesTowardTheAxisAsTheSingleParticleHarnessSays) {
     return f;
   });
   const double r_exact = harness([&](const Vec3& x, const Vec3& v) { return poiseuille_flow(x, R, u_max, v); });
-  std::printf("[ info ] RBC from 0.75 R, 2 ms: LIGGGHTS %.5f um inward; harness in the sampled flow %.5f um, in the "
-              "exact flow %.5f um (the mesh's cell gradient is taken at the prism's centroid, r = 0.66 R)\n",
-              (x0.x() - r) * 1e6, (x0.x() - r_sampled) * 1e6, (x0.x() - r_exact) * 1e6);
+  std::printf(
+      "[ info ] RBC from 0.75 R, 2 ms: LIGGGHTS %.5f um inward; harness in the sampled flow %.5f um, in the "
+      "exact flow %.5f um (the mesh's cell gradient is taken at the prism's centroid, r = 0.66 R)\n",
+      (x0.x() - r) * 1e6, (x0.x() - r_sampled) * 1e6, (x0.x() - r_exact) * 1e6);
   EXPECT_GT(x0.x() - r, 0.02e-6);
   EXPECT_NEAR(r, r_sampled, 1e-4 * (x0.x() - r_sampled));
 }
@@ -484,8 +495,10 @@ TEST(DemEngine, SphericalPlateletsSkipTheOrientationPathAndMoveAsANearSphereWith
     speed = std::max(speed, vb.norm());
     EXPECT_EQ(b.orientation[4 * i], 1.0) << "a skipped platelet has no orientation";
   }
-  std::printf("[ info ] near-sphere oblate vs spherical platelets after 1e-4 s: max |dx| %.2e m of %.2e m travelled, "
-              "max |dv| %.2e of %.2e m/s\n", dx, travelled, dv, speed);
+  std::printf(
+      "[ info ] near-sphere oblate vs spherical platelets after 1e-4 s: max |dx| %.2e m of %.2e m travelled, "
+      "max |dv| %.2e of %.2e m/s\n",
+      dx, travelled, dv, speed);
   EXPECT_GT(travelled, 0.3e-6) << "the platelets must move";
   EXPECT_LT(dx, 1e-6 * travelled);
   EXPECT_LT(dv, 1e-6 * speed);
@@ -537,7 +550,8 @@ TEST(DemEngine, ParticleLostByLiggghtsIsNamed) {
   fx.engine.liggghts("group hemo_gone id 2");
   fx.engine.liggghts("delete_atoms group hemo_gone");
   const std::string error = fx.engine.run(2, 10, 1e-7, fx.fluid);
-  EXPECT_EQ(error, "particle 2 was lost by LIGGGHTS (it left the DEM box) during coupling step 2; 1 particle lost in all");
+  EXPECT_EQ(error,
+            "particle 2 was lost by LIGGGHTS (it left the DEM box) during coupling step 2; 1 particle lost in all");
   EXPECT_EQ(fx.engine.diagnostics(&fx.fluid).lost, 1);
 }
 
@@ -587,11 +601,11 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
   fx.scene.time.mass_scaling = 10;
   fx.scene.implicit_drag = "co_relaxed";
   const double u = 1e-3;
-  fx.fluid.set_state(fluid_state(fx.mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel,
-                                              std::array<double, 9>& g) {
-    vel = {0.0, 0.0, u};
-    g.fill(0.0);
-  }));
+  fx.fluid.set_state(
+      fluid_state(fx.mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel, std::array<double, 9>& g) {
+        vel = {0.0, 0.0, u};
+        g.fill(0.0);
+      }));
   const Vec3 where(4e-6, 4e-6, 56e-6);  // inside one box cell, its sphere too
   const int cell = fx.locator.locate(where);
   ASSERT_GE(cell, 0);
@@ -641,15 +655,16 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
 
 namespace {
 hemo::fluid_state_t uniform_state(const hemo::mesh_t& mesh, const Vec3& u, const Vec3& pressure_gradient) {
-  hemo::fluid_state_t s = fluid_state(mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel,
-                                                std::array<double, 9>& g) {
-    vel = {u.x(), u.y(), u.z()};
-    g.fill(0.0);
-  });
+  hemo::fluid_state_t s =
+      fluid_state(mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel, std::array<double, 9>& g) {
+        vel = {u.x(), u.y(), u.z()};
+        g.fill(0.0);
+      });
   s.n_pressure_gradient_values = 3 * s.n_cells;
   s.pressure_gradient.clear();
   for (int c = 0; c < s.n_cells; ++c)
-    s.pressure_gradient.insert(s.pressure_gradient.end(), {pressure_gradient.x(), pressure_gradient.y(), pressure_gradient.z()});
+    s.pressure_gradient.insert(s.pressure_gradient.end(),
+                               {pressure_gradient.x(), pressure_gradient.y(), pressure_gradient.z()});
   return s;
 }
 }  // namespace

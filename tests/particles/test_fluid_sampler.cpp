@@ -78,7 +78,6 @@ TEST(FluidSampler, CheckNamesTheCause) {
   EXPECT_THROW(fs.set_state(s), std::invalid_argument);
 }
 
-
 TEST(FluidSampler, ForgedLengthIsRejected) {
   const auto mesh = box_mesh(2, 2, 2, 0, 1, 0, 1, 1, 1, "abc");  // 8 cells
   const CellLocator loc(mesh);
@@ -128,7 +127,8 @@ TEST(FluidSampler, CellSamplingReturnsTheCellValueEverywhereInTheCell) {
     ASSERT_GE(c, 0);
     EXPECT_EQ(cell.velocity(c, loc.wrap(x)), cell.cell_velocity(c));
     EXPECT_EQ(cell.gradient(c), reconstructed.gradient(c));  // the gradient is the cell's either way
-    largest_difference = std::max(largest_difference, (reconstructed.velocity(c, loc.wrap(x)) - cell.cell_velocity(c)).norm());
+    largest_difference =
+        std::max(largest_difference, (reconstructed.velocity(c, loc.wrap(x)) - cell.cell_velocity(c)).norm());
   }
   EXPECT_GT(largest_difference, 0.5);  // |A| ~ 1 over cells ~ 1 wide
 }
@@ -155,7 +155,8 @@ TEST(FluidSampler, PressureGradientIsOptionalAndChecked) {
 
   auto short_one = state;
   short_one.pressure_gradient.pop_back();
-  EXPECT_NE(FluidSampler::check(short_one, state.n_cells, state.mesh_hash).find("pressure gradient"), std::string::npos);
+  EXPECT_NE(FluidSampler::check(short_one, state.n_cells, state.mesh_hash).find("pressure gradient"),
+            std::string::npos);
   auto nan = state;
   nan.pressure_gradient[4] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(FluidSampler::check(nan, state.n_cells, state.mesh_hash).find("pressure gradient is not finite"),

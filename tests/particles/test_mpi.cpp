@@ -38,7 +38,9 @@ struct PoiseuilleCase {
   DemTiming timing;
 
   explicit PoiseuilleCase(hemo::Scene s)
-      : scene(std::move(s)), engine(scene, locator, "none", MPI_COMM_WORLD), timing(derive_dem_timing(scene, interval)) {
+      : scene(std::move(s)),
+        engine(scene, locator, "none", MPI_COMM_WORLD),
+        timing(derive_dem_timing(scene, interval)) {
     fluid.set_state(fluid_state(mesh, poiseuille(R, 799 * R / 2)));
     placed = place_particles(0.7 * R, L, 0, placement_requests(scene), 5);
     engine.create_particles(placed);
@@ -105,9 +107,10 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
     last_force = force;
   }
   if (rank == 0)
-    std::printf("[ info ] %d rank(s), %zu particles, %d substeps: |sum F + sum (S - K u) V| / sum (|S| + K |u|) V <= %.2e, "
-                "|dp - impulse| / |p| <= %.2e, total force z %.10e N\n",
-                size, placed.size(), timing.substeps, worst_balance, worst_momentum, last_force.z());
+    std::printf(
+        "[ info ] %d rank(s), %zu particles, %d substeps: |sum F + sum (S - K u) V| / sum (|S| + K |u|) V <= %.2e, "
+        "|dp - impulse| / |p| <= %.2e, total force z %.10e N\n",
+        size, placed.size(), timing.substeps, worst_balance, worst_momentum, last_force.z());
   EXPECT_LT(worst_balance, 1e-12);
   EXPECT_LT(worst_momentum, 1e-11);
   // Each rank holds some of the particles (LIGGGHTS splits the vessel along z).
@@ -148,8 +151,8 @@ TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum)
   pc.engine.deposit(pc.deposition);
   const Vec3 impulse = pc.deposition.total_force(pc.interval) * pc.interval;
   EXPECT_GT(scale, 0);
-  EXPECT_LT((answer + impulse).norm(), 1e-12 * scale) << "plasma " << answer.transpose() << ", particles "
-                                                      << impulse.transpose();
+  EXPECT_LT((answer + impulse).norm(), 1e-12 * scale)
+      << "plasma " << answer.transpose() << ", particles " << impulse.transpose();
   double lo[3] = {answer.x(), answer.y(), answer.z()}, hi[3] = {answer.x(), answer.y(), answer.z()};
   MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
   MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);

@@ -90,7 +90,8 @@ TEST(NodeCheckpointMpi, ResumedOnAsManyRanksGoesOnBitForBit) {
   resumed.diagnostics();
   for (long k = K + 1; k <= K + N; ++k) {
     expect_same_feedback(take_step(resumed, k, fluid), written[k], k);
-    if (world_rank() == 0) expect_same_snapshot((a_dir / "particles.h5").string(), (b_dir / "particles.h5").string(), k);
+    if (world_rank() == 0)
+      expect_same_snapshot((a_dir / "particles.h5").string(), (b_dir / "particles.h5").string(), k);
   }
   MPI_Barrier(MPI_COMM_WORLD);
   if (world_rank() == 0) {
@@ -114,9 +115,10 @@ TEST(NodeCheckpointMpi, RefusesACheckpointWrittenOnAnotherNumberOfRanks) {
     ParticleNode node(scene, mesh, dir.string(), MPI_COMM_WORLD, 1);
     ADD_FAILURE() << "resumed on 2 ranks from a checkpoint of 1";
   } catch (const CheckpointError& e) {
-    EXPECT_NE(std::string(e.what()).find("cannot resume from step 1: it was written by 1 MPI ranks, this node runs on 2 "
-                                         "(resume with --ranks 1)"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("cannot resume from step 1: it was written by 1 MPI ranks, this node runs on 2 "
+                                   "(resume with --ranks 1)"),
+        std::string::npos)
         << e.what();
   }
   MPI_Barrier(MPI_COMM_WORLD);

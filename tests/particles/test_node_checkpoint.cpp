@@ -55,9 +55,10 @@ TEST_P(NodeCheckpointDrag, ResumedNodeGoesOnBitForBitAsTheNodeThatWroteIt) {
   }
   for (std::size_t i = 0; i + 2 < state.wall_history.size(); i += 3)
     wall_contacts += state.wall_history[i] != 0 || state.wall_history[i + 1] != 0 || state.wall_history[i + 2] != 0;
-  std::printf("[ info ] %zu particles; at step %ld: %ld pair contacts and %ld wall contacts with tangential history; "
-              "%ld, %ld particles crossed a periodic end by steps %ld, %ld\n",
-              state.tag.size(), K, pair_contacts / 2, wall_contacts, crossed(a_h5, K), crossed(a_h5, K + N), K, K + N);
+  std::printf(
+      "[ info ] %zu particles; at step %ld: %ld pair contacts and %ld wall contacts with tangential history; "
+      "%ld, %ld particles crossed a periodic end by steps %ld, %ld\n",
+      state.tag.size(), K, pair_contacts / 2, wall_contacts, crossed(a_h5, K), crossed(a_h5, K + N), K, K + N);
   EXPECT_GT(pair_contacts, 0);
   EXPECT_GT(wall_contacts, 0);
   EXPECT_GT(crossed(a_h5, K + N), crossed(a_h5, K));
@@ -119,9 +120,10 @@ TEST(NodeCheckpoint, WritingACheckpointChangesTheRunOnlyByRoundOff) {
     const std::vector<double>& sc = without[k].source_explicit;
     worst_s = std::max(worst_s, max_difference(sa, sc) / largest(sc));
   }
-  std::printf("[ info ] with a checkpoint at step %ld against without, over steps %ld..%ld: positions %.2e L, "
-              "velocities %.2e, explicit sources %.2e of the largest\n",
-              K, K + 1, K + N, worst_x, worst_v, worst_s);
+  std::printf(
+      "[ info ] with a checkpoint at step %ld against without, over steps %ld..%ld: positions %.2e L, "
+      "velocities %.2e, explicit sources %.2e of the largest\n",
+      K, K + 1, K + N, worst_x, worst_v, worst_s);
   EXPECT_LT(worst_x, 1e-12);
   EXPECT_LT(worst_v, 1e-12);
   EXPECT_LT(worst_s, 1e-12);

@@ -60,9 +60,11 @@ TEST(OblateDrag, StokesLimitInterpolatesBroadsideAndEdgewise) {
   EXPECT_DOUBLE_EQ(drag.coefficient(at_incidence(0.3)), drag.coefficient(at_incidence(0.3 + kPi)));
   // Matches the printed C_D at Re = 0.5: |F| = C_D 1/2 rho u^2 (pi/4) d^2.
   const double re = 0.5, u = re * kNu / kD;
-  const double cd0 = 24 / re * (oblate_k0(kLambda) + 0.15 * std::pow(kLambda, 95.91) * std::pow(re, 0.687) +
-                                0.2927 * std::pow(1 - kLambda, 0.4374) * std::pow(re, 0.7512));
-  EXPECT_NEAR(drag.coefficient(at_incidence(0, u)) * u, cd0 * 0.5 * 1025 * u * u * kPi / 4 * kD * kD, 1e-9 * cd0 * u * u);
+  const double cd0 = 24 / re *
+                     (oblate_k0(kLambda) + 0.15 * std::pow(kLambda, 95.91) * std::pow(re, 0.687) +
+                      0.2927 * std::pow(1 - kLambda, 0.4374) * std::pow(re, 0.7512));
+  EXPECT_NEAR(drag.coefficient(at_incidence(0, u)) * u, cd0 * 0.5 * 1025 * u * u * kPi / 4 * kD * kD,
+              1e-9 * cd0 * u * u);
   // Finite at zero slip, force -> 0.
   EXPECT_TRUE(std::isfinite(drag.coefficient(at_incidence(0.4, 0.0))));
 }
@@ -74,9 +76,9 @@ TEST(OblateLift, VanishesBroadsideAndEdgewiseAndFlipsWithTheAngle) {
   for (double phi : {0.2, 0.6, 1.0, 1.4}) {
     const Vec3 up = lift.force(at_incidence(phi)), down = lift.force(at_incidence(-phi));
     EXPECT_GT(up.norm(), 0) << phi;
-    EXPECT_NEAR(up.dot(Vec3(1, 0, 0)), 0.0, 1e-12 * up.norm());        // normal to u_r
+    EXPECT_NEAR(up.dot(Vec3(1, 0, 0)), 0.0, 1e-12 * up.norm());              // normal to u_r
     EXPECT_GT(up.y(), 0) << "lift toward the side n leans to, phi " << phi;  // in the plane of u_r and n
-    EXPECT_NEAR((up + down).norm(), 0.0, 1e-12 * up.norm()) << phi;    // phi -> -phi flips it
+    EXPECT_NEAR((up + down).norm(), 0.0, 1e-12 * up.norm()) << phi;          // phi -> -phi flips it
     EXPECT_NEAR((lift.force(at_incidence(phi + kPi)) - up).norm(), 0.0, 1e-12 * up.norm());  // -n: same body
   }
   // Re -> 0: the normal part of the Stokes resistance tensor,
@@ -102,8 +104,8 @@ TEST(OblateTorque, VanishesBroadsideAndEdgewiseFlipsAndTurnsThePlateletBroadside
     EXPECT_GT(std::abs(n_after.dot(e)), std::abs(n.dot(e))) << "phi " << phi;
     // Magnitude as printed: C_T 1/2 rho u^2 (pi/8) d^3.
     const double re = kD * 1e-4 / kNu;
-    const double ct = 1.85 * std::pow((1 - kLambda) / kLambda, 0.832) / std::pow(re, 0.146) *
-                      std::abs(std::sin(phi) * std::cos(phi));
+    const double ct =
+        1.85 * std::pow((1 - kLambda) / kLambda, 0.832) / std::pow(re, 0.146) * std::abs(std::sin(phi) * std::cos(phi));
     EXPECT_NEAR(t.norm(), ct * 0.5 * 1025 * 1e-8 * kPi / 8 * kD * kD * kD, 1e-9 * t.norm());
   }
 }

@@ -74,8 +74,8 @@ TEST(Orientation, TorqueFreeTopPrecessesAsTheAnalyticSolution) {
   const long steps = 100000;
   const double t = steps * kDt;  // 20 ms: ~190 precession periods
   const Vec3 n_exact = rotate(symmetry_axis(kQ0), L.normalized(), L.norm() / i1 * t);
-  const std::complex<double> w_perp = std::complex<double>(kOmegaBody0.x(), kOmegaBody0.y()) *
-                                      std::exp(std::complex<double>(0, big_omega * t));
+  const std::complex<double> w_perp =
+      std::complex<double>(kOmegaBody0.x(), kOmegaBody0.y()) * std::exp(std::complex<double>(0, big_omega * t));
   const Vec3 wb_exact(w_perp.real(), w_perp.imag(), kOmegaBody0.z());
 
   const Final s = run("splitting", kNoTorque, kDt, steps);
@@ -83,9 +83,10 @@ TEST(Orientation, TorqueFreeTopPrecessesAsTheAnalyticSolution) {
   const double w_err = ((s.q.conjugate() * s.w) - wb_exact).norm() / kOmegaBody0.norm();
   const Final e = run("euler", kNoTorque, kDt, steps);
   const double n_err_euler = (symmetry_axis(e.q) - n_exact).norm();
-  std::printf("[ info ] torque-free top, 1e5 steps of omega dt = %.3g: axis error splitting %.2e, euler %.2e; "
-              "body omega error splitting %.2e\n",
-              kOmegaBody0.norm() * kDt, n_err, n_err_euler, w_err);
+  std::printf(
+      "[ info ] torque-free top, 1e5 steps of omega dt = %.3g: axis error splitting %.2e, euler %.2e; "
+      "body omega error splitting %.2e\n",
+      kOmegaBody0.norm() * kDt, n_err, n_err_euler, w_err);
   EXPECT_LT(n_err, 1e-9);
   EXPECT_LT(w_err, 1e-9);
   EXPECT_GT(n_err_euler, 1e-3);  // the paper's explicit Euler drifts visibly at this step

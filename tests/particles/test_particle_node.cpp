@@ -46,9 +46,9 @@ TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   fb = node.feedback();
   std::map<std::string, double> diag;
   for (const auto& [name, value] : node.diagnostics()) diag[name] = value;
-  for (const char* name : {"particles", "dem_substeps", "total_force_x_N", "total_force_y_N", "total_force_z_N",
-                           "core_particle_axial_velocity_m_s", "core_fluid_axial_velocity_m_s", "max_overlap",
-                           "particles_outside_mesh"})
+  for (const char* name :
+       {"particles", "dem_substeps", "total_force_x_N", "total_force_y_N", "total_force_z_N",
+        "core_particle_axial_velocity_m_s", "core_fluid_axial_velocity_m_s", "max_overlap", "particles_outside_mesh"})
     EXPECT_TRUE(diag.count(name)) << name;
   EXPECT_EQ(diag["particles"], rbc_count(scene) + platelet_count(scene));
   EXPECT_EQ(diag["particles_outside_mesh"], 0);
@@ -58,8 +58,8 @@ TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   // The fluid gets back minus the particle force: sum over cells of (S - K u_c) V = -F.
   double back = 0;
   for (int c = 0; c < fb.n_cells; ++c)
-    back += (hemo::source_of(fb, c)[2] - fb.drag_coefficient[c] * hemo::velocity_of(fluid, c)[2]) *
-            mesh.cell_volumes[c];
+    back +=
+        (hemo::source_of(fb, c)[2] - fb.drag_coefficient[c] * hemo::velocity_of(fluid, c)[2]) * mesh.cell_volumes[c];
   EXPECT_NEAR(back, -fb.total_particle_force[2], 1e-12 * std::abs(diag["core_fluid_axial_velocity_m_s"] * 1e-6));
 
   EXPECT_EQ(list_snapshots((dir / "particles.h5").string()), (std::vector<long>{0, 5}));

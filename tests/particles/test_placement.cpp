@@ -30,8 +30,8 @@ hemo::Scene calibration_scene() {
 
 TEST(Placement, CountsFromHematocritAndNumberDensity) {
   const auto s = calibration_scene();
-  EXPECT_EQ(rbc_count(s), 7854);      // 0.15 x 4.712e-12 m^3 / 90 um^3 (docs/design.md "Speed and accuracy": 7,850)
-  EXPECT_EQ(platelet_count(s), 1414); // 3e14 / m^3 x 4.712e-12 m^3
+  EXPECT_EQ(rbc_count(s), 7854);       // 0.15 x 4.712e-12 m^3 / 90 um^3 (docs/design.md "Speed and accuracy": 7,850)
+  EXPECT_EQ(platelet_count(s), 1414);  // 3e14 / m^3 x 4.712e-12 m^3
   auto none = s;
   none.platelet.present = false;
   EXPECT_EQ(platelet_count(none), 0);

@@ -83,9 +83,15 @@ TEST(SingleParticle, TerminalSlipUnderAConstantForceMatchesEachDragLaw) {
   };
   const Vec3 z = Vec3::UnitZ(), x = Vec3::UnitX();
   const std::vector<Case> cases = {
-      {rbc("stokes"), 1e-3, x},          {rbc("rbc_fit"), 1e-3, x},           {rbc("rbc_fit"), 0.4, x},
-      {rbc("rbc_fit"), 0.7, x},          {platelet("schiller_naumann"), 0.1, x}, {platelet("schiller_naumann"), 5, x},
-      {platelet("oblate"), 0.01, z},     {platelet("oblate"), 0.01, x},       {platelet("oblate"), 2, z},
+      {rbc("stokes"), 1e-3, x},
+      {rbc("rbc_fit"), 1e-3, x},
+      {rbc("rbc_fit"), 0.4, x},
+      {rbc("rbc_fit"), 0.7, x},
+      {platelet("schiller_naumann"), 0.1, x},
+      {platelet("schiller_naumann"), 5, x},
+      {platelet("oblate"), 0.01, z},
+      {platelet("oblate"), 0.01, x},
+      {platelet("oblate"), 2, z},
   };
   const double nu = 1.2e-3 / 1025;
   for (const auto& c : cases) {
@@ -106,8 +112,7 @@ TEST(SingleParticle, TerminalSlipUnderAConstantForceMatchesEachDragLaw) {
     const double hi = std::min(2 * u_star, 0.85 * nu / c.species.diameter / (c.species.drag == "rbc_fit" ? 1 : 1e-3));
     EXPECT_NEAR(terminal_speed(forces, c.direction, z, force, hi), u_star, 1e-9 * u_star);
     std::printf("[ info ] %-16s Re %-5g terminal slip %.6g m/s under %.4g N (Stokes would give %.6g m/s)\n",
-                c.species.drag.c_str(), c.reynolds, u_star, force,
-                force / (3 * kPi * 1.2e-3 * c.species.diameter));
+                c.species.drag.c_str(), c.reynolds, u_star, force, force / (3 * kPi * 1.2e-3 * c.species.diameter));
   }
 }
 
@@ -150,8 +155,9 @@ TEST(SingleParticle, RedCellMigratesTowardTheAxisAtTheQuasiSteadyRate) {
   const double dt = 1e-6;      // 2 drag relaxation times
   for (int n = 0; n < static_cast<int>(t_end / dt + 0.5); ++n) stepper.step(p, dt);
   const double drift = 0.8 * kR - p.x.x();
-  std::printf("[ info ] RBC from 0.8 R: %.3f um toward the axis in %.0f ms (quasi-steady %.3f um), initial rate %.1f um/s\n",
-              drift * 1e6, t_end * 1e3, (0.8 * kR - r_qs) * 1e6, -rate(0.8 * kR) * 1e6);
+  std::printf(
+      "[ info ] RBC from 0.8 R: %.3f um toward the axis in %.0f ms (quasi-steady %.3f um), initial rate %.1f um/s\n",
+      drift * 1e6, t_end * 1e3, (0.8 * kR - r_qs) * 1e6, -rate(0.8 * kR) * 1e6);
   EXPECT_GT(drift, 0.5e-6);
   EXPECT_NEAR(drift, 0.8 * kR - r_qs, 0.01 * drift);
   EXPECT_NEAR(p.x.y(), 0, 1e-15);

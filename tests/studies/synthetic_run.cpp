@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <hdf5.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -13,7 +14,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-#include <unistd.h>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -22,7 +22,8 @@ namespace hemo::studytest {
 
 namespace {
 
-void dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, hsize_t rows, hsize_t cols, const void* data) {
+void dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, hsize_t rows, hsize_t cols,
+             const void* data) {
   const hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols > 1 ? 2 : 1, dims, nullptr);
   const hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
@@ -98,7 +99,8 @@ void write_synthetic_run(const std::string& dir, const std::string& scene_path, 
   for (long k = 1; k <= last; ++k) {
     const double t = k * spec.dt_s / steps_per_snapshot;
     m << fmt::format("{},{:.9g},fluid,mean_velocity_m_s,{:.9g}\n", k, t, poiseuille_mean / 1.3);
-    m << fmt::format("{},{:.9g},fluid,wall_shear_stress_Pa,{:.9g}\n", k, t, scene.plasma.viscosity * scene.driving.wall_shear_rate);
+    m << fmt::format("{},{:.9g},fluid,wall_shear_stress_Pa,{:.9g}\n", k, t,
+                     scene.plasma.viscosity * scene.driving.wall_shear_rate);
   }
 }
 

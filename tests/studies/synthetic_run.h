@@ -8,11 +8,11 @@
 namespace hemo::studytest {
 
 struct SyntheticRun {
-  int snapshots = 6;         // at t = 0, dt, 2 dt, ...
+  int snapshots = 6;  // at t = 0, dt, 2 dt, ...
   double dt_s = 0.01;
   int rbcs = 60;
   int platelets = 20;
-  double drift = 0.2;        // platelets move this fraction of the way to the wall by the end
+  double drift = 0.2;  // platelets move this fraction of the way to the wall by the end
   unsigned seed = 1;
 };
 

@@ -41,7 +41,8 @@ std::vector<std::string> split_csv_line(const std::string& line) {
 }
 
 // summary.csv as one map column -> cell per row.
-std::vector<std::map<std::string, std::string>> read_summary(const std::string& path, std::vector<std::string>* header) {
+std::vector<std::map<std::string, std::string>> read_summary(const std::string& path,
+                                                             std::vector<std::string>* header) {
   std::istringstream in(read_text(path));
   std::string line;
   std::getline(in, line);
@@ -69,7 +70,8 @@ struct AnalysedStudy {
   std::string out;
   AnalysedStudy() {
     write_text(dir.str() + "/base.toml", kSmallBaseScene);
-    write_text(dir.str() + "/ht.toml", "base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\n");
+    write_text(dir.str() + "/ht.toml",
+               "base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\n");
     StudyOptions opt;
     opt.study = dir.str() + "/ht.toml";
     opt.out = out = dir.str() + "/out";
@@ -101,7 +103,8 @@ TEST(Observables, NamesPathsAndLabelsAreUnique) {
     EXPECT_NE(o.value, nullptr) << o.name;
   }
   // The study's own columns are not observables' names.
-  for (const char* own : {"index", "label", "swept_value", "status", "wall_s", "run_dir"}) EXPECT_EQ(names.count(own), 0u) << own;
+  for (const char* own : {"index", "label", "swept_value", "status", "wall_s", "run_dir"})
+    EXPECT_EQ(names.count(own), 0u) << own;
 }
 
 TEST(Observables, EveryDeclaredObservableReachesTableJsonSummaryAndReport) {

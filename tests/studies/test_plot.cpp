@@ -18,8 +18,10 @@ namespace {
 
 std::string scene_with_shear(const std::string& dir, double shear) {
   const std::string path = dir + "/scene-" + std::to_string(static_cast<int>(shear)) + ".toml";
-  write_text(path, "[vessel]\ndiameter_um = 40\nlength_um = 60\n[mesh]\ncore_cells = 2\nring_cells = 2\naxial_cells = 6\n[driving]\nwall_shear_rate_per_s = " + std::to_string(shear) +
-                       "\n[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
+  write_text(path,
+             "[vessel]\ndiameter_um = 40\nlength_um = 60\n[mesh]\ncore_cells = 2\nring_cells = 2\naxial_cells = "
+             "6\n[driving]\nwall_shear_rate_per_s = " +
+                 std::to_string(shear) + "\n[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
   return path;
 }
 

@@ -17,7 +17,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
 // Counts calls per run label and writes a synthetic run, or fails for the labels in `fail`.
 struct FakeRunner {
   std::map<std::string, int> calls;
@@ -188,7 +187,8 @@ TEST(StudyReport, TableOfObservablesSummaryAndFigures) {
   EXPECT_NE(report.find("# Study: ht"), std::string::npos) << report;
   EXPECT_NE(report.find("nothing in particular"), std::string::npos);
   EXPECT_NE(report.find("| rbc.hematocrit | run | t end (s) |"), std::string::npos) << report;
-  for (const char* row : {"| 0.1 | 01-a |", "| 0.15 | 02-b |", "| 0.2 | 03-c |"}) EXPECT_NE(report.find(row), std::string::npos) << row;
+  for (const char* row : {"| 0.1 | 01-a |", "| 0.15 | 02-b |", "| 0.2 | 03-c |"})
+    EXPECT_NE(report.find(row), std::string::npos) << row;
   EXPECT_NE(report.find("full size"), std::string::npos);
   // Figures: the comparisons first, then each run's; every one linked relative to the report.
   for (const char* f : {"figures/sweep.png", "figures/compare_profiles.png", "figures/compare_msd.png",

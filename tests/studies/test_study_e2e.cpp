@@ -83,7 +83,8 @@ TEST(ReducedStudy, HematocritEndToEnd) {
   EXPECT_NE(report.find("| rbc.hematocrit | run |"), std::string::npos) << report;
   for (const char* row : {"| 0.1 | 01-Ht10 |", "| 0.15 | 02-Ht15 |", "| 0.2 | 03-Ht20 |"})
     EXPECT_NE(report.find(row), std::string::npos) << row << "\n" << report;
-  for (const char* f : {"sweep.png", "compare_profiles.png", "compare_msd.png", "01-Ht10_profiles.png", "03-Ht20_msd.png"}) {
+  for (const char* f :
+       {"sweep.png", "compare_profiles.png", "compare_msd.png", "01-Ht10_profiles.png", "03-Ht20_msd.png"}) {
     EXPECT_NE(report.find(std::string("](figures/") + f + ")"), std::string::npos) << f;
     ASSERT_TRUE(fs::exists(out + "/figures/" + f)) << f;
     EXPECT_GT(fs::file_size(out + "/figures/" + f), 1000u) << f;

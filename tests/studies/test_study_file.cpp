@@ -16,7 +16,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-
 // A scratch folder with base.toml and a study file of the given text.
 struct Fixture {
   ScratchDir dir;
@@ -41,7 +40,8 @@ std::string error_of(const std::function<void()>& f) {
 }  // namespace
 
 TEST(StudyFile, ParsesOneSweptKey) {
-  Fixture fx("shear", "base = \"base.toml\"\n[sweep]\nkey = \"driving.wall_shear_rate_per_s\"\nvalues = [150, 799.5, 1650]\n");
+  Fixture fx("shear",
+             "base = \"base.toml\"\n[sweep]\nkey = \"driving.wall_shear_rate_per_s\"\nvalues = [150, 799.5, 1650]\n");
   const Study s = load_study(fx.study);
   EXPECT_EQ(s.name, "shear");  // the file's stem
   EXPECT_EQ(s.base, fs::path(fx.dir.str() + "/base.toml").lexically_normal().string());
@@ -53,7 +53,9 @@ TEST(StudyFile, ParsesOneSweptKey) {
 }
 
 TEST(StudyFile, EachValueLandsOnTheSweptKeyOnly) {
-  Fixture fx("shear", "name = \"sr\"\nbase = \"base.toml\"\n[sweep]\nkey = \"driving.wall_shear_rate_per_s\"\nvalues = [150, 1650]\n");
+  Fixture fx(
+      "shear",
+      "name = \"sr\"\nbase = \"base.toml\"\n[sweep]\nkey = \"driving.wall_shear_rate_per_s\"\nvalues = [150, 1650]\n");
   const auto cases = expand_study(load_study(fx.study), fx.scenes(), nullptr);
   ASSERT_EQ(cases.size(), 2u);
   const double want[] = {150, 1650};
@@ -125,8 +127,10 @@ TEST(StudyFile, MalformedStudyFilesAreRefusedInOneLine) {
       {"base = \"base.toml\"\n[sweep]\nkey = \"a.b\"\nkeys = [\"a.b\"]\nvalues = [1]\n", "give exactly one of key"},
       {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = []\n", "sweep.values: missing or empty"},
       {"base = \"base.toml\"\n[sweep]\nkeys = [\"a.b\", \"c.d\"]\nvalues = [[1]]\n", "expected an array of 2 values"},
-      {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\nlabels = [\"x\"]\n", "1 labels for 2 values"},
-      {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\nlabels = [\"x\", \"x\"]\n", "same label"},
+      {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\nlabels = [\"x\"]\n",
+       "1 labels for 2 values"},
+      {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.2]\nlabels = [\"x\", \"x\"]\n",
+       "same label"},
       {"base = \"base.toml\"\nswept = 1\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1]\n", "unknown key 'swept'"},
       {"base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalue = [0.1]\n", "sweep.value: unknown key"},
       {"base = \"base.toml\"\n[sweep]\nkey = \"run.name\"\nvalues = [\"x\"]\n", "cannot be swept"},
@@ -199,7 +203,8 @@ TEST(StudyFile, ReducedRefusesToSweepAKeyItSets) {
 
 TEST(StudyFile, SetDottedRefusesToDescendIntoAValue) {
   toml::table t = toml::parse("[vessel]\ndiameter_um = 40\n");
-  EXPECT_NE(error_of([&] { set_dotted(t, "vessel.diameter_um.x", "1"); }).find("is a value, not a table"), std::string::npos);
+  EXPECT_NE(error_of([&] { set_dotted(t, "vessel.diameter_um.x", "1"); }).find("is a value, not a table"),
+            std::string::npos);
   set_dotted(t, "mesh.core_cells", "3");
   EXPECT_EQ(t.at_path("mesh.core_cells").value<int64_t>(), 3);
 }
@@ -243,5 +248,6 @@ TEST(ShippedStudies, CalibrationSceneIsThePapersCase) {
 }
 
 TEST(StudyFile, ResolvesNamesAndSaysWhereItLooked) {
-  EXPECT_NE(error_of([] { resolve_study("no-such-study"); }).find("scenes/studies/no-such-study.toml"), std::string::npos);
+  EXPECT_NE(error_of([] { resolve_study("no-such-study"); }).find("scenes/studies/no-such-study.toml"),
+            std::string::npos);
 }

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_command.h"
 
+#include <sys/wait.h>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -8,7 +9,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-#include <sys/wait.h>
 
 namespace hemo::test {
 

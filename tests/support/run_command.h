@@ -18,8 +18,8 @@ struct CommandResult {
 // Runs a shell command, capturing its output.
 CommandResult run(const std::string& command);
 
-std::string bin(const std::string& program);                // a built program
-std::string fresh_run_dir(const std::string& name);         // an unused path under the temp dir
+std::string bin(const std::string& program);         // a built program
+std::string fresh_run_dir(const std::string& name);  // an unused path under the temp dir
 
 // metrics.csv of a run: (node, name) -> step -> value
 using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;

@@ -9,10 +9,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#define HEMO_DRAG_CLOSURES(X)                 \
-  X("stokes", StokesDrag)                     \
-  X("rbc_fit", RbcFitDrag)                    \
-  X("oblate", OblateDrag)                     \
+#define HEMO_DRAG_CLOSURES(X) \
+  X("stokes", StokesDrag)     \
+  X("rbc_fit", RbcFitDrag)    \
+  X("oblate", OblateDrag)     \
   X("schiller_naumann", SchillerNaumannDrag)
 
 #define HEMO_LIFT_CLOSURES(X) \
