@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 namespace hemo::test {
 
@@ -27,6 +28,18 @@ std::string small_scene_text(long coupling_steps, const std::string& run_keys, c
   s.replace(s.find(steps), steps.size(), "coupling_steps = " + std::to_string(coupling_steps));
   s.replace(s.find("[run]"), 5, "[run]\n" + run_keys);
   return s + "\n" + more;
+}
+
+bool wait_until_stepping(const std::string& dir, double timeout_s) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < until) {
+    std::ifstream m(dir + "/metrics.csv");
+    int lines = 0;
+    for (std::string line; std::getline(m, line) && lines <= 100;) ++lines;
+    if (lines > 100) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
 }
 
 std::vector<std::string> snapshot_names(const std::string& h5_path) {

@@ -16,6 +16,10 @@ std::string scene(const std::string& name);  // path of a test scene
 // [run] table and `more` (whole tables) appended.
 std::string small_scene_text(long coupling_steps, const std::string& run_keys = "", const std::string& more = "");
 
+// Waits (up to `timeout_s`) until the run in `dir` is stepping: both nodes have reported steps
+// in metrics.csv (about 60 rows a step), not merely started. True if it got there.
+bool wait_until_stepping(const std::string& dir, double timeout_s = 120);
+
 // One particle snapshot of particles.h5.
 struct Snapshot {
   double time_s = 0;

@@ -158,8 +158,8 @@ TEST(Monitor, ShowsTheTrafficOfARunningRun) {
   std::ofstream(dir + ".toml") << text;
   auto result =
       std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
-  for (int i = 0; i < 600 && !std::filesystem::exists(dir + "/metrics.csv"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // Stepping, not merely started: a particle node still starting up has nothing to count yet.
+  ASSERT_TRUE(wait_until_stepping(dir)) << "the run did not start stepping";
   const auto mon = run(bin("hemocosim") + " monitor " + dir + " --duration 4 --plain");
   long pid = 0;
   std::ifstream(dir + "/coordinator.pid") >> pid;

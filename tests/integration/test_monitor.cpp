@@ -71,13 +71,7 @@ struct LiveRun {
     std::ofstream(dir + ".toml") << small_scene_text(steps, run_keys);
     result =
         std::async(std::launch::async, [d = dir] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d); });
-    for (int i = 0; i < 1200; ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      std::ifstream m(dir + "/metrics.csv");
-      int lines = 0;
-      for (std::string line; std::getline(m, line);) ++lines;
-      if (lines > 100) break;
-    }
+    wait_until_stepping(dir);
   }
   // A test that stops early must not leave the run going (nor wait for its 100,000 steps).
   ~LiveRun() {
