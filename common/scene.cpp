@@ -654,7 +654,7 @@ static void read_hosts(Reader& r, Scene& s) {
       r.check(false, key, e.what());
     }
   }
-  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local"});
+  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
   r.read("hosts.launch_command", h.launch_command);
   try {
     check_launch_command(h.launch_command);

@@ -170,9 +170,13 @@ struct RunSettings {
 struct HostPlacement {
   std::string fluid;
   std::string particles;
-  std::string launcher = "ssh";  // "ssh": started on its first host by launch_command; "local": here
+  // "ssh": started on its first host by launch_command; "local": here; "slurm": a job step of
+  // the Slurm allocation the coordinator runs in (docs/slurm.md)
+  std::string launcher = "ssh";
   std::string launch_command = kDefaultLaunchCommand;
   bool any() const { return !fluid.empty() || !particles.empty(); }
+  // Whether the nodes may run on other hosts than the coordinator's (the bus must reach them).
+  bool across_hosts() const { return any() || launcher == "slurm"; }
 };
 
 struct Scene {
