@@ -28,9 +28,10 @@ int main(int argc, char** argv) {
       ->add_option("--stop-after-step", run.stop_after_step,
                    "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
       ->check(CLI::PositiveNumber);
-  auto* fluid_hosts = run_cmd->add_option("--fluid-hosts", run.fluid_hosts,
-                      "Hosts of the fluid node's MPI job and ranks on each, e.g. a or a:2,b:2; its ranks are their sum "
-                      "(overrides hosts.fluid; docs/hosts.md)");
+  auto* fluid_hosts = run_cmd->add_option(
+      "--fluid-hosts", run.fluid_hosts,
+      "Hosts of the fluid node's MPI job and ranks on each, e.g. a or a:2,b:2; its ranks are their sum "
+      "(overrides hosts.fluid; docs/hosts.md)");
   auto* particle_hosts = run_cmd->add_option(
       "--particle-hosts", run.particle_hosts,
       "Hosts of the particle node's MPI job and ranks on each, e.g. b:2,c:2 (overrides hosts.particles)");

@@ -110,9 +110,14 @@ HostLauncher::HostLauncher(HostPlacement placement, std::string run_dir)
 std::vector<std::string> HostLauncher::check_command(const std::string& host) const {
   if (placement_.launcher == "slurm") {
     const char* srun = std::getenv("HEMOCOSIM_SRUN");
-    return {srun != nullptr && *srun != '\0' ? srun : "srun", "--overlap",     "--nodes=1",
-            "--ntasks=1",                                     "--nodelist=" + host, "sh",
-            "-c",                                             remote_check_command(run_dir_)};
+    return {srun != nullptr && *srun != '\0' ? srun : "srun",
+            "--overlap",
+            "--nodes=1",
+            "--ntasks=1",
+            "--nodelist=" + host,
+            "sh",
+            "-c",
+            remote_check_command(run_dir_)};
   }
   return expand_launch_command(
       placement_.launch_command,
@@ -155,8 +160,8 @@ std::unique_ptr<NodeHandle> HostLauncher::launch(const std::string& node, const 
                                                  const std::string& log_path) {
   const auto hosts = parse_host_list(node == "fluid" ? placement_.fluid : placement_.particles);
   if (placement_.launcher == "slurm") {
-    std::ofstream(log_path, std::ios::app) << "hemocosim: starting the " << node << " node as a Slurm job step on "
-                                           << host_list_text(hosts) << "\n";
+    std::ofstream(log_path, std::ios::app)
+        << "hemocosim: starting the " << node << " node as a Slurm job step on " << host_list_text(hosts) << "\n";
     return std::make_unique<StepHandle>(node, argv, log_path);
   }
   if (hosts.empty() || placement_.launcher == "local") return ProcessLauncher().launch(node, argv, log_path);

@@ -53,8 +53,8 @@ TEST(MpiJob, MpirunOnHostsPlacesExactlyThereWithoutOversubscribing) {
   job.hosts = parse_host_list("b:2,c:2");
   const FakeEnv env{{{"HEMOCOSIM_MPIRUN", "/opt/mpi/bin/mpirun"}, {"HEMOCOSIM_MPIRUN_ARGS", " --mca  btl tcp,self "}}};
   const auto c = mpi_job_command(job, {"/bin/node"}, env.lookup(), false);
-  const std::vector<std::string> want = {"/opt/mpi/bin/mpirun", "-np", "4", "--host", "b:2,c:2", "--mca", "btl",
-                                         "tcp,self", "/bin/node"};
+  const std::vector<std::string> want = {
+      "/opt/mpi/bin/mpirun", "-np", "4", "--host", "b:2,c:2", "--mca", "btl", "tcp,self", "/bin/node"};
   EXPECT_EQ(c.argv, want);
   EXPECT_FALSE(var(c, "OMPI_MCA_rmaps_base_oversubscribe"));
 }
@@ -105,7 +105,8 @@ TEST(MpiJob, AnAllocationIsSharedFluidFirstParticlesOnTheRest) {
   // Several: the fluid on the first, the particles' ranks in blocks over the others.
   EXPECT_EQ(split_allocation({"n1", "n2", "n3"}, 2, 5), (std::pair<std::string, std::string>{"n1:2", "n2:3,n3:2"}));
   // Fewer particle ranks than nodes: the spare nodes get none.
-  EXPECT_EQ(split_allocation({"n1", "n2", "n3", "n4"}, 1, 2), (std::pair<std::string, std::string>{"n1:1", "n2:1,n3:1"}));
+  EXPECT_EQ(split_allocation({"n1", "n2", "n3", "n4"}, 1, 2),
+            (std::pair<std::string, std::string>{"n1:1", "n2:1,n3:1"}));
   // The lists give back the ranks asked for.
   const auto [fluid, particles] = split_allocation({"a", "b", "c", "d"}, 3, 7);
   EXPECT_EQ(total_slots(parse_host_list(fluid)), 3);

@@ -86,13 +86,15 @@ int main(int argc, char** argv) {
         std::chrono::duration<double>(t1 - t0).count(), run_s, 1e9 * run_s / particle_steps,
         std::chrono::duration<double>(t3 - t2).count(), run_s / (steps * interval) * 2 / 60);
     const auto ns = [&](double seconds) { return 1e9 * seconds / particle_steps; };
-    std::printf("in %d runs of %d steps: callback %.1f ns, LIGGGHTS %.1f ns per particle-step; %ld neighbour-list "
-                "builds\n",
-                steps, timing.substeps, ns(intervals_callback_s), ns(run_s - intervals_callback_s), intervals_builds);
-    std::printf("in one run of %d steps: %.2f s, %.1f ns per particle-step: callback %.1f ns, LIGGGHTS %.1f ns; %ld "
-                "neighbour-list builds\n",
-                steps * timing.substeps, one_run_s, ns(one_run_s), ns(one_run_callback_s),
-                ns(one_run_s - one_run_callback_s), one_run_builds);
+    std::printf(
+        "in %d runs of %d steps: callback %.1f ns, LIGGGHTS %.1f ns per particle-step; %ld neighbour-list "
+        "builds\n",
+        steps, timing.substeps, ns(intervals_callback_s), ns(run_s - intervals_callback_s), intervals_builds);
+    std::printf(
+        "in one run of %d steps: %.2f s, %.1f ns per particle-step: callback %.1f ns, LIGGGHTS %.1f ns; %ld "
+        "neighbour-list builds\n",
+        steps * timing.substeps, one_run_s, ns(one_run_s), ns(one_run_callback_s), ns(one_run_s - one_run_callback_s),
+        one_run_builds);
     std::printf("runs of %d steps / one run = %.2f; DEM / LIGGGHTS alone (one run) = %.2f\n", timing.substeps,
                 run_s / one_run_s, run_s / (one_run_s - one_run_callback_s));
     std::printf("core particle v_z %.6g m/s, fluid %.6g m/s; max overlap %.3g; outside %ld\n",
