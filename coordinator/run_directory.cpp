@@ -73,6 +73,13 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
     p.launcher = (*hosts)["launcher"].value_or(p.launcher);
     p.launch_command = (*hosts)["launch_command"].value_or(p.launch_command);
   }
+  if (const auto* bus = info["bus"].as_table()) {
+    auto& p = dir.placement;
+    p.transport = (*bus)["transport"].value_or(p.transport);
+    p.relay_address = (*bus)["relay_address"].value_or(p.relay_address);
+    p.relay_port = (*bus)["relay_port"].value_or(p.relay_port);
+    dir.transport_recorded = true;
+  }
   return {dir, ctx};
 }
 
@@ -93,6 +100,24 @@ void RunDirectory::record_placement(const HostPlacement& hosts) {
                                              {"particles", hosts.particles},
                                              {"launcher", hosts.launcher},
                                              {"launch_command", hosts.launch_command}});
+  std::ofstream(info_file()) << info << "\n";
+}
+
+void RunDirectory::record_transport(const HostPlacement& hosts) {
+  placement.transport = hosts.transport;
+  placement.relay_address = hosts.relay_address;
+  placement.relay_port = hosts.relay_port;
+  transport_recorded = true;
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("bus", toml::table{{"transport", hosts.transport},
+                                           {"relay_address", hosts.relay_address},
+                                           {"relay_port", hosts.relay_port}});
+  std::ofstream(info_file()) << info << "\n";
+}
+
+void RunDirectory::record_bus_url(const std::string& url) const {
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("lcm_url", url);
   std::ofstream(info_file()) << info << "\n";
 }
 

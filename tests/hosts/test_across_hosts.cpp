@@ -260,3 +260,65 @@ TEST_F(AcrossHosts, HostThatCannotBeReachedIsNamedBeforeAnyNodeStarts) {
   EXPECT_EQ(error_line(b.output).rfind("hemocosim: error: cannot reach host 10.77.0.9", 0), 0u) << b.output;
   EXPECT_FALSE(fs::exists(out + "/particles.log")) << "no node was started";
 }
+
+namespace {
+// A network without multicast: every namespace drops what arrives for 224.0.0.0/4 (from the
+// other hosts and its own loopback alike) for as long as this lives.
+struct MulticastDropped {
+  MulticastDropped() {
+    for (int i = 1; i <= 3; ++i)
+      ok &= run("ip netns exec " + ns(i) + " iptables -I INPUT -d 224.0.0.0/4 -j DROP").exit_code == 0;
+  }
+  ~MulticastDropped() {
+    for (int i = 1; i <= 3; ++i) run("ip netns exec " + ns(i) + " iptables -D INPUT -d 224.0.0.0/4 -j DROP");
+  }
+  bool ok = true;
+};
+}  // namespace
+
+// Where multicast cannot pass, the multicast run stops at start-up in one line that names the
+// TCP transport, and the same run with `--transport tcp` (the coordinator's relay in namespace 1,
+// the nodes connected to it from namespaces 1, 2 and 3) ends exactly as the one-host run on
+// multicast, also across a `hemocosim resume` (which must take the transport from run.toml: over
+// multicast it would stop at the bus check).
+TEST_F(AcrossHosts, WithoutMulticastTheTcpTransportRunsAndEqualsTheOneHostRunBitForBit) {
+  const std::string scene = scene_file("hosts-tcp-scene", 40, 10, "bus_check_s = 4\n");
+  const std::string one = fresh_run_dir("hosts-tcp-one"), multicast = fresh_run_dir("hosts-tcp-multicast"),
+                    tcp = fresh_run_dir("hosts-tcp");
+  const auto a = run(bin("hemocosim") + " run " + scene + " --out " + one + " --np-particles 2");
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+
+  MulticastDropped dropped;
+  ASSERT_TRUE(dropped.ok);
+  const auto m = run(run_across_hosts(scene, multicast));
+  EXPECT_NE(m.exit_code, 0);
+  const std::string line = error_line(m.output);
+  std::printf("%s\n", line.c_str());
+  EXPECT_EQ(line.rfind("hemocosim: error: bus check: ", 0), 0u) << m.output;
+  EXPECT_NE(line.find("--transport tcp"), std::string::npos) << line;
+  std::size_t errors = 0;
+  for (std::size_t at = 0; (at = m.output.find("hemocosim: error:", at)) != std::string::npos; ++at) ++errors;
+  EXPECT_EQ(errors, 1u) << m.output;
+
+  Watch watch(tcp);
+  const auto t = run(run_across_hosts(scene, tcp, " --transport tcp --stop-after-step 20"));
+  ASSERT_EQ(t.exit_code, 0) << t.output;
+  EXPECT_NE(t.output.find("hemocosim: bus over TCP: relay at " + ip(1) + ":"), std::string::npos) << t.output;
+  const std::string info = read_file(tcp + "/run.toml");
+  EXPECT_NE(info.find("lcm_url = 'tcpq://" + ip(1) + ":"), std::string::npos) << info;
+  EXPECT_NE(info.find("transport = 'tcp'"), std::string::npos) << info;
+  const auto r = run("ip netns exec " + ns(1) + " " + bin("hemocosim") + " resume " + tcp);
+  watch.finish();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hemocosim: bus over TCP"), std::string::npos) << r.output;
+  expect_bit_for_bit(one, tcp);
+
+  EXPECT_EQ(watch.particle_namespaces, (std::set<std::string>{ns(2), ns(3)}));
+  EXPECT_FALSE(watch.secret_on_a_command_line);
+  // The bus check passed over the relay: each node heard both other processes.
+  EXPECT_NE(read_file(tcp + "/bus-check/particles").find("host=" + ns(2) + " heard=coordinator,fluid"),
+            std::string::npos);
+  EXPECT_NE(read_file(tcp + "/bus-check/fluid").find("host=" + ns(1) + " heard=coordinator,particles"),
+            std::string::npos);
+}
