@@ -125,6 +125,7 @@ struct Relay::Impl {
   mutable std::mutex stats_mutex;
   RelayStats stats;
   std::vector<std::unique_ptr<Client>> clients;
+  std::vector<std::uint8_t> chunk = std::vector<std::uint8_t>(std::size_t{256} << 10);  // recv's buffer
 
   template <class F>
   void count(F&& f) {
@@ -265,11 +266,7 @@ struct Relay::Impl {
   void read_from(Client& c, const RelayOptions& o) {
     std::size_t got = 0;
     while (!c.closed && got < kReadBurst) {
-      const std::size_t room = std::max<std::size_t>(std::size_t{64} << 10, c.in.capacity() - c.in.size());
-      const std::size_t old = c.in.size();
-      c.in.resize(old + room);
-      const ssize_t n = ::recv(c.fd, c.in.data() + old, room, MSG_DONTWAIT);
-      c.in.resize(old + static_cast<std::size_t>(std::max<ssize_t>(n, 0)));
+      const ssize_t n = ::recv(c.fd, chunk.data(), chunk.size(), MSG_DONTWAIT);
       if (n == 0) return close_client(c);  // the client ended its connection
       if (n < 0) {
         if (errno == EINTR) continue;
@@ -277,6 +274,7 @@ struct Relay::Impl {
         break;
       }
       got += static_cast<std::size_t>(n);
+      c.in.insert(c.in.end(), chunk.begin(), chunk.begin() + n);
       std::string why;
       if (!parse(c, o, why)) return close_client(c, why);
       if (c.in_pos == c.in.size()) {
