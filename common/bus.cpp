@@ -326,6 +326,19 @@ Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::strin
   no_delay(lcm_, ctx.lcm_url);
   warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
+  // LCM's UDP provider joins the group at the first subscription and checks that a datagram it
+  // sends comes back; when it does not (multicast dropped on this host too, by a firewall), the
+  // subscription is null and LCM's C++ wrapper would hand it on (a crash in setQueueCapacity).
+  lcm_subscription_t* probe = lcm_subscribe(
+      lcm_.getUnderlyingLCM(), topic(channel::heartbeat).c_str(), +[](const lcm_recv_buf_t*, const char*, void*) {},
+      nullptr);
+  if (probe == nullptr)
+    throw std::runtime_error(fmt::format(
+        "cannot listen on the LCM bus at {}: multicast sent from this host does not come back to it (LCM's self "
+        "test: a firewall drops UDP to 224.0.0.0/4, or the route for it is wrong); where multicast cannot pass, "
+        "use the TCP transport (--transport tcp; docs/hosts.md)",
+        ctx.lcm_url));
+  lcm_unsubscribe(lcm_.getUnderlyingLCM(), probe);
   opened_us_ = wall_clock_us();
   // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
   // receipt: a burst of junk while a node computes a step would push genuine messages out
