@@ -93,6 +93,10 @@ void RunContext::add_options(CLI::App& app) {
   app.add_option(
       "--mpi-hosts", mpi_hosts,
       "Hosts and ranks on each for the node's MPI job, as mpirun --host takes them (b:2,c:2; docs/hosts.md)");
+  app.add_option("--mpi-starter", mpi_starter,
+                 "How the node's ranks start: mpirun, or srun as a step of the Slurm allocation (docs/slurm.md)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"mpirun", "srun"}));
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
   app.add_option("--resume-step", resume_step,

@@ -40,10 +40,11 @@ struct RunContext {
   int drop_every = 0;                // fault injection: drop every n-th received message (0: none)
   int ranks = 1;                     // MPI ranks the node should run on (it launches them itself)
   std::string mpi_hosts;             // where Open MPI places them ("b:2,c:2"; empty: here)
+  std::string mpi_starter = "mpirun";  // or "srun": the ranks as a Slurm job step (common/mpi_job.h)
   long resume_step = 0;              // > 0: start from the run's checkpoint of this step
 
   void add_options(
-      CLI::App& app);  // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --drop-every --resume-step
+      CLI::App& app);  // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --mpi-starter --drop-every --resume-step
   void load_secret();  // reads secret_file; throws with a one-line reason
 };
 

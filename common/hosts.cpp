@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -62,6 +63,41 @@ std::string host_list_text(const std::vector<HostSlots>& hosts) {
   return s;
 }
 
+std::string read_host_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(fmt::format("cannot read the host file {}", path));
+  std::vector<HostSlots> hosts;
+  int number = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++number;
+    std::istringstream words(line.substr(0, line.find('#')));
+    std::string host;
+    if (!(words >> host)) continue;
+    int slots = 1;
+    for (std::string w; words >> w;) {
+      const bool is_slots = w.rfind("slots=", 0) == 0;
+      const std::string n = is_slots ? w.substr(6) : "";
+      if (!is_slots || n.empty() || n.size() > 4 || !std::all_of(n.begin(), n.end(), ::isdigit) || std::stoi(n) < 1)
+        throw std::invalid_argument(
+            fmt::format("{}:{}: \"{}\": a line is `host` or `host slots=N` (N from 1 to 4096)", path, number, w));
+      slots = std::stoi(n);
+    }
+    const auto it = std::find_if(hosts.begin(), hosts.end(), [&](const HostSlots& h) { return h.host == host; });
+    if (it != hosts.end())
+      it->slots += slots;
+    else
+      hosts.push_back({host, slots});
+  }
+  if (hosts.empty()) throw std::invalid_argument(fmt::format("the host file {} names no host", path));
+  const std::string list = host_list_text(hosts);
+  try {
+    parse_host_list(list);  // the same rules as a list: names, counts
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("{}: {}", path, e.what()));
+  }
+  return list;
+}
+
 int total_slots(const std::vector<HostSlots>& hosts) {
   int n = 0;
   for (const auto& h : hosts) n += h.slots;
@@ -75,6 +111,18 @@ int ranks_for_hosts(const std::vector<HostSlots>& hosts, int ranks, const std::s
     throw std::invalid_argument(fmt::format("{} = {} but the hosts {} give {} rank{}; give one or the other", what,
                                             ranks, host_list_text(hosts), slots, slots > 1 ? "s" : ""));
   return slots;
+}
+
+std::pair<std::string, std::string> split_allocation(const std::vector<std::string>& nodes, int fluid_ranks,
+                                                     int particle_ranks) {
+  if (nodes.empty()) throw std::invalid_argument("the Slurm allocation lists no nodes");
+  const std::vector<HostSlots> fluid{{nodes.front(), fluid_ranks}};
+  if (nodes.size() == 1) return {host_list_text(fluid), host_list_text({{nodes.front(), particle_ranks}})};
+  std::vector<HostSlots> particles;
+  const int n = static_cast<int>(nodes.size()) - 1;
+  for (int i = 0; i < n && i < particle_ranks; ++i)
+    particles.push_back({nodes[i + 1], particle_ranks / n + (i < particle_ranks % n ? 1 : 0)});
+  return {host_list_text(fluid), host_list_text(particles)};
 }
 
 int bus_ttl(int configured, bool across_hosts) {

@@ -7,6 +7,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hemo {
@@ -20,6 +21,10 @@ struct HostSlots {
 // "a", "b:2,c:2": comma-separated hosts, each with ":N" ranks (1 when left out). Throws
 // std::invalid_argument with a one-line reason (empty entry, bad count, a host named twice).
 std::vector<HostSlots> parse_host_list(const std::string& text);
+// An Open MPI host file as a host list: lines `host [slots=N]` (1 slot when left out; a host on
+// several lines adds them up), `#` comments, blank lines. Throws std::invalid_argument with the
+// file, line and reason.
+std::string read_host_file(const std::string& path);
 // The list as Open MPI's `--host` takes it ("b:2,c:2"); empty for no hosts.
 std::string host_list_text(const std::vector<HostSlots>& hosts);
 int total_slots(const std::vector<HostSlots>& hosts);
@@ -28,6 +33,13 @@ int total_slots(const std::vector<HostSlots>& hosts);
 // --np-*; 1 is the default and yields to the hosts). Hosts decide; a different explicit number
 // is refused (std::invalid_argument naming `what`, e.g. "run.particle_ranks").
 int ranks_for_hosts(const std::vector<HostSlots>& hosts, int ranks, const std::string& what);
+
+// The slurm launcher without hosts given: the allocation's nodes (in Slurm's order) shared out.
+// On one node both nodes run there; on more, the fluid runs on the first and the particles on
+// the others, their ranks spread in blocks as evenly as they go. {fluid, particles} as host
+// lists ("n1:1", "n2:2,n3:1").
+std::pair<std::string, std::string> split_allocation(const std::vector<std::string>& nodes, int fluid_ranks,
+                                                     int particle_ranks);
 
 // The multicast TTL of a run's bus: `configured` (>= 0) when given, else 0 on one host (the
 // datagrams never leave it) and 1 across hosts (one subnet; routers do not forward them).

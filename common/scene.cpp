@@ -655,7 +655,7 @@ static void read_hosts(Reader& r, Scene& s) {
       r.check(false, key, e.what());
     }
   }
-  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local"});
+  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
   read_name(r, "hosts.transport", h.transport, {"multicast", "tcp"});
   r.read("hosts.relay_address", h.relay_address);
   in_addr ip{};

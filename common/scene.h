@@ -170,7 +170,9 @@ struct RunSettings {
 struct HostPlacement {
   std::string fluid;
   std::string particles;
-  std::string launcher = "ssh";  // "ssh": started on its first host by launch_command; "local": here
+  // "ssh": started on its first host by launch_command; "local": here; "slurm": a job step of
+  // the Slurm allocation the coordinator runs in (docs/slurm.md)
+  std::string launcher = "ssh";
   std::string launch_command = kDefaultLaunchCommand;
   // The bus: "multicast" (LCM UDP multicast) or "tcp" (LCM's tcpq provider through a relay the
   // coordinator runs for the run, where multicast is blocked; docs/hosts.md). The relay listens on
@@ -181,6 +183,8 @@ struct HostPlacement {
   int relay_port = 0;
   bool any() const { return !fluid.empty() || !particles.empty(); }
   bool tcp() const { return transport == "tcp"; }
+  // Whether the nodes may run on other hosts than the coordinator's (the bus must reach them).
+  bool across_hosts() const { return any() || launcher == "slurm"; }
 };
 
 struct Scene {

@@ -14,6 +14,7 @@ struct RunOptions {
   long stop_after_step = 0;  // > 0: stop after this step, writing a checkpoint there
   // Placement across hosts (docs/hosts.md); empty: as the scene's [hosts] says.
   std::string fluid_hosts, particle_hosts;
+  std::string fluid_hostfile, particle_hostfile;  // Open MPI host files, read into the lists above
   std::string launcher, launch_command;
   int bus_ttl = -1;  // -1: as the scene says (run.bus_ttl)
   // The bus's transport and the TCP relay's address (docs/hosts.md); empty / -1: as the scene says.

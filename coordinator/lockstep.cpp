@@ -77,6 +77,10 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back("--mpi-hosts");
     argv.push_back(host_list_text(parse_host_list(hosts)));
   }
+  if (scene_.hosts.launcher == "slurm") {
+    argv.push_back("--mpi-starter");
+    argv.push_back("srun");
+  }
   if (first_step > 0) {
     argv.push_back("--resume-step");
     argv.push_back(fmt::format("{}", first_step));
@@ -311,7 +315,10 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
   for (const auto& [name, node] : nodes_) {
     const double mib = node.process->peak_memory_mib();
     csv += fmt::format("{},peak_memory_MiB,{:.1f},\n", name, mib);
-    text += fmt::format("  {:<10} {:<30} {:10.1f} MiB\n", name, "peak memory", mib);
+    if (mib > 0)  // 0: not known here (a node on another host, or a Slurm job step)
+      text += fmt::format("  {:<10} {:<30} {:10.1f} MiB\n", name, "peak memory", mib);
+    else
+      text += fmt::format("  {:<10} {:<30} {:>10}\n", name, "peak memory", "not known here");
   }
   const double overhead = overhead_s_;
   csv += fmt::format("lockstep,coupling_overhead_s,{:.6g},{:.6g}\n", overhead, 1e3 * overhead / std::max(steps, 1L));

@@ -28,17 +28,28 @@ int main(int argc, char** argv) {
       ->add_option("--stop-after-step", run.stop_after_step,
                    "Stop after this coupling step, writing a checkpoint there (go on with `hemocosim resume`)")
       ->check(CLI::PositiveNumber);
-  run_cmd->add_option("--fluid-hosts", run.fluid_hosts,
+  auto* fluid_hosts = run_cmd->add_option("--fluid-hosts", run.fluid_hosts,
                       "Hosts of the fluid node's MPI job and ranks on each, e.g. a or a:2,b:2; its ranks are their sum "
                       "(overrides hosts.fluid; docs/hosts.md)");
-  run_cmd->add_option(
+  auto* particle_hosts = run_cmd->add_option(
       "--particle-hosts", run.particle_hosts,
       "Hosts of the particle node's MPI job and ranks on each, e.g. b:2,c:2 (overrides hosts.particles)");
   run_cmd
+      ->add_option("--fluid-hostfile", run.fluid_hostfile,
+                   "The fluid node's hosts as an Open MPI host file (lines `host slots=N`) instead of --fluid-hosts")
+      ->check(CLI::ExistingFile)
+      ->excludes(fluid_hosts);
+  run_cmd
+      ->add_option("--particle-hostfile", run.particle_hostfile,
+                   "The particle node's hosts as an Open MPI host file instead of --particle-hosts")
+      ->check(CLI::ExistingFile)
+      ->excludes(particle_hosts);
+  run_cmd
       ->add_option("--launcher", run.launcher,
-                   "How a node with hosts starts: ssh (on its first host, by the launch command) or local (here; "
-                   "Open MPI places its ranks) (overrides hosts.launcher)")
-      ->check(CLI::IsMember({"ssh", "local"}));
+                   "How a node with hosts starts: ssh (on its first host, by the launch command), local (here; "
+                   "Open MPI places its ranks) or slurm (a job step of the Slurm job this runs in, on its share of "
+                   "the job's nodes; docs/slurm.md) (overrides hosts.launcher)")
+      ->check(CLI::IsMember({"ssh", "local", "slurm"}));
   run_cmd->add_option(
       "--launch-command", run.launch_command,
       "The command that starts a node on a host, with {host} {command} {node} {run_dir} (default \"ssh -o "

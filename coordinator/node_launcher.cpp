@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -88,6 +89,14 @@ class RemoteHandle : public NodeHandle {
   int keep_alive_ = -1;
 };
 
+// A node that made itself a Slurm job step: the child here is srun, whose own memory is not the
+// node's.
+class StepHandle : public ProcessHandle {
+ public:
+  using ProcessHandle::ProcessHandle;
+  double peak_memory_mib() const override { return 0; }  // not known from here
+};
+
 std::string random_token() {
   std::random_device rd;
   return fmt::format("{:08x}{:08x}{:08x}", rd(), rd(), rd());
@@ -97,8 +106,21 @@ std::string random_token() {
 HostLauncher::HostLauncher(HostPlacement placement, std::string run_dir)
     : placement_(std::move(placement)), run_dir_(std::move(run_dir)) {}
 
+// How the check reaches `host`: the ssh launcher's command, or a one-task job step there.
+std::vector<std::string> HostLauncher::check_command(const std::string& host) const {
+  if (placement_.launcher == "slurm") {
+    const char* srun = std::getenv("HEMOCOSIM_SRUN");
+    return {srun != nullptr && *srun != '\0' ? srun : "srun", "--overlap",     "--nodes=1",
+            "--ntasks=1",                                     "--nodelist=" + host, "sh",
+            "-c",                                             remote_check_command(run_dir_)};
+  }
+  return expand_launch_command(
+      placement_.launch_command,
+      {{"host", host}, {"command", remote_check_command(run_dir_)}, {"node", "check"}, {"run_dir", run_dir_}});
+}
+
 void HostLauncher::check_hosts() const {
-  if (placement_.launcher != "ssh") return;
+  if (placement_.launcher != "ssh" && placement_.launcher != "slurm") return;
   std::vector<std::string> hosts;
   for (const auto& list : {placement_.fluid, placement_.particles})
     for (const auto& h : parse_host_list(list))
@@ -107,15 +129,16 @@ void HostLauncher::check_hosts() const {
   const std::string token_file = run_dir_ + "/" + kHostsCheckFile;
   std::ofstream(token_file) << token << "\n";
   for (const auto& host : hosts) {
-    const auto argv = expand_launch_command(
-        placement_.launch_command,
-        {{"host", host}, {"command", remote_check_command(run_dir_)}, {"node", "check"}, {"run_dir", run_dir_}});
+    const auto argv = check_command(host);
     std::vector<std::string> lines;
     ChildOptions opt;
     opt.on_line = [&lines](const std::string& line) { lines.push_back(line); };
     opt.merge_stderr = true;
     const auto result = run_child(argv, opt);
     const std::string last = lines.empty() ? "no output" : lines.back();
+    if (placement_.launcher == "slurm" && !result.ok() && (lines.empty() || last.rfind("srun", 0) == 0))
+      throw std::runtime_error(fmt::format("cannot start a job step on node {} with `{}` ({}): {}", host, argv.front(),
+                                           result.describe(), last));
     if (result.exit_code == 255 || result.exit_code == 127)  // ssh's own failure; no such program
       throw std::runtime_error(
           fmt::format("cannot reach host {} with `{}` ({}): {}", host, argv.front(), result.describe(), last));
@@ -131,6 +154,11 @@ void HostLauncher::check_hosts() const {
 std::unique_ptr<NodeHandle> HostLauncher::launch(const std::string& node, const std::vector<std::string>& argv,
                                                  const std::string& log_path) {
   const auto hosts = parse_host_list(node == "fluid" ? placement_.fluid : placement_.particles);
+  if (placement_.launcher == "slurm") {
+    std::ofstream(log_path, std::ios::app) << "hemocosim: starting the " << node << " node as a Slurm job step on "
+                                           << host_list_text(hosts) << "\n";
+    return std::make_unique<StepHandle>(node, argv, log_path);
+  }
   if (hosts.empty() || placement_.launcher == "local") return ProcessLauncher().launch(node, argv, log_path);
   const auto command =
       expand_launch_command(placement_.launch_command, {{"host", hosts.front().host},
@@ -140,6 +168,30 @@ std::unique_ptr<NodeHandle> HostLauncher::launch(const std::string& node, const 
   std::ofstream(log_path, std::ios::app) << "hemocosim: starting the " << node << " node on " << hosts.front().host
                                          << " (ranks on " << host_list_text(hosts) << ")\n";
   return std::make_unique<RemoteHandle>(node, command, log_path);
+}
+
+Scene placed_in_allocation(const Scene& scene) {
+  if (scene.hosts.launcher != "slurm" || (!scene.hosts.fluid.empty() && !scene.hosts.particles.empty())) return scene;
+  const char* job = std::getenv("SLURM_JOB_ID");
+  const char* nodelist = std::getenv("SLURM_JOB_NODELIST");
+  if (job == nullptr || nodelist == nullptr)
+    throw std::runtime_error(
+        "hosts.launcher = \"slurm\" starts the nodes as steps of a Slurm job, and this is not one (SLURM_JOB_ID "
+        "is not set): run it from sbatch or salloc (docs/slurm.md)");
+  std::vector<std::string> nodes;
+  ChildOptions opt;
+  opt.on_line = [&nodes](const std::string& line) {
+    if (!line.empty()) nodes.push_back(line);
+  };
+  const auto result = run_child({"scontrol", "show", "hostnames", nodelist}, opt);
+  if (!result.ok() || nodes.empty())
+    throw std::runtime_error(fmt::format("cannot list the nodes of Slurm job {} (scontrol show hostnames {}: {})", job,
+                                         nodelist, result.describe()));
+  Scene placed = scene;
+  const auto [fluid, particles] = split_allocation(nodes, scene.run.fluid_ranks, scene.run.particle_ranks);
+  if (placed.hosts.fluid.empty()) placed.hosts.fluid = fluid;
+  if (placed.hosts.particles.empty()) placed.hosts.particles = particles;
+  return placed;
 }
 
 }  // namespace hemo

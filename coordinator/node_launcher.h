@@ -52,19 +52,29 @@ class ProcessLauncher : public NodeLauncher {
 // starts its other ranks; a node without hosts, or with the local launcher, is a child process
 // here. The node ends when the launch command's connection closes: when it is terminated and
 // when the coordinator dies.
+//
+// With the slurm launcher a node is a child process here that makes itself a job step of the
+// allocation (srun, common/mpi_job.h) on its hosts; srun passes the coordinator's SIGTERM on.
 class HostLauncher : public NodeLauncher {
  public:
   HostLauncher(HostPlacement placement, std::string run_dir);
   // Before any node starts: every host of the ssh launcher answers through the launch command
-  // and sees the run directory (a token written here is read back there). Throws one line naming
-  // the host.
+  // (of the slurm launcher, through a one-task srun step) and sees the run directory (a token
+  // written here is read back there). Throws one line naming the host.
   void check_hosts() const;
   std::unique_ptr<NodeHandle> launch(const std::string& node, const std::vector<std::string>& argv,
                                      const std::string& log_path) override;
 
  private:
+  std::vector<std::string> check_command(const std::string& host) const;
   HostPlacement placement_;
   std::string run_dir_;
 };
+
+// The scene with the slurm launcher's hosts filled in from the allocation the coordinator runs
+// in (split_allocation of `scontrol show hostnames $SLURM_JOB_NODELIST`) where the scene or the
+// command line gave none; other scenes unchanged. Not kept in run.toml: a requeued job may get
+// other nodes. Throws one line outside an allocation.
+Scene placed_in_allocation(const Scene& scene);
 
 }  // namespace hemo

@@ -59,7 +59,8 @@ std::unique_ptr<Relay> start_relay(const Scene& scene, const RunContext& ctx) {
 }
 
 // Drives the run, then makes what the nodes wrote openable in ParaView, also after a failure.
-int drive_and_finish(const Scene& scene, RunDirectory& dir, const RunContext& given_ctx, const Span span) {
+int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunContext& given_ctx, const Span span) {
+  const Scene scene = placed_in_allocation(scene_as_given);
   HostLauncher launcher(scene.hosts, dir.path);
   launcher.check_hosts();
   // The relay lives as long as the run, across node restarts; destroyed last, it ends the bus
@@ -114,7 +115,9 @@ long last_step(const Scene& scene, long stop_after_step) {
 
 // The command line's placement over the scene's: hosts given there replace the scene's (and the
 // ranks they imply); --np-* must agree with the hosts a node ends up with.
-void place_nodes(Scene& scene, const RunOptions& opt) {
+void place_nodes(Scene& scene, RunOptions opt) {
+  if (!opt.fluid_hostfile.empty()) opt.fluid_hosts = read_host_file(opt.fluid_hostfile);
+  if (!opt.particle_hostfile.empty()) opt.particle_hosts = read_host_file(opt.particle_hostfile);
   auto& h = scene.hosts;
   if (!opt.launcher.empty()) h.launcher = opt.launcher;
   if (!opt.launch_command.empty()) {
@@ -155,7 +158,7 @@ int run_command(const RunOptions& opt) {
     throw std::runtime_error(e.what());
   }
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene,
-                                         bus_ttl(scene.run.bus_ttl, scene.hosts.any()));
+                                         bus_ttl(scene.run.bus_ttl, scene.hosts.across_hosts()));
   dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
   dir.record_placement(scene.hosts);
   dir.record_transport(scene.hosts);
@@ -171,7 +174,7 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
-  if (dir.placement.any()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
+  if (dir.placement.across_hosts()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
   if (dir.transport_recorded) {
     scene.hosts.transport = dir.placement.transport;
     scene.hosts.relay_address = dir.placement.relay_address;

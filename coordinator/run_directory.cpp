@@ -94,7 +94,7 @@ void RunDirectory::record_ranks(int fluid, int particles) {
 
 void RunDirectory::record_placement(const HostPlacement& hosts) {
   placement = hosts;
-  if (!hosts.any()) return;  // one host: run.toml as it always was
+  if (!hosts.across_hosts()) return;  // one host: run.toml as it always was
   toml::table info = toml::parse_file(info_file());
   info.insert_or_assign("hosts", toml::table{{"fluid", hosts.fluid},
                                              {"particles", hosts.particles},

@@ -8,11 +8,11 @@
 //
 // With --ranks N > 1 it first writes the case RUN_DIR/fluid (as the serial solver would) and
 // its decomposition into N subdomains along the vessel axis (decomposePar, log in
-// RUN_DIR/fluid/log.decomposePar), then exec()s
-//   mpirun -np N -x WM_PROJECT_DIR -x FOAM_ETC hemocosim-fluid-solver ARGS --parallel
-// with Open MPI's root, oversubscription and yield settings in the environment
-// (HEMOCOSIM_MPIRUN overrides the mpirun program; HEMOCOSIM_MPIRUN_ARGS adds options), placed
-// with `--host H` on the hosts of --mpi-hosts H when the coordinator gives them.
+// RUN_DIR/fluid/log.decomposePar), then exec()s the MPI job of common/mpi_job.h that runs
+//   hemocosim-fluid-solver ARGS --parallel
+// on N ranks: `mpirun -np N -x WM_PROJECT_DIR -x FOAM_ETC ...`, placed with `--host H` on the
+// hosts of --mpi-hosts H when the coordinator gives them, or, with --mpi-starter srun, a Slurm
+// job step (`srun --mpi=pmix ...`, also for one rank, then without --parallel).
 //
 // With --resume-step K (passed on to the solver, which restores checkpoint K) the case and its
 // decomposition are those the run already has: they hold its output up to step K, and
@@ -21,18 +21,20 @@
 #include "fluid_case.h"
 #include "vessel_mesh.h"
 
+#include <mpi_job.h>
 #include <scene.h>
 
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -121,7 +123,18 @@ int main(int argc, char* argv[]) {
   int ranks = 1;
   const std::string ranks_text = option(argc, argv, "--ranks");
   if (!ranks_text.empty()) ranks = std::atoi(ranks_text.c_str());
-  if (ranks <= 1) exec(solver_args);
+  hemo::MpiJob job;
+  job.ranks = std::max(ranks, 1);
+  job.exported = {"WM_PROJECT_DIR", "FOAM_ETC"};
+  try {
+    const std::string starter = option(argc, argv, "--mpi-starter");
+    if (!starter.empty()) job.starter = hemo::parse_mpi_starter(starter);
+    job.hosts = hemo::parse_host_list(option(argc, argv, "--mpi-hosts"));
+  } catch (const std::exception& e) {
+    std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
+    return 2;
+  }
+  if (ranks <= 1 && job.starter == hemo::MpiStarter::mpirun) exec(solver_args);
 
   const std::string resume_step = option(argc, argv, "--resume-step");
   const bool resuming = !resume_step.empty() && std::atol(resume_step.c_str()) > 0;
@@ -129,41 +142,22 @@ int main(int argc, char* argv[]) {
     const std::string scene = option(argc, argv, "--scene"), run_dir = option(argc, argv, "--run-dir");
     if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
     const std::string dir = std::filesystem::absolute(run_dir).lexically_normal().string();
-    if (resuming)
+    if (ranks > 1 && resuming)
       check_decomposed_case(dir, ranks);
-    else
+    else if (ranks > 1)
       prepare_decomposed_case(scene, dir, ranks);
+    if (job.starter == hemo::MpiStarter::srun && !job.hosts.empty()) {
+      job.slurm_hostfile = dir + "/fluid.slurm-hosts";
+      std::ofstream(job.slurm_hostfile) << hemo::slurm_hostfile_text(job.hosts);
+    }
   } catch (const std::exception& e) {
     std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
     return 1;
   }
 
-  // Open MPI's settings as environment variables (other MPIs ignore them; a user's value wins):
-  // run as root if we are root (Open MPI refuses otherwise), allow more ranks than cores, and
-  // let waiting ranks yield the core (the nodes and the coordinator share the machine).
-  if (::geteuid() == 0) {
-    ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 0);
-    ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 0);
-  }
-  ::setenv("OMPI_MCA_rmaps_base_oversubscribe", "1", 0);
-  ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
-  const char* mpirun = std::getenv("HEMOCOSIM_MPIRUN");
-  std::vector<std::string> args{mpirun && *mpirun ? mpirun : "mpirun", "-np", std::to_string(ranks)};
-  // The coordinator's placement across hosts (docs/hosts.md): Open MPI starts the ranks there.
-  const std::string hosts = option(argc, argv, "--mpi-hosts");
-  if (!hosts.empty()) {
-    args.emplace_back("--host");
-    args.emplace_back(hosts);
-  }
-  for (const char* var : {"WM_PROJECT_DIR", "FOAM_ETC"}) {
-    args.emplace_back("-x");
-    args.emplace_back(var);
-  }
-  if (const char* extra = std::getenv("HEMOCOSIM_MPIRUN_ARGS")) {
-    std::istringstream in(extra);
-    for (std::string w; in >> w;) args.push_back(w);
-  }
-  args.insert(args.end(), solver_args.begin(), solver_args.end());
-  args.emplace_back("--parallel");
-  exec(args);
+  if (ranks > 1) solver_args.emplace_back("--parallel");
+  hemo::exec_mpi_command(hemo::mpi_job_command(job, solver_args, std::getenv, ::geteuid() == 0));
+  std::cerr << "hemocosim-fluid: error: cannot start the MPI job of " << ranks << " ranks: " << std::strerror(errno)
+            << std::endl;
+  return 127;
 }

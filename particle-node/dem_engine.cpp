@@ -6,6 +6,7 @@
 #include "dem_engine.h"
 
 #include <atom.h>
+#include <clock.h>
 #include <fix.h>
 #include <fix_external.h>
 #include <fix_property_atom.h>
@@ -340,6 +341,21 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   if (problem.empty()) problem = check_lost(coupling_step);
   return problem;
 }
+
+double DemEngine::run_bare(long steps, double dt) {
+  if (n_particles_ == 0 || steps < 1 || !(dt > 0)) throw std::invalid_argument("a bare run needs particles and steps");
+  command(fmt::format("timestep {:.17g}", dt));
+  dt_ = dt;
+  bare_ = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  command(fmt::format("run {} pre yes post no", steps));
+  const double seconds = seconds_since(t0);
+  bare_ = false;
+  first_run_ = true;  // the next coupled run sets up anew, with its own forces
+  return seconds;
+}
+
+long DemEngine::neighbour_builds() const { return static_cast<long>(lmp_->neighbor->ncalls); }
 
 std::string DemEngine::check_lost(long coupling_step) {
   // LIGGGHTS drops an atom that leaves the box (thermo_modify lost ignore): name the first.

@@ -127,6 +127,14 @@ class DemEngine {
   // particle and the step; the error is the same on every rank.
   std::string run(long coupling_step, int substeps, double dt, const FluidSampler& fluid);
 
+  // The floor under the DEM's cost (particles_engine_bench, docs/performance.md): `steps` DEM
+  // steps of `dt` as one LIGGGHTS run whose fluid-force callback only clears the force, i.e.
+  // what LIGGGHTS alone costs for these particles, contacts and walls. The particles move on
+  // without fluid forces: a bench's measure, not a step of a coupled run. Returns wall seconds.
+  double run_bare(long steps, double dt);
+  // LIGGGHTS's neighbour-list builds since the last run that set up anew (bench diagnostics).
+  long neighbour_builds() const;
+
   // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
   // its current position, and sums the per-cell accumulators over ranks. Collective.
   void deposit(Deposition& deposition);
@@ -303,6 +311,7 @@ class DemEngine {
   LAMMPS_NS::Fix* closure_fix_ = nullptr;                   // per atom: beta, r, u (3), lift (3), torque (3)
   LAMMPS_NS::FixPropertyAtom* wall_history_fix_ = nullptr;  // LIGGGHTS's: the wall contacts' history
   bool rebuilding_ = false;                                 // rebuild_neighbours in progress: the callback does nothing
+  bool bare_ = false;                                       // run_bare in progress: the callback clears the force
   const int closure_every_ = scene_.time.closure_every_dem_steps;
   // coupling.fluid_force: when the closures are evaluated and what is held until the next.
   enum class FluidForceUpdate { per_dem_step, held_implicit_drag, held };

@@ -22,6 +22,10 @@ using namespace dem;
 void DemEngine::force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f) {
   auto* engine = static_cast<DemEngine*>(self);
   if (engine->rebuilding_) return;
+  if (engine->bare_) {
+    for (int i = 0; i < nlocal; ++i) f[i][0] = f[i][1] = f[i][2] = 0.0;
+    return;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   engine->on_force(ntimestep, nlocal, tag, x, f);
   engine->fluid_force_seconds_ += seconds_since(t0);

@@ -79,7 +79,7 @@ int stop(hemo::particles::RankedPort& port, const std::string& why) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (const int code = hemo::particles::relaunch_under_mpirun(argc, argv)) return code;
+  if (const int code = hemo::particles::relaunch_as_mpi_job(argc, argv)) return code;
   MpiSession mpi(&argc, &argv);
   CLI::App app{"hemocosim particle node: LIGGGHTS DEM of red cells and platelets, coupled to the fluid node"};
   std::string scene_path, run_dir;

@@ -7,26 +7,35 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <string>
+#include <vector>
+
+#include "mpi_job.h"
 
 namespace hemo::particles {
 
-int requested_ranks(int argc, char** argv) {
+namespace {
+// The value of `--name VALUE` / `--name=VALUE` (the last given), or empty. The node's CLI parses
+// the same options properly once it runs; this is only the decision to become an MPI job.
+std::string option(int argc, char** argv, const std::string& name) {
+  std::string value;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    std::string value;
-    if (a == "--ranks" && i + 1 < argc)
-      value = argv[i + 1];
-    else if (a.rfind("--ranks=", 0) == 0)
-      value = a.substr(8);
-    else
-      continue;
-    char* end = nullptr;
-    const long n = std::strtol(value.c_str(), &end, 10);
-    return end != value.c_str() && *end == '\0' && n >= 1 && n <= 4096 ? static_cast<int>(n) : 1;
+    if (a == name && i + 1 < argc) value = argv[i + 1];
+    if (a.rfind(name + "=", 0) == 0) value = a.substr(name.size() + 1);
   }
-  return 1;
+  return value;
 }
+
+int requested_ranks(int argc, char** argv) {
+  const std::string value = option(argc, argv, "--ranks");
+  char* end = nullptr;
+  const long n = std::strtol(value.c_str(), &end, 10);
+  return end != value.c_str() && *end == '\0' && n >= 1 && n <= 4096 ? static_cast<int>(n) : 1;
+}
+}  // namespace
 
 bool inside_mpi_job() {
   for (const char* var : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS"})
@@ -34,52 +43,30 @@ bool inside_mpi_job() {
   return false;
 }
 
-std::string requested_hosts(int argc, char** argv) {
-  std::string hosts;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--mpi-hosts" && i + 1 < argc)
-      hosts = argv[i + 1];
-    else if (a.rfind("--mpi-hosts=", 0) == 0)
-      hosts = a.substr(12);
+int relaunch_as_mpi_job(int argc, char** argv) {
+  if (inside_mpi_job()) return 0;
+  MpiJob job;
+  job.ranks = requested_ranks(argc, argv);
+  try {
+    const std::string starter = option(argc, argv, "--mpi-starter");
+    if (!starter.empty()) job.starter = parse_mpi_starter(starter);
+    job.hosts = parse_host_list(option(argc, argv, "--mpi-hosts"));
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "hemocosim-particles: error: " << e.what() << std::endl;
+    return 2;
   }
-  return hosts;
-}
-
-std::vector<std::string> mpirun_command(int ranks, const std::string& program, const std::vector<std::string>& args,
-                                        const std::string& hosts) {
-  std::vector<std::string> cmd = {"mpirun", "-np", std::to_string(ranks)};
-  if (::geteuid() == 0) cmd.push_back("--allow-run-as-root");
-  if (!hosts.empty()) {
-    // The coordinator's placement: exactly these hosts and slots, so no oversubscription.
-    cmd.push_back("--host");
-    cmd.push_back(hosts);
-  } else {
-    cmd.push_back("--oversubscribe");  // ranks beyond the cores: slower, but the run goes on
+  if (job.ranks <= 1 && job.starter == MpiStarter::mpirun) return 0;
+  if (job.starter == MpiStarter::srun && !job.hosts.empty()) {
+    job.slurm_hostfile = std::filesystem::absolute(option(argc, argv, "--run-dir") + "/particles.slurm-hosts");
+    std::ofstream(job.slurm_hostfile) << slurm_hostfile_text(job.hosts);
   }
-  cmd.push_back(program);
-  cmd.insert(cmd.end(), args.begin(), args.end());
-  return cmd;
-}
-
-int relaunch_under_mpirun(int argc, char** argv) {
-  const int ranks = requested_ranks(argc, argv);
-  if (ranks <= 1 || inside_mpi_job()) return 0;
   std::error_code ec;
   const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::string program = ec ? std::string(argv[0]) : self.string();
-  const auto cmd =
-      mpirun_command(ranks, program, std::vector<std::string>(argv + 1, argv + argc), requested_hosts(argc, argv));
-  // A rank waiting for the other (or, on rank 1, for rank 0's bus traffic) yields its core
-  // instead of spinning on it: the fluid node and the coordinator share the machine (the fluid
-  // launcher does the same). A setting of the user's wins.
-  ::setenv("OMPI_MCA_mpi_yield_when_idle", "1", 0);
-  std::vector<char*> c_args;
-  for (const auto& s : cmd) c_args.push_back(const_cast<char*>(s.c_str()));
-  c_args.push_back(nullptr);
-  ::execvp(c_args[0], c_args.data());
-  std::cerr << "hemocosim-particles: error: cannot start mpirun for " << ranks << " ranks: " << std::strerror(errno)
-            << std::endl;
+  std::vector<std::string> program_and_args{ec ? std::string(argv[0]) : self.string()};
+  program_and_args.insert(program_and_args.end(), argv + 1, argv + argc);
+  exec_mpi_command(mpi_job_command(job, program_and_args, std::getenv, ::geteuid() == 0));
+  std::cerr << "hemocosim-particles: error: cannot start the MPI job of " << job.ranks
+            << " ranks: " << std::strerror(errno) << std::endl;
   return 127;
 }
 

@@ -142,8 +142,9 @@ launcher = "local"
       std::string::npos);
   EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nparticles = \"b:0\"\n").find("hosts.particles"),
             std::string::npos);
-  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlauncher = \"slurm\"\n").find("hosts.launcher"),
+  EXPECT_NE(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlauncher = \"pbs\"\n").find("hosts.launcher"),
             std::string::npos);
+  EXPECT_EQ(first_problem(std::string(test::kMinimalScene) + "[hosts]\nlauncher = \"slurm\"\n"), "");
   EXPECT_NE(
       first_problem(std::string(test::kMinimalScene) + "[hosts]\nlaunch_command = \"ssh {host}\"\n").find("{command}"),
       std::string::npos);
@@ -200,4 +201,23 @@ TEST(Hosts, HeartbeatsReportWhomTheyHearInTheRunDirectory) {
   EXPECT_EQ(fluid.heard(), (std::set<std::string>{"particles"}));
   EXPECT_FALSE(report->host.empty());
   EXPECT_FALSE(read_heard_report(dir + "/bus-check/nobody"));
+}
+
+// `hemocosim run --particle-hostfile FILE`: Open MPI's host file format as a host list.
+TEST(Hosts, AnOpenMpiHostFileIsReadAsAHostList) {
+  const std::string dir = temp_dir();
+  std::ofstream(dir + "/hosts") << "# the particle node\nb slots=2\n\n  c   # one slot\nb slots=1\n";
+  EXPECT_EQ(read_host_file(dir + "/hosts"), "b:3,c:1");  // b's lines add up
+  std::ofstream(dir + "/bad") << "b slots=2\nc max_slots=4\n";
+  try {
+    read_host_file(dir + "/bad");
+    FAIL() << "max_slots accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(dir + "/bad:2"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir + "/empty") << "# nobody\n";
+  EXPECT_THROW(read_host_file(dir + "/empty"), std::invalid_argument);
+  std::ofstream(dir + "/inject") << "-oProxyCommand=x\n";
+  EXPECT_THROW(read_host_file(dir + "/inject"), std::invalid_argument);
+  EXPECT_THROW(read_host_file(dir + "/missing"), std::invalid_argument);
 }

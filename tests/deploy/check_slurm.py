@@ -3,7 +3,10 @@
 
 1. `sbatch deploy/slurm/hemocosim.sbatch` runs a scene end to end;
 2. the same scene in a second job, requeued (`scontrol requeue`) in the middle of its run,
-   stops after its step with a checkpoint, and the requeued job resumes from it and finishes.
+   stops after its step with a checkpoint, and the requeued job resumes from it and finishes;
+3. the same scene with `--launcher slurm` and two particle ranks: each node runs as a job step
+   of its own (srun, PMIx), seen by Slurm while the run goes, and the run finishes with the
+   particles of the first job at the start.
 
 The resumed run equals the uninterrupted one: bit for bit up to the step it stopped at, and to
 round-off after it (the stop's checkpoint rebuilds the particles' neighbour lists, which the
@@ -72,8 +75,9 @@ def main():
     sbatch = os.path.join(src, "deploy", "slurm", "hemocosim.sbatch")
     env = dict(os.environ, HEMOCOSIM=hemocosim)
 
-    def submit(run):
-        return sh("sbatch", "--parsable", "--output", f"{run}.out", sbatch, "slurm.toml", run, cwd=work, env=env).strip()
+    def submit(run, *options, run_options=()):
+        return sh("sbatch", "--parsable", "--output", f"{run}.out", *options, sbatch, "slurm.toml", run, *run_options,
+                  cwd=work, env=env).strip()
 
     # 1. End to end.
     whole = submit("whole")
@@ -102,7 +106,35 @@ def main():
     assert "start 1 on" in out, out  # SLURM_RESTART_COUNT = 1: the requeued job did the rest
     assert os.path.exists(os.path.join(run_dir, "finished")), out
 
+    # 3. The nodes as job steps of their own.
+    stepped = submit("steps", "--ntasks=2", "--cpus-per-task=1", run_options=("--launcher", "slurm",
+                                                                             "--np-particles", "2"))
+    steps_seen = {}
+
+    def note_steps():
+        out = subprocess.run(["squeue", "--steps", "--noheader", "--jobs", stepped, "--format", "%i %j %A"],
+                             capture_output=True, text=True).stdout
+        for line in out.splitlines():
+            step, name, tasks = line.split()
+            if not step.endswith(".batch"):
+                steps_seen[name] = int(tasks)
+        return job_state(stepped) in ("COMPLETED", "FAILED", "CANCELLED", "TIMEOUT")
+
+    wait_for(f"job {stepped} to end", note_steps, 600)
+    out = open(os.path.join(work, "steps.out")).read()
+    assert job_state(stepped) == "COMPLETED", f"job {stepped}: {job_state(stepped)}\n{out}"
+    assert os.path.exists(os.path.join(work, "steps", "finished")), out
+    steps_seen.pop("sh", None)  # the start-up check that the node sees the run directory, if caught
+    assert steps_seen == {"hemocosim-fluid-solver": 1, "hemocosim-particles": 2}, steps_seen
+    log = open(os.path.join(work, "steps", "particles.log")).read()
+    assert "node as a Slurm job step on" in log, log[:2000]
+
     a = snapshots(os.path.join(work, "whole", "particles.h5"))
+    s = snapshots(os.path.join(work, "steps", "particles.h5"))
+    assert sorted(s) == sorted(a), (sorted(a), sorted(s))
+    first = min(a)
+    for d in ("id", "position", "velocity", "orientation"):
+        assert np.array_equal(a[first][d], s[first][d]), f"the steps job's first snapshot differs in {d}"
     b = snapshots(os.path.join(run_dir, "particles.h5"))
     # The stop writes a snapshot of its step too.
     assert len(a) == 13 and set(b) == set(a) | {f"{stopped:08d}"}, (sorted(a), sorted(b))
@@ -120,7 +152,8 @@ def main():
             # Round-off, with room: measured 3e-16 m and 1.3e-11 relative after 2,000 steps.
             assert dx < 1e-12 and dv < 1e-8, f"snapshot {k}: |dx| {dx:.3g} m, |dv|/|v| {dv:.3g}"
     print(f"check_slurm: ok: job {whole} end to end; job {part} stopped at step {stopped} on requeue and "
-          f"resumed; equal to the uninterrupted run bit for bit to the stop, after it to {worst:.2g} of |v|")
+          f"resumed; equal to the uninterrupted run bit for bit to the stop, after it to {worst:.2g} of |v|; "
+          f"job {stepped} ran its nodes as job steps {steps_seen}")
     return 0
 
 
