@@ -46,9 +46,10 @@ int check_command(const std::string& scene_path) {
         "~{:.3g} particle-steps in all\n",
         w.substeps, w.contact_time, w.particle_steps);
   if (s.hosts.tcp())
-    fmt::print("  bus         TCP through a relay the coordinator runs on {}:{} (docs/hosts.md)\n",
-               s.hosts.relay_address == "auto" ? "the address the nodes' hosts reach" : s.hosts.relay_address,
-               s.hosts.relay_port == 0 ? "a free port" : std::to_string(s.hosts.relay_port));
+    fmt::print(
+        "  bus         TCP through a relay the coordinator runs, at {}, {} (docs/hosts.md)\n",
+        s.hosts.relay_address == "auto" ? "the address the nodes' hosts reach this one by" : s.hosts.relay_address,
+        s.hosts.relay_port == 0 ? "any free port" : "port " + std::to_string(s.hosts.relay_port));
   else if (s.hosts.any())
     fmt::print("  bus         UDP multicast across hosts{}\n",
                s.run.bus_ttl >= 0 ? fmt::format(", TTL {}", s.run.bus_ttl) : std::string(", TTL 1"));
