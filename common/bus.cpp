@@ -19,6 +19,11 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
@@ -257,6 +262,58 @@ static void warn_if_small_receive_buffer(const std::string& url) {
       bytes);
 }
 
+// The TCP transport (docs/hosts.md): LCM's tcpq provider, connected to the coordinator's relay.
+static bool is_tcpq(const std::string& url) { return url.rfind("tcpq://", 0) == 0; }
+
+// LCM's tcpq client connects with a blocking connect() as the instance is made: where a firewall
+// drops the packets that is minutes of silence, and where the relay is not listening LCM goes on
+// without a connection (every wait then times out). A connection tried first, with a bound,
+// turns both into one line. Returns the URL.
+static const std::string& reachable(const std::string& url) {
+  if (!is_tcpq(url)) return url;
+  const std::string where = url.substr(7);
+  const auto colon = where.rfind(':');
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  const std::string host = where.substr(0, colon);
+  const int port = colon == std::string::npos ? 7700 : std::atoi(where.c_str() + colon + 1);
+  // LCM 1.3 takes only a numeric address here: a host name would silently mean 0.0.0.0.
+  if (::inet_pton(AF_INET, host.c_str(), &sa.sin_addr) != 1 || port <= 0 || port > 65535)
+    throw std::runtime_error(fmt::format("bus URL {}: LCM's tcpq needs an IPv4 address and a port", url));
+  sa.sin_port = htons(static_cast<std::uint16_t>(port));
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  int err = fd < 0 ? errno : 0;
+  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
+    err = errno;
+    if (err == EINPROGRESS) {
+      pollfd p{fd, POLLOUT, 0};
+      const int n = ::poll(&p, 1, 10000);
+      socklen_t len = sizeof err;
+      if (n == 1)
+        ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len);
+      else
+        err = ETIMEDOUT;
+    }
+  }
+  if (fd >= 0) ::close(fd);
+  if (err != 0)
+    throw std::runtime_error(fmt::format(
+        "cannot reach the bus relay at {}: {} (the coordinator runs it while the run goes; from this host, a "
+        "firewall or hosts.relay_address may be in the way: docs/hosts.md)",
+        where, std::strerror(err)));
+  return url;
+}
+
+// LCM's tcpq client writes a message as five small sends; Nagle's algorithm holds each later one
+// until the one before is acknowledged. A reconnection LCM makes later gets a socket without
+// this: slower, not wrong.
+static void no_delay(lcm::LCM& lcm, const std::string& url) {
+  if (!is_tcpq(url)) return;
+  const int fd = lcm.getFileno();
+  const int one = 1;
+  if (fd >= 0) ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+}
+
 namespace channel {
 std::vector<std::string> all() {
   return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
@@ -267,10 +324,25 @@ std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state,
 }  // namespace channel
 
 Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
-    : ctx_(ctx), sender_(std::move(sender)), lcm_(ctx.lcm_url) {
-  if (!lcm_.good()) throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
+    : ctx_(ctx), sender_(std::move(sender)), lcm_(reachable(ctx.lcm_url)) {
+  if (!lcm_.good() || (is_tcpq(ctx.lcm_url) && lcm_.getFileno() < 0))
+    throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
+  no_delay(lcm_, ctx.lcm_url);
   warn_if_small_receive_buffer(ctx.lcm_url);
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
+  // LCM's UDP provider joins the group at the first subscription and checks that a datagram it
+  // sends comes back; when it does not (multicast dropped on this host too, by a firewall), the
+  // subscription is null and LCM's C++ wrapper would hand it on (a crash in setQueueCapacity).
+  lcm_subscription_t* probe = lcm_subscribe(
+      lcm_.getUnderlyingLCM(), topic(channel::heartbeat).c_str(), +[](const lcm_recv_buf_t*, const char*, void*) {},
+      nullptr);
+  if (probe == nullptr)
+    throw std::runtime_error(fmt::format(
+        "cannot listen on the LCM bus at {}: multicast sent from this host does not come back to it (LCM's self "
+        "test: a firewall drops UDP to 224.0.0.0/4, or the route for it is wrong); where multicast cannot pass, "
+        "use the TCP transport (--transport tcp; docs/hosts.md)",
+        ctx.lcm_url));
+  lcm_unsubscribe(lcm_.getUnderlyingLCM(), probe);
   opened_us_ = wall_clock_us();
   // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
   // receipt: a burst of junk while a node computes a step would push genuine messages out
@@ -381,6 +453,9 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
     if (left <= 0) break;
     if (lcm_.handleTimeout(static_cast<int>(left)) < 0) {
       if (errno == EINTR) break;  // a signal: let the caller look at it
+      if (is_tcpq(ctx_.lcm_url))
+        throw std::runtime_error("lost the connection to the bus relay at " + ctx_.lcm_url.substr(7) +
+                                 " (the coordinator's relay ends with its run)");
       throw std::runtime_error("LCM receive failed on " + ctx_.lcm_url);
     }
   }
@@ -468,6 +543,7 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
     : impl_(new Impl) {
   impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
     lcm::LCM lcm(ctx.lcm_url);
+    no_delay(lcm, ctx.lcm_url);
     const std::string channel = ctx.run_id + "/" + channel::heartbeat;
     lcm::Subscription* subscription = nullptr;
     std::size_t reported = 0;  // heard senders in the file so far

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -655,6 +656,13 @@ static void read_hosts(Reader& r, Scene& s) {
     }
   }
   read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
+  read_name(r, "hosts.transport", h.transport, {"multicast", "tcp"});
+  r.read("hosts.relay_address", h.relay_address);
+  in_addr ip{};
+  r.check(h.relay_address == "auto" || ::inet_pton(AF_INET, h.relay_address.c_str(), &ip) == 1, "hosts.relay_address",
+          "must be \"auto\" or an IPv4 address of this host (LCM's tcpq takes no names)");
+  r.read("hosts.relay_port", h.relay_port);
+  r.check(h.relay_port >= 0 && h.relay_port <= 65535, "hosts.relay_port", "must be 0 (any free port) to 65535");
   r.read("hosts.launch_command", h.launch_command);
   try {
     check_launch_command(h.launch_command);

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <string>
 
 namespace hemo {
 
@@ -44,6 +45,14 @@ int check_command(const std::string& scene_path) {
         "  work        at least {:.0f} DEM substeps per coupling interval (shortest contact {:.3g} s), "
         "~{:.3g} particle-steps in all\n",
         w.substeps, w.contact_time, w.particle_steps);
+  if (s.hosts.tcp())
+    fmt::print(
+        "  bus         TCP through a relay the coordinator runs, at {}, {} (docs/hosts.md)\n",
+        s.hosts.relay_address == "auto" ? "the address the nodes' hosts reach this one by" : s.hosts.relay_address,
+        s.hosts.relay_port == 0 ? "any free port" : "port " + std::to_string(s.hosts.relay_port));
+  else if (s.hosts.any())
+    fmt::print("  bus         UDP multicast across hosts{}\n",
+               s.run.bus_ttl >= 0 ? fmt::format(", TTL {}", s.run.bus_ttl) : std::string(", TTL 1"));
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)

@@ -17,6 +17,9 @@ struct RunOptions {
   std::string fluid_hostfile, particle_hostfile;  // Open MPI host files, read into the lists above
   std::string launcher, launch_command;
   int bus_ttl = -1;  // -1: as the scene says (run.bus_ttl)
+  // The bus's transport and the TCP relay's address (docs/hosts.md); empty / -1: as the scene says.
+  std::string transport, relay_address;
+  int relay_port = -1;
 };
 int run_command(const RunOptions& opt);
 

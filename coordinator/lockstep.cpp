@@ -217,11 +217,14 @@ void Lockstep::check_bus() {
   if (now() - last_report < scene_.run.bus_check_s) return;
   std::string also;
   for (std::size_t i = 1; i < unheard.size(); ++i) also += (i == 1 ? "; also " : ", ") + unheard[i];
+  const bool tcp = ctx_.lcm_url.rfind("tcpq://", 0) == 0;
   throw std::runtime_error(fmt::format(
-      "bus check: {} within {:g} s on {}{}; likely multicast is not routed between the hosts (a route for "
-      "224.0.0.0/4 on the interface that joins them, run.bus_ttl), a firewall drops UDP to that group and port, "
-      "or a receive buffer is too small (docs/hosts.md)",
-      unheard.front(), scene_.run.bus_check_s, ctx_.lcm_url, also));
+      "bus check: {} within {:g} s on {}{}; {}", unheard.front(), scene_.run.bus_check_s, ctx_.lcm_url, also,
+      tcp ? "the relay forwards to every process connected to it: one that is not heard lost its connection or "
+            "does not publish (its log; docs/hosts.md)"
+          : "likely multicast is not routed between the hosts (a route for 224.0.0.0/4 on the interface that "
+            "joins them, run.bus_ttl), a firewall drops UDP to that group and port, or a receive buffer is too "
+            "small; where multicast cannot pass, use the TCP transport (--transport tcp; docs/hosts.md)"));
 }
 
 void Lockstep::await(long step, double timeout_s) {

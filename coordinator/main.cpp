@@ -59,6 +59,18 @@ int main(int argc, char** argv) {
       ->add_option("--bus-ttl", run.bus_ttl,
                    "Multicast TTL of the run's bus (default 0 on one host, 1 with hosts; overrides run.bus_ttl)")
       ->check(CLI::Range(0, 255));
+  run_cmd
+      ->add_option("--transport", run.transport,
+                   "The bus: multicast (LCM UDP multicast) or tcp (through a relay the coordinator runs, for "
+                   "networks without multicast) (overrides hosts.transport; docs/hosts.md)")
+      ->check(CLI::IsMember({"multicast", "tcp"}));
+  run_cmd->add_option("--relay-address", run.relay_address,
+                      "IPv4 address of this host the TCP relay listens on, reachable from the nodes' hosts (default "
+                      "auto; overrides hosts.relay_address)");
+  run_cmd
+      ->add_option("--relay-port", run.relay_port,
+                   "Port of the TCP relay (0: any free one; overrides hosts.relay_port)")
+      ->check(CLI::Range(0, 65535));
 
   hemo::ResumeOptions resume;
   auto* resume_cmd = app.add_subcommand(

@@ -2,18 +2,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
 #include "hosts.h"
+#include "relay.h"
 #include "run_driver.h"
 #include "scene.h"
 #include "xdmf.h"
 
 #include <fmt/format.h>
 
+#include <arpa/inet.h>
 #include <unistd.h>
 #include <cmath>
 #include <csignal>
 #include <ctime>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <tuple>
 
@@ -39,11 +42,46 @@ std::string default_run_dir(const Scene& scene) {
   return fmt::format("runs/{}-{}", scene.run.name, stamp);
 }
 
+// The TCP transport's relay (docs/hosts.md), listening where the nodes' hosts reach this one; it
+// forwards the run's channels only.
+std::unique_ptr<Relay> start_relay(const Scene& scene, const RunContext& ctx) {
+  RelayOptions opt;
+  opt.address = scene.hosts.relay_address;
+  if (opt.address == "auto") {
+    std::vector<std::string> hosts;
+    for (const auto* list : {&scene.hosts.fluid, &scene.hosts.particles})
+      for (const auto& h : parse_host_list(*list)) hosts.push_back(h.host);
+    opt.address = local_address_toward(hosts);
+  }
+  opt.port = scene.hosts.relay_port;
+  opt.channel_prefix = ctx.run_id + "/";
+  return std::make_unique<Relay>(opt);
+}
+
 // Drives the run, then makes what the nodes wrote openable in ParaView, also after a failure.
-int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, const Span span) {
+int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunContext& given_ctx, const Span span) {
   const Scene scene = placed_in_allocation(scene_as_given);
   HostLauncher launcher(scene.hosts, dir.path);
   launcher.check_hosts();
+  // The relay lives as long as the run, across node restarts; destroyed last, it ends the bus
+  // only once the nodes are stopped.
+  RunContext ctx = given_ctx;
+  std::unique_ptr<Relay> relay;
+  if (scene.hosts.tcp()) {
+    relay = start_relay(scene, ctx);
+    ctx.lcm_url = relay->url();
+    dir.record_bus_url(ctx.lcm_url);  // for the monitor, `hemocosim restart` and the nodes of a resume
+    fmt::print(stderr, "hemocosim: bus over TCP: relay at {}:{}\n", relay->address(), relay->port());
+  }
+  struct RelayReport {
+    const std::unique_ptr<Relay>& relay;
+    ~RelayReport() {
+      if (!relay) return;
+      const auto s = relay->stats();
+      if (s.dropped_slow + s.malformed + s.refused_patterns + s.refused_clients + s.dropped_foreign > 0)
+        fmt::print(stderr, "hemocosim: bus relay: {}\n", s.str());
+    }
+  } relay_report{relay};
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   Reached reached;
@@ -99,6 +137,16 @@ void place_nodes(Scene& scene, RunOptions opt) {
     }
   }
   if (opt.bus_ttl >= 0) scene.run.bus_ttl = opt.bus_ttl;
+  if (!opt.transport.empty()) h.transport = opt.transport;
+  if (!opt.relay_address.empty()) {
+    in_addr ip{};
+    if (opt.relay_address != "auto" && ::inet_pton(AF_INET, opt.relay_address.c_str(), &ip) != 1)
+      throw std::invalid_argument(
+          fmt::format("--relay-address {}: must be auto or an IPv4 address of this host (LCM's tcpq takes no names)",
+                      opt.relay_address));
+    h.relay_address = opt.relay_address;
+  }
+  if (opt.relay_port >= 0) h.relay_port = opt.relay_port;
 }
 }  // namespace
 
@@ -113,6 +161,7 @@ int run_command(const RunOptions& opt) {
                                          bus_ttl(scene.run.bus_ttl, scene.hosts.across_hosts()));
   dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
   dir.record_placement(scene.hosts);
+  dir.record_transport(scene.hosts);
   ctx.drop_every = scene.run.drop_every;
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
@@ -126,6 +175,11 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
   if (dir.placement.across_hosts()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
+  if (dir.transport_recorded) {
+    scene.hosts.transport = dir.placement.transport;
+    scene.hosts.relay_address = dir.placement.relay_address;
+    scene.hosts.relay_port = dir.placement.relay_port;
+  }
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   const long last = last_step(scene, opt.stop_after_step);

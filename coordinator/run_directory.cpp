@@ -16,6 +16,17 @@ namespace fs = std::filesystem;
 
 namespace hemo {
 
+namespace {
+// run.toml is rewritten as a run starts (ranks, placement, transport, the relay's URL) while
+// others may read it (the monitor, `hemocosim restart`, lcm-logger's user): written aside and
+// renamed, so that a reader sees the old file or the new one, never a truncated one.
+void write_info(const std::string& file, const toml::table& info) {
+  const std::string tmp = file + ".tmp";
+  std::ofstream(tmp) << info << "\n";
+  fs::rename(tmp, file);
+}
+}  // namespace
+
 std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path, const std::string& scene_path,
                                                          int ttl) {
   if (fs::exists(path) && !fs::is_empty(path))
@@ -43,7 +54,7 @@ std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path
   fs::permissions(ctx.secret_file, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
 
   toml::table info{{"run_id", ctx.run_id}, {"lcm_url", ctx.lcm_url}, {"secret_file", ctx.secret_file}};
-  std::ofstream(dir.info_file()) << info << "\n";
+  write_info(dir.info_file(), info);
   return {dir, ctx};
 }
 
@@ -73,6 +84,13 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
     p.launcher = (*hosts)["launcher"].value_or(p.launcher);
     p.launch_command = (*hosts)["launch_command"].value_or(p.launch_command);
   }
+  if (const auto* bus = info["bus"].as_table()) {
+    auto& p = dir.placement;
+    p.transport = (*bus)["transport"].value_or(p.transport);
+    p.relay_address = (*bus)["relay_address"].value_or(p.relay_address);
+    p.relay_port = (*bus)["relay_port"].value_or(p.relay_port);
+    dir.transport_recorded = true;
+  }
   return {dir, ctx};
 }
 
@@ -82,7 +100,7 @@ void RunDirectory::record_ranks(int fluid, int particles) {
   toml::table info = toml::parse_file(info_file());
   info.insert_or_assign("fluid_ranks", fluid);
   info.insert_or_assign("particle_ranks", particles);
-  std::ofstream(info_file()) << info << "\n";
+  write_info(info_file(), info);
 }
 
 void RunDirectory::record_placement(const HostPlacement& hosts) {
@@ -93,14 +111,32 @@ void RunDirectory::record_placement(const HostPlacement& hosts) {
                                              {"particles", hosts.particles},
                                              {"launcher", hosts.launcher},
                                              {"launch_command", hosts.launch_command}});
-  std::ofstream(info_file()) << info << "\n";
+  write_info(info_file(), info);
+}
+
+void RunDirectory::record_transport(const HostPlacement& hosts) {
+  placement.transport = hosts.transport;
+  placement.relay_address = hosts.relay_address;
+  placement.relay_port = hosts.relay_port;
+  transport_recorded = true;
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("bus", toml::table{{"transport", hosts.transport},
+                                           {"relay_address", hosts.relay_address},
+                                           {"relay_port", hosts.relay_port}});
+  write_info(info_file(), info);
+}
+
+void RunDirectory::record_bus_url(const std::string& url) const {
+  toml::table info = toml::parse_file(info_file());
+  info.insert_or_assign("lcm_url", url);
+  write_info(info_file(), info);
 }
 
 void RunDirectory::record_command(const std::string& node, const std::string& command) {
   (node == "fluid" ? fluid_command : particle_command) = command;
   toml::table info = toml::parse_file(info_file());
   info.insert_or_assign(node == "fluid" ? "fluid_command" : "particle_command", command);
-  std::ofstream(info_file()) << info << "\n";
+  write_info(info_file(), info);
 }
 
 std::optional<long> RunDirectory::last_checkpoint() const { return last_complete_checkpoint(path); }

@@ -27,6 +27,12 @@ struct RunDirectory {
   void record_ranks(int fluid, int particles);
   // Remembers where the nodes run (`hemocosim resume` places them the same way).
   void record_placement(const HostPlacement& hosts);
+  // Remembers the bus's transport and relay (hosts.transport, relay_address, relay_port) in
+  // run.toml's [bus]: a resumed run starts its relay the same way. `open` puts them in placement.
+  void record_transport(const HostPlacement& hosts);
+  bool transport_recorded = false;  // run.toml has [bus] (older run directories do not)
+  // The bus URL of the run as it is now (the TCP relay's address and port are known once it listens).
+  void record_bus_url(const std::string& url) const;
   // Remembers the program a node was swapped for: a resumed run goes on with it.
   void record_command(const std::string& node, const std::string& command);
   // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h).

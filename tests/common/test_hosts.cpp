@@ -154,6 +154,30 @@ launcher = "local"
             std::string::npos);
 }
 
+TEST(Hosts, TransportKeysAreReadAndValidated) {
+  const Scene m = load_scene(test::write_temp(std::string(test::kMinimalScene)));
+  EXPECT_EQ(m.hosts.transport, "multicast");
+  EXPECT_FALSE(m.hosts.tcp());
+  EXPECT_EQ(m.hosts.relay_address, "auto");
+  EXPECT_EQ(m.hosts.relay_port, 0);
+  const Scene t = load_scene(test::write_temp(std::string(test::kMinimalScene) +
+                                              "[hosts]\ntransport = \"tcp\"\nrelay_address = \"10.1.2.3\"\n"
+                                              "relay_port = 7700\n"));
+  EXPECT_TRUE(t.hosts.tcp());
+  EXPECT_EQ(t.hosts.relay_address, "10.1.2.3");
+  EXPECT_EQ(t.hosts.relay_port, 7700);
+  // One line each, naming the key.
+  for (const auto& [text, key] :
+       {std::pair{"[hosts]\ntransport = \"udp\"\n", "unknown name 'udp' (known: multicast, tcp)"},
+        {"[hosts]\nrelay_address = \"coordinator.example\"\n", "hosts.relay_address"},
+        {"[hosts]\nrelay_port = 70000\n", "hosts.relay_port"},
+        {"[hosts]\nrelay_port = -1\n", "hosts.relay_port"}}) {
+    const std::string problem = first_problem(std::string(test::kMinimalScene) + text);
+    EXPECT_NE(problem.find(key), std::string::npos) << problem;
+    EXPECT_EQ(problem.find('\n'), std::string::npos) << problem;
+  }
+}
+
 // The bus check's evidence: a heartbeat thread hears the run's other processes (and only those
 // that hold the secret) and reports them in the run directory.
 TEST(Hosts, HeartbeatsReportWhomTheyHearInTheRunDirectory) {

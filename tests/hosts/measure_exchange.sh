@@ -5,12 +5,15 @@
 # the bridge; MPI over TCP), and with both particle ranks on host 2 (the bus across hosts, MPI
 # within one), REPEAT times each; prints the lockstep's coupling overhead
 # (step wall time not spent computing in a node) and step wall time per step. Needs root.
+# With TRANSPORTS "multicast tcp", each placement also runs over the TCP transport (the
+# coordinator's relay; rows ending in _tcp).
 #
-#   tests/hosts/measure_exchange.sh BUILD_DIR SCENE [REPEAT]
+#   tests/hosts/measure_exchange.sh BUILD_DIR SCENE [REPEAT] [TRANSPORTS]
 set -euo pipefail
 build=$(cd "${1:?BUILD_DIR}" && pwd)
 scene=$(cd "$(dirname "${2:?SCENE}")" && pwd)/$(basename "$2")
 repeat=${3:-3}
+transports=${4:-multicast}
 here=$(cd "$(dirname "$0")" && pwd)
 name=hm$$
 work=$(mktemp -d)
@@ -22,12 +25,18 @@ per_step() {  # run dir -> "overhead_ms wall_ms"
 }
 echo "placement overhead_ms_per_step step_wall_ms"
 for i in $(seq 1 "$repeat"); do
-  ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/loop$i" --np-particles 2 >/dev/null 2>&1
-  echo "loopback $(per_step "$work/loop$i")"
-  ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/hosts$i" --fluid-hosts 10.77.0.1 \
-    --particle-hosts 10.77.0.2:1,10.77.0.3:1 --launch-command "$work/net/ssh {host} {command}" >/dev/null 2>&1
-  echo "hosts_1_2+3 $(per_step "$work/hosts$i")"
-  ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/two$i" --fluid-hosts 10.77.0.1 \
-    --particle-hosts 10.77.0.2:2 --launch-command "$work/net/ssh {host} {command}" >/dev/null 2>&1
-  echo "hosts_1_2 $(per_step "$work/two$i")"
+  for t in $transports; do
+    sfx=$([ "$t" = multicast ] && echo "" || echo "_$t")
+    ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/loop$t$i" --np-particles 2 \
+      --transport "$t" >/dev/null 2>&1
+    echo "loopback$sfx $(per_step "$work/loop$t$i")"
+    ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/hosts$t$i" --fluid-hosts 10.77.0.1 \
+      --particle-hosts 10.77.0.2:1,10.77.0.3:1 --launch-command "$work/net/ssh {host} {command}" \
+      --transport "$t" >/dev/null 2>&1
+    echo "hosts_1_2+3$sfx $(per_step "$work/hosts$t$i")"
+    ip netns exec $name-1 "$build/bin/hemocosim" run "$scene" --out "$work/two$t$i" --fluid-hosts 10.77.0.1 \
+      --particle-hosts 10.77.0.2:2 --launch-command "$work/net/ssh {host} {command}" \
+      --transport "$t" >/dev/null 2>&1
+    echo "hosts_1_2$sfx $(per_step "$work/two$t$i")"
+  done
 done

@@ -260,12 +260,13 @@ void wait_for_step(const std::string& dir, long step) {
 // the request came in, stops both nodes and starts them again from it (the swapped node as the
 // new program), and answers once they run. The run ends bit for bit as the same scene stopped
 // after that step and resumed.
-// `ask`: the command after `hemocosim`, with {} for the run directory. Returns the run directory.
-std::string expect_asked_restart(const std::string& name, std::string ask) {
+// `ask`: the command after `hemocosim`, with {} for the run directory; `options`: more options
+// of the run asked (the others run as the scene says). Returns the run directory.
+std::string expect_asked_restart(const std::string& name, std::string ask, const std::string& options = "") {
   const std::string asked = fresh_run_dir(name + "-asked"), resumed = fresh_run_dir(name + "-resumed");
   std::ofstream(asked + ".toml") << scene_with_checkpoints(600, 0);
-  auto result =
-      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + asked + ".toml --out " + asked); });
+  auto result = std::async(std::launch::async,
+                           [&] { return run(bin("hemocosim") + " run " + asked + ".toml --out " + asked + options); });
   wait_for_step(asked, 30);
   ask.replace(ask.find("{}"), 2, asked);
   const auto answer = run(bin("hemocosim") + " " + ask + " --timeout 120");
@@ -298,6 +299,15 @@ std::string expect_asked_restart(const std::string& name, std::string ask) {
 
 TEST(Checkpoint, RestartAskedForGoesOnFromACheckpointOfTheCurrentStep) {
   expect_asked_restart("restart-asked", "restart {} particles");
+}
+
+// The same over the TCP transport (docs/hosts.md): the request reaches the coordinator through
+// its relay, and the nodes started again connect to the same relay.
+TEST(Checkpoint, RestartAskedForOverTcpGoesOnFromACheckpointOfTheCurrentStep) {
+  const std::string dir = expect_asked_restart("restart-asked-tcp", "restart {} particles", " --transport tcp");
+  std::ifstream in(dir + "/run.toml");
+  const std::string info((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(info.find("lcm_url = 'tcpq://127.0.0.1:"), std::string::npos) << info;
 }
 
 // The swapped-in program here is the particle node behind a script that leaves a mark: the run

@@ -135,6 +135,29 @@ TEST(CoupledRun, LostDatagramsLeaveTheResultUnchanged) {
   EXPECT_EQ(a.velocity, b.velocity);
 }
 
+// The bus over TCP through the coordinator's relay (docs/hosts.md) on one host: the run ends as
+// on multicast, bit for bit, and says where its relay listened.
+TEST(CoupledRun, TcpTransportEndsBitForBitAsMulticast) {
+  const std::string dir = fresh_run_dir("coupled-small-tcp");
+  const auto r = run(bin("hemocosim") + " run " + scene("coupled_small.toml") + " --out " + dir + " --transport tcp");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("hemocosim: bus over TCP: relay at 127.0.0.1:"), std::string::npos) << r.output;
+  std::ifstream in(dir + "/run.toml");
+  std::stringstream info;
+  info << in.rdbuf();
+  EXPECT_NE(info.str().find("lcm_url = 'tcpq://127.0.0.1:"), std::string::npos) << info.str();
+  const auto names = snapshot_names(small_run() + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(dir + "/particles.h5"));
+  for (const auto& name : names) {
+    const auto a = read_snapshot(small_run() + "/particles.h5", name), b = read_snapshot(dir + "/particles.h5", name);
+    ASSERT_EQ(a.id, b.id) << name;
+    EXPECT_EQ(a.position, b.position) << name;
+    EXPECT_EQ(a.velocity, b.velocity) << name;
+  }
+  const auto ma = read_metrics(small_run()), mb = read_metrics(dir);
+  EXPECT_EQ(ma.at({"fluid", "mean_velocity_m_s"}), mb.at({"fluid", "mean_velocity_m_s"}));
+}
+
 namespace {
 std::string run_scene_text(const std::string& name, const std::string& text) {
   const std::string dir = fresh_run_dir(name);

@@ -1,0 +1,115 @@
+// The bus without multicast (docs/hosts.md, "Without multicast: the TCP transport"): LCM's
+// `tcpq://host:port` provider connects every process to one server that hands each published
+// message to every client subscribed to its channel. LCM ships that server only in Java; this is
+// ours. The coordinator runs it in a thread for the length of a run; nodes, the monitor and
+// `hemocosim restart` connect to it as plain LCM clients.
+//
+// The relay is untrusted by design: it forwards bytes and checks nothing of them beyond the
+// framing, so a run's HMAC, replay and run-id checks (common/bus.h) stand as they do on multicast.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hemo {
+
+// The tcpq wire protocol of LCM 1.3 (lcm/lcm_tcpq.c, lcm-java's TCPService), all integers
+// 32-bit big-endian:
+//   client -> server, once:  kTcpqMagicClient, version
+//   server -> client, once:  kTcpqMagicServer, version
+//   client -> server:        kTcpqPublish, channel length, channel, data length, data
+//                            kTcpqSubscribe | kTcpqUnsubscribe, pattern length, pattern
+//   server -> client:        kTcpqPublish, channel length, channel, data length, data
+// A subscription is LCM's channel regular expression, matched against the whole channel.
+inline constexpr std::uint32_t kTcpqMagicServer = 0x287617fa;
+inline constexpr std::uint32_t kTcpqMagicClient = 0x287617fb;
+inline constexpr std::uint32_t kTcpqVersion = 0x0100;
+inline constexpr std::uint32_t kTcpqPublish = 1;
+inline constexpr std::uint32_t kTcpqSubscribe = 2;
+inline constexpr std::uint32_t kTcpqUnsubscribe = 3;
+
+// A subscription pattern as the relay understands it: literal characters, `\x` for a literal x,
+// `.` for any one character and `.*` for any run, with optional `^` and `$` at the ends. That is
+// every pattern our processes, lcm-logger and lcm-spy send (channel names, ".*"); anything else
+// (classes, alternation, groups, other repeats) is refused rather than run through a regex engine
+// that a client could make backtrack for ever. `valid` is false for a refused pattern.
+class ChannelPattern {
+ public:
+  explicit ChannelPattern(const std::string& pattern);
+  bool valid() const { return valid_; }
+  bool matches(const std::string& channel) const;
+  const std::string& text() const { return text_; }
+
+ private:
+  enum class Kind { literal, any_one, any_run };
+  struct Token {
+    Kind kind;
+    char c;
+  };
+  std::string text_;
+  std::vector<Token> tokens_;
+  bool valid_ = true;
+};
+
+struct RelayOptions {
+  std::string address = "127.0.0.1";  // IPv4 address to listen on (LCM 1.3's tcpq takes no host names)
+  int port = 0;                       // 0: a free port, chosen by the kernel
+  // Only channels that begin with this are forwarded (the run's "<run-id>/"); empty: all.
+  std::string channel_prefix;
+  std::size_t max_frame_bytes = std::size_t{1} << 30;  // a larger publish is a malformed frame
+  // Bytes queued for one client that reads too slowly; what would exceed it is dropped for that
+  // client, whole messages only (as a full UDP receive buffer drops them: the run asks again).
+  std::size_t max_queued_bytes = std::size_t{512} << 20;
+  int max_clients = 256;
+};
+
+// What the relay did, for its log line and the tests.
+struct RelayStats {
+  std::uint64_t clients_accepted = 0;
+  std::uint64_t clients_connected = 0;  // now
+  std::uint64_t subscriptions = 0;      // now, over all clients
+  std::uint64_t published = 0;          // publish frames received
+  std::uint64_t forwarded = 0;          // copies handed to subscribers
+  std::uint64_t bytes_forwarded = 0;
+  std::uint64_t dropped_foreign = 0;   // channel outside channel_prefix
+  std::uint64_t dropped_slow = 0;      // copies dropped for a client over max_queued_bytes
+  std::uint64_t malformed = 0;         // clients disconnected for a bad handshake or frame
+  std::uint64_t refused_patterns = 0;  // subscriptions ChannelPattern does not take
+  std::uint64_t refused_clients = 0;   // over max_clients
+  std::string str() const;             // one line
+};
+
+class Relay {
+ public:
+  // Listens at once (so that clients may connect as soon as this returns) and serves from a
+  // thread of its own. Throws std::runtime_error with one line when it cannot listen.
+  explicit Relay(RelayOptions options);
+  ~Relay();  // stops: closes every connection (clients see the bus end)
+  Relay(const Relay&) = delete;
+  Relay& operator=(const Relay&) = delete;
+
+  int port() const { return port_; }
+  const std::string& address() const { return options_.address; }
+  std::string url() const;  // tcpq://address:port
+  RelayStats stats() const;
+
+ private:
+  struct Impl;
+  void serve();
+
+  RelayOptions options_;
+  int port_ = 0;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The IPv4 address of this host that the given hosts reach it by: the source address the
+// routing table picks toward each host, the first that is not a loopback address; 127.0.0.1 when
+// there are no hosts or every one is this host. Throws one line naming a host it cannot resolve.
+std::string local_address_toward(const std::vector<std::string>& hosts);
+
+}  // namespace hemo
