@@ -109,6 +109,7 @@ const std::set<std::string> kMayBeZero = {"run.seed",
                                           "driving.pressure_drop_Pa",
                                           "driving.wall_shear_rate_per_s",
                                           "run.bus_ttl",
+                                          "hosts.relay_port",  // 0: a free port, chosen by the kernel
                                           "rbc.hematocrit",
                                           "rbc.mass_scaling",
                                           "platelet.number_density_per_ul",
