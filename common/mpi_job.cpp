@@ -9,6 +9,16 @@
 
 namespace hemo {
 
+std::string argv_option(int argc, char** argv, const std::string& name) {
+  std::string value;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == name && i + 1 < argc) value = argv[i + 1];
+    if (a.rfind(name + "=", 0) == 0) value = a.substr(name.size() + 1);
+  }
+  return value;
+}
+
 MpiStarter parse_mpi_starter(const std::string& name) {
   if (name == "mpirun") return MpiStarter::mpirun;
   if (name == "srun") return MpiStarter::srun;
@@ -22,17 +32,20 @@ void append_words(std::vector<std::string>& argv, const char* text) {
   for (std::string w; in >> w;) argv.push_back(w);
 }
 
-std::string program_or(const char* given, const char* fallback) {
-  return given != nullptr && *given != '\0' ? given : fallback;
-}
 }  // namespace
+
+std::string starter_program(MpiStarter starter, const std::function<const char*(const char*)>& env_lookup) {
+  const bool mpirun = starter == MpiStarter::mpirun;
+  const char* given = env_lookup(mpirun ? "HEMOCOSIM_MPIRUN" : "HEMOCOSIM_SRUN");
+  return given != nullptr && *given != '\0' ? given : mpirun ? "mpirun" : "srun";
+}
 
 MpiCommand mpi_job_command(const MpiJob& job, const std::vector<std::string>& program_and_args,
                            const std::function<const char*(const char*)>& env_lookup, bool as_root) {
   MpiCommand c;
   const std::string ranks = std::to_string(job.ranks);
   if (job.starter == MpiStarter::mpirun) {
-    c.argv = {program_or(env_lookup("HEMOCOSIM_MPIRUN"), "mpirun"), "-np", ranks};
+    c.argv = {starter_program(job.starter, env_lookup), "-np", ranks};
     // Open MPI refuses root unless told; a waiting rank yields its core, since the other node
     // and the coordinator share the machine.
     if (as_root) {
@@ -56,7 +69,7 @@ MpiCommand mpi_job_command(const MpiJob& job, const std::vector<std::string>& pr
     // A job step of the allocation. --overlap: the two nodes' steps share the job's CPUs, as
     // the lockstep alternates them; --kill-on-bad-exit: one failed rank ends the step, and the
     // coordinator sees the node end.
-    c.argv = {program_or(env_lookup("HEMOCOSIM_SRUN"), "srun"), "--mpi=pmix", "--overlap", "--kill-on-bad-exit=1",
+    c.argv = {starter_program(job.starter, env_lookup), "--mpi=pmix", "--overlap", "--kill-on-bad-exit=1",
               "--ntasks=" + ranks};
     c.env.push_back({"OMPI_MCA_mpi_yield_when_idle", "1", true});
     if (!job.hosts.empty()) {

@@ -15,6 +15,10 @@
 namespace hemo {
 
 enum class MpiStarter { mpirun, srun };
+// The value of `--name VALUE` or `--name=VALUE` in argv (the last one given), or empty: how a
+// node's launcher reads its MPI options before its own CLI parses them all.
+std::string argv_option(int argc, char** argv, const std::string& name);
+
 // "mpirun" or "srun" (a node's --mpi-starter); throws std::invalid_argument otherwise.
 MpiStarter parse_mpi_starter(const std::string& name);
 
@@ -47,6 +51,10 @@ struct MpiCommand {
 // separated), read from `env_lookup` (getenv outside tests).
 MpiCommand mpi_job_command(const MpiJob& job, const std::vector<std::string>& program_and_args,
                            const std::function<const char*(const char*)>& env_lookup, bool as_root);
+
+// The program that starts `starter`'s jobs: HEMOCOSIM_MPIRUN / HEMOCOSIM_SRUN from `env_lookup`
+// when set, else mpirun / srun.
+std::string starter_program(MpiStarter starter, const std::function<const char*(const char*)>& env_lookup);
 
 // One line a rank: "b\nb\nc\nc\n" for b:2,c:2.
 std::string slurm_hostfile_text(const std::vector<HostSlots>& hosts);

@@ -14,6 +14,7 @@
 
 #include "child_process.h"
 #include "hosts.h"
+#include "mpi_job.h"
 #include "node_process.h"
 
 namespace hemo {
@@ -108,9 +109,8 @@ HostLauncher::HostLauncher(HostPlacement placement, std::string run_dir)
 
 // How the check reaches `host`: the ssh launcher's command, or a one-task job step there.
 std::vector<std::string> HostLauncher::check_command(const std::string& host) const {
-  if (placement_.launcher == "slurm") {
-    const char* srun = std::getenv("HEMOCOSIM_SRUN");
-    return {srun != nullptr && *srun != '\0' ? srun : "srun",
+  if (placement_.launcher == "slurm")
+    return {starter_program(MpiStarter::srun, std::getenv),
             "--overlap",
             "--nodes=1",
             "--ntasks=1",
@@ -118,7 +118,6 @@ std::vector<std::string> HostLauncher::check_command(const std::string& host) co
             "sh",
             "-c",
             remote_check_command(run_dir_)};
-  }
   return expand_launch_command(
       placement_.launch_command,
       {{"host", host}, {"command", remote_check_command(run_dir_)}, {"node", "check"}, {"run_dir", run_dir_}});

@@ -44,17 +44,6 @@
 
 namespace {
 
-// The value of `--name VALUE` or `--name=VALUE` (the last one given), or empty.
-std::string option(int argc, char* argv[], const std::string& name) {
-  std::string value;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == name && i + 1 < argc) value = argv[i + 1];
-    if (a.rfind(name + "=", 0) == 0) value = a.substr(name.size() + 1);
-  }
-  return value;
-}
-
 [[noreturn]] void exec(const std::vector<std::string>& args) {
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -121,25 +110,26 @@ int main(int argc, char* argv[]) {
   for (int i = 1; i < argc; ++i) solver_args.emplace_back(argv[i]);
 
   int ranks = 1;
-  const std::string ranks_text = option(argc, argv, "--ranks");
+  const std::string ranks_text = hemo::argv_option(argc, argv, "--ranks");
   if (!ranks_text.empty()) ranks = std::atoi(ranks_text.c_str());
   hemo::MpiJob job;
   job.ranks = std::max(ranks, 1);
   job.exported = {"WM_PROJECT_DIR", "FOAM_ETC"};
   try {
-    const std::string starter = option(argc, argv, "--mpi-starter");
+    const std::string starter = hemo::argv_option(argc, argv, "--mpi-starter");
     if (!starter.empty()) job.starter = hemo::parse_mpi_starter(starter);
-    job.hosts = hemo::parse_host_list(option(argc, argv, "--mpi-hosts"));
+    job.hosts = hemo::parse_host_list(hemo::argv_option(argc, argv, "--mpi-hosts"));
   } catch (const std::exception& e) {
     std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
     return 2;
   }
   if (ranks <= 1 && job.starter == hemo::MpiStarter::mpirun) exec(solver_args);
 
-  const std::string resume_step = option(argc, argv, "--resume-step");
+  const std::string resume_step = hemo::argv_option(argc, argv, "--resume-step");
   const bool resuming = !resume_step.empty() && std::atol(resume_step.c_str()) > 0;
   try {
-    const std::string scene = option(argc, argv, "--scene"), run_dir = option(argc, argv, "--run-dir");
+    const std::string scene = hemo::argv_option(argc, argv, "--scene"),
+                      run_dir = hemo::argv_option(argc, argv, "--run-dir");
     if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
     const std::string dir = std::filesystem::absolute(run_dir).lexically_normal().string();
     if (ranks > 1 && resuming)

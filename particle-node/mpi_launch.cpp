@@ -17,20 +17,8 @@
 namespace hemo::particles {
 
 namespace {
-// The value of `--name VALUE` / `--name=VALUE` (the last given), or empty. The node's CLI parses
-// the same options properly once it runs; this is only the decision to become an MPI job.
-std::string option(int argc, char** argv, const std::string& name) {
-  std::string value;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == name && i + 1 < argc) value = argv[i + 1];
-    if (a.rfind(name + "=", 0) == 0) value = a.substr(name.size() + 1);
-  }
-  return value;
-}
-
 int requested_ranks(int argc, char** argv) {
-  const std::string value = option(argc, argv, "--ranks");
+  const std::string value = argv_option(argc, argv, "--ranks");
   char* end = nullptr;
   const long n = std::strtol(value.c_str(), &end, 10);
   return end != value.c_str() && *end == '\0' && n >= 1 && n <= 4096 ? static_cast<int>(n) : 1;
@@ -48,16 +36,16 @@ int relaunch_as_mpi_job(int argc, char** argv) {
   MpiJob job;
   job.ranks = requested_ranks(argc, argv);
   try {
-    const std::string starter = option(argc, argv, "--mpi-starter");
+    const std::string starter = argv_option(argc, argv, "--mpi-starter");
     if (!starter.empty()) job.starter = parse_mpi_starter(starter);
-    job.hosts = parse_host_list(option(argc, argv, "--mpi-hosts"));
+    job.hosts = parse_host_list(argv_option(argc, argv, "--mpi-hosts"));
   } catch (const std::invalid_argument& e) {
     std::cerr << "hemocosim-particles: error: " << e.what() << std::endl;
     return 2;
   }
   if (job.ranks <= 1 && job.starter == MpiStarter::mpirun) return 0;
   if (job.starter == MpiStarter::srun && !job.hosts.empty()) {
-    job.slurm_hostfile = std::filesystem::absolute(option(argc, argv, "--run-dir") + "/particles.slurm-hosts");
+    job.slurm_hostfile = std::filesystem::absolute(argv_option(argc, argv, "--run-dir") + "/particles.slurm-hosts");
     std::ofstream(job.slurm_hostfile) << slurm_hostfile_text(job.hosts);
   }
   std::error_code ec;

@@ -113,3 +113,14 @@ TEST(MpiJob, AnAllocationIsSharedFluidFirstParticlesOnTheRest) {
   EXPECT_EQ(total_slots(parse_host_list(particles)), 7);
   EXPECT_THROW(split_allocation({}, 1, 1), std::invalid_argument);
 }
+
+TEST(MpiJob, ArgvOptionTakesBothFormsAndTheLastGiven) {
+  const char* args[] = {"node", "--ranks", "2", "--mpi-hosts=b:2", "--ranks=3", "--scene"};
+  char** argv = const_cast<char**>(args);
+  EXPECT_EQ(argv_option(6, argv, "--ranks"), "3");
+  EXPECT_EQ(argv_option(6, argv, "--mpi-hosts"), "b:2");
+  EXPECT_EQ(argv_option(6, argv, "--scene"), "");  // no value after it
+  EXPECT_EQ(argv_option(6, argv, "--mpi"), "");    // not a prefix match
+  EXPECT_EQ(starter_program(MpiStarter::srun, FakeEnv().lookup()), "srun");
+  EXPECT_EQ(starter_program(MpiStarter::mpirun, FakeEnv{{{"HEMOCOSIM_MPIRUN", "/x/mpirun"}}}.lookup()), "/x/mpirun");
+}
