@@ -38,6 +38,27 @@ constexpr double kContactReach = 1.02;  // contact histories are cleared within 
 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
 
+// The settings that need no particles yet, the node's and a bare LIGGGHTS run's alike.
+std::vector<std::string> base_settings() {
+  return {
+      "units si",
+      "atom_style granular",
+      // No re-sorting: on the calibration scene, sorting every 1,000 steps did not make the DEM
+      // faster over its first 75 coupling steps (0.60-0.71 s per step against 0.47-0.54 s without,
+      // one run each on a noisy machine). Tags start in spatial order (create_particles).
+      "atom_modify map array sort 0 0.0",
+      "boundary f f p",
+      "newton off",
+      "communicate single vel yes",
+      // Cells are softer (7.5e5 Pa) than LIGGGHTS's SI floor of 5e6 Pa.
+      "soft_particles yes",
+      "processors 1 1 *",
+      "thermo 0",
+      // A lost atom is our error (named, one line), not LIGGGHTS's exit.
+      "thermo_modify lost ignore",
+  };
+}
+
 // The materials per atom type and type pair (LIGGGHTS's property/global fixes); the wall's
 // material is the last type.
 std::vector<std::string> material_fixes(const Contact& c, int n_types) {
@@ -112,25 +133,8 @@ void DemEngine::start_liggghts(bool append_log) {
   for (auto& a : args) argv.push_back(a.data());
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
 
-  const std::vector<std::string> setup = {
-      "units si",
-      "atom_style granular",
-      // No re-sorting: on the calibration scene, sorting every 1,000 steps did not make the DEM
-      // faster over its first 75 coupling steps (0.60-0.71 s per step against 0.47-0.54 s without,
-      // one run each on a noisy machine). Tags start in spatial order (create_particles).
-      "atom_modify map array sort 0 0.0",
-      "boundary f f p",
-      "newton off",
-      "communicate single vel yes",
-      // Cells are softer (7.5e5 Pa) than LIGGGHTS's SI floor of 5e6 Pa.
-      "soft_particles yes",
-      "processors 1 1 *",
-      "thermo 0",
-      // A lost atom is our error (named, one line), not LIGGGHTS's exit.
-      "thermo_modify lost ignore",
-  };
   if (append_log && log_path_ != "none") command("log " + log_path_ + " append");  // a resumed run keeps the log
-  for (const auto& line : setup) command(line);
+  for (const auto& line : base_settings()) command(line);
 }
 
 void DemEngine::command(const std::string& line) { lmp_->input->one(line.c_str()); }
@@ -166,30 +170,42 @@ void DemEngine::define_box_and_contacts(int n_types) {
   const double R = locator_->radius();
   const double z0 = locator_->z0(), L = locator_->length();
   const double half_box = R + 2 * d_max_;
-  std::vector<std::string> setup = {
-      fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
-                  half_box, -half_box, half_box, z0, z0 + L),
-      fmt::format("create_box {} hemo_box", n_types),
+  n_types_ = n_types;
+  command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
+                      half_box, -half_box, half_box, z0, z0 + L));
+  command(fmt::format("create_box {} hemo_box", n_types));
+  for (const auto& line : contact_model()) command(line);
+  command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
+  // Defined after the wall: its post_force sees the contact forces and torques of the step.
+  command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
+}
+
+std::vector<std::string> DemEngine::contact_model() const {
+  std::vector<std::string> lines = {
       fmt::format("neighbor {:.17g} bin", 0.25 * d_max_),
       "neigh_modify delay 0",
   };
-  const auto materials = material_fixes(scene_.contact, n_types);
-  setup.insert(setup.end(), materials.begin(), materials.end());
-  setup.insert(
-      setup.end(),
-      {
-          "pair_style gran model hertz tangential history",
-          "pair_coeff * *",
-          "timestep 1e-7",
-          fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder "
-                      "{:.17g} 0 0",
-                      kWallFix, n_types, R),
-          "fix hemo_integrate all nve/sphere",
-          fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)),
-          // Defined after the wall: its post_force sees the contact forces and torques of the step.
-          fmt::format("fix {} all external pf/callback 1 1", kFluidFix),
-      });
-  for (const auto& line : setup) command(line);
+  const auto materials = material_fixes(scene_.contact, n_types_);
+  lines.insert(lines.end(), materials.begin(), materials.end());
+  lines.insert(lines.end(), {
+                                "pair_style gran model hertz tangential history",
+                                "pair_coeff * *",
+                                "timestep 1e-7",
+                                fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} "
+                                            "zcylinder {:.17g} 0 0",
+                                            kWallFix, n_types_, locator_->radius()),
+                                "fix hemo_integrate all nve/sphere",
+                            });
+  return lines;
+}
+
+std::vector<std::string> DemEngine::bare_liggghts_input(const std::string& data_file, double dt, long steps) const {
+  std::vector<std::string> lines = base_settings();
+  lines.push_back("read_data " + data_file);
+  for (const auto& line : contact_model()) lines.push_back(line);
+  lines.push_back(fmt::format("timestep {:.17g}", dt));
+  lines.push_back(fmt::format("run {}", steps));
+  return lines;
 }
 
 void DemEngine::find_fixes() {

@@ -166,6 +166,12 @@ class DemEngine {
   // = "co_relaxed"; else null).
   const CellPlasmaRelaxation* cell_plasma() const { return cell_plasma_.get(); }
 
+  // The input of a bare LIGGGHTS run of this engine's particles, as `write_data` saved them in
+  // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
+  // fixes (no fluid force: the particles coast), `steps` DEM steps of `dt`. The floor under the
+  // DEM's cost (hemocosim-dem-bench --floor).
+  std::vector<std::string> bare_liggghts_input(const std::string& data_file, double dt, long steps) const;
+
   // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.
   void liggghts(const std::string& line) { command(line); }
 
@@ -181,6 +187,8 @@ class DemEngine {
   void setup_box(const std::array<bool, kSpeciesCount>& used);
   int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
   void define_box_and_contacts(int n_types);
+  // The neighbour lists, materials, contact model, wall and integrator for n_types_ atom types.
+  std::vector<std::string> contact_model() const;
   void find_fixes();
   double** per_atom(LAMMPS_NS::Fix* fix) const;
   void start_accumulators(bool carry);
@@ -329,6 +337,7 @@ class DemEngine {
   double d_max_ = 0;
   std::array<int, kSpeciesCount> type_of_{};  // LIGGGHTS atom type of a species (0: none)
   std::array<int, kSpeciesCount + 2> species_of_type_{};
+  int n_types_ = 0;  // atom types, the wall's material the last
 
   // Per tag (index = LIGGGHTS atom tag, 0 unused), packed for one cache line per particle.
   struct Tracked {

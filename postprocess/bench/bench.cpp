@@ -110,6 +110,36 @@ SceneRunner bench_runner(const std::string& hemocosim, bool stress) {
   };
 }
 
+// A floor suite's runner: hemocosim-dem-bench (next to hemocosim) on the scene, its coupling
+// steps on as many ranks as the scene gives the particle node, the figures into
+// RUN_DIR/dem-bench.json.
+SceneRunner floor_runner(const std::string& hemocosim) {
+  return [hemocosim](const std::string& scene, const std::string& run_dir, const std::string& log_path,
+                            const std::function<void(const std::string&)>&) {
+    std::ofstream log(log_path, std::ios::app);
+    fs::create_directories(run_dir);
+    fs::copy_file(scene, fs::path(run_dir) / "scene.toml", fs::copy_options::overwrite_existing);
+    const std::string program = (fs::path(hemocosim).parent_path() / "hemocosim-dem-bench").string();
+    const Scene parsed = load_scene(scene);
+    const std::vector<std::string> argv = {
+        program, "--scene", scene, "--steps", std::to_string(parsed.time.coupling_steps), "--floor", "--ranks",
+        std::to_string(parsed.run.particle_ranks), "--json", (fs::path(run_dir) / "dem-bench.json").string()};
+    std::string command;
+    for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
+    log << "$ " << command << "\n";
+    log.flush();
+    ChildOptions opt;
+    opt.merge_stderr = true;
+    opt.on_line = [&](const std::string& line) {
+      log << line << "\n";
+      log.flush();
+    };
+    const auto r = run_child(argv, opt);
+    log << "# hemocosim-dem-bench " << r.describe() << "\n";
+    return r.exit_code;
+  };
+}
+
 std::string num(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : ""; }
 std::string pct(double v) { return std::isfinite(v) ? fmt::format("{:.3g} %", 100 * v) : "n/a"; }
 std::string g3(double v) { return std::isfinite(v) ? fmt::format("{:.3g}", v) : "n/a"; }
@@ -154,11 +184,14 @@ BenchSuite load_bench_suite(const std::string& path, const std::string& out_dir)
   s.path = path;
   s.name = root["name"].value_or(fs::path(path).stem().string());
   s.stress = root["stress"].value_or(false);
+  s.floor = root["floor"].value_or(false);
+  if (s.floor && s.stress) fail(path, "floor and stress: a suite is one or the other");
   const bool keep_time = root["keep_physical_time"].value_or(false);
   const toml::node* reference = root.get("reference");
-  if (!s.stress && !reference)
+  if (!s.stress && !s.floor && !reference)
     fail(path, "reference: missing (the converged value of the swept key, one of sweep.values)");
   if (s.stress && reference) fail(path, "reference: a stress suite has none");
+  if (s.floor && reference) fail(path, "reference: a floor suite has none (bare LIGGGHTS is its reference)");
   auto* sweep = root["sweep"].as_table();
   if (!sweep) fail(path, "[sweep]: missing (key and values)");
   const auto* values = (*sweep)["values"].as_array();
@@ -206,7 +239,7 @@ BenchSuite load_bench_suite(const std::string& path, const std::string& out_dir)
                             toml::array{"time.coupling_interval_s", "time.coupling_steps", "output.every_steps"});
     sweep->insert_or_assign("values", derived);
   }
-  for (const char* k : {"reference", "keep_physical_time", "stress"}) root.erase(k);
+  for (const char* k : {"reference", "keep_physical_time", "stress", "floor"}) root.erase(k);
   root.insert_or_assign("base", base_path);
   root.insert_or_assign("name", s.name);
   const fs::path dir = fs::path(out_dir) / s.name;
@@ -275,12 +308,15 @@ std::string bench_csv(const std::vector<BenchRow>& rows) {
       "suite,key,value,label,reference,status,wall_s,speedup,fluid_compute_s,particle_compute_s,coupling_overhead_s,"
       "fluid_peak_MiB,particle_peak_MiB,U_m_s,r_platelet_m,r_rbc_m,D_m2_s,platelets,rbcs,err_U,err_r_platelet,err_r_"
       "rbc,"
-      "err_D,D_noise,L1_platelet,L1_rbc,message,run_dir\n";
+      "err_D,D_noise,L1_platelet,L1_rbc,message,run_dir,dem_ns_per_particle_step,callback_ns,one_run_ns,bare_liggghts_ns,"
+      "dem_over_bare\n";
   for (const auto& r : rows) {
     const auto& m = r.measures;
     const auto& e = r.errors;
     const bool me = r.measured, er = r.has_errors;
-    c += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+    const bool fl = r.has_floor;
+    const auto& f = r.floor;
+    c += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                      csv_field(r.suite), csv_field(r.keys), csv_field(r.value), csv_field(r.label), r.reference ? 1 : 0,
                      r.status, num(r.wall_s), num(r.speedup), num(r.cost.fluid_compute_s),
                      num(r.cost.particle_compute_s), num(r.cost.coupling_overhead_s), num(r.cost.fluid_peak_mib),
@@ -288,7 +324,9 @@ std::string bench_csv(const std::vector<BenchRow>& rows) {
                      me ? num(m.mean_r_rbc) : "", me ? num(m.diffusivity) : "", me ? std::to_string(m.platelets) : "",
                      me ? std::to_string(m.rbcs) : "", er ? num(e.u) : "", er ? num(e.r_platelet) : "",
                      er ? num(e.r_rbc) : "", er ? num(e.d) : "", er ? num(e.d_noise) : "", er ? num(e.l1_platelet) : "",
-                     er ? num(e.l1_rbc) : "", csv_field(r.message), csv_field(r.run_dir));
+                     er ? num(e.l1_rbc) : "", csv_field(r.message), csv_field(r.run_dir), fl ? num(f.dem_ns) : "",
+                     fl ? num(f.callback_ns) : "", fl ? num(f.one_run_ns) : "", fl ? num(f.bare_ns) : "",
+                     fl ? num(f.dem_over_bare) : "");
   }
   return c;
 }
@@ -311,6 +349,25 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
     for (const auto& k : s.study.keys) keys += (keys.empty() ? "`" : ", `") + k + "`";
     m += fmt::format("\n## {} — {}\n\n", s.name, keys);
     if (!s.study.title.empty()) m += s.study.title + "\n\n";
+    if (s.floor) {
+      m += "Each scene's particles in a synthetic Poiseuille flow without a fluid node (`hemocosim-dem-bench "
+           "--floor`), wall time per particle-step: our DEM as the node runs it (one LIGGGHTS run per coupling "
+           "interval; the callback is our fluid force), the same steps in one run, and bare LIGGGHTS on the same "
+           "particles (none of our fixes, no fluid force).\n\n";
+      m += "| value | particles | ranks | DEM ns (callback) | one run ns | bare LIGGGHTS ns | DEM / bare | peak MiB "
+           "per rank | wall (s) | status |\n|---|---|---|---|---|---|---|---|---|---|\n";
+      for (const auto& r : rows) {
+        if (r.suite != s.name) continue;
+        const auto& f = r.floor;
+        const bool fl = r.has_floor;
+        m += fmt::format("| {} | {} | {} | {} ({}) | {} | {} | {} | {} | {:.1f} | {} |\n", r.value,
+                         fl ? std::to_string(f.particles) : "", fl ? std::to_string(f.ranks) : "",
+                         fl ? g3(f.dem_ns) : "", fl ? g3(f.callback_ns) : "", fl ? g3(f.one_run_ns) : "",
+                         fl ? g3(f.bare_ns) : "", fl ? g3(f.dem_over_bare) : "", fl ? g3(f.peak_mib) : "", r.wall_s,
+                         r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
+      }
+      continue;
+    }
     if (s.stress) {
       m += "| value | status | wall (s) | particles compute (s) | message |\n|---|---|---|---|---|\n";
       for (const auto& r : rows)
@@ -359,7 +416,8 @@ BenchResult run_bench(const BenchOptions& opt) {
     so.no_plot = true;
     so.quiet = opt.quiet;
     so.hemocosim = hemocosim;
-    so.runner = bench_runner(hemocosim, s.stress);
+    so.runner = s.floor ? floor_runner(hemocosim) : bench_runner(hemocosim, s.stress);
+    so.no_analysis = s.floor;
     if (!opt.quiet) fmt::print(stderr, "bench {}: {}\n", s.name, s.path);
     const StudyResult sr = run_study(so);
     std::vector<BenchRow> rows;
@@ -408,6 +466,15 @@ BenchResult run_bench(const BenchOptions& opt) {
             msg += fmt::format("; {}: {}", node, line);
         }
         r.message = msg;
+      } else if (s.floor) {
+        try {
+          r.floor = bench::read_dem_floor(st.run_dir);
+          r.has_floor = true;
+          r.cost.particle_peak_mib = r.floor.peak_mib;
+        } catch (const std::exception& e) {
+          r.status = "not measured";
+          r.message = e.what();
+        }
       } else {
         try {
           r.measures = bench::measure_run(st.run_dir);
@@ -419,7 +486,9 @@ BenchResult run_bench(const BenchOptions& opt) {
       }
       rows.push_back(r);
     }
-    if (!s.stress) {
+    if (s.floor)
+      for (const auto& r : rows) result.failed += r.status == "failed";
+    if (!s.stress && !s.floor) {
       const BenchRow* ref = nullptr;
       for (const auto& r : rows)
         if (r.reference && r.measured) ref = &r;

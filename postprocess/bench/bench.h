@@ -10,6 +10,9 @@
 //                                   # snapshot times stay those of the base scene
 //   stress = true                   # a stability stress test: no reference; runs the values in
 //                                   # order and stops at the first that fails, recording its message
+//   floor = true                    # the DEM against bare LIGGGHTS: no reference; each scene's
+//                                   # coupling steps are run by hemocosim-dem-bench --floor (no
+//                                   # fluid node) instead of `hemocosim run`
 //
 // The suite is expanded and run by the study machinery (run_study: resume markers, logs), into
 // OUT/<suite>/; then every run is measured (bench_metrics.h: the error metrics, defined there
@@ -41,8 +44,9 @@ struct BenchSuite {
   std::string name;
   std::string study_path;  // the study file written for run_study (OUT/<name>/bench-study.toml)
   Study study;
-  int reference = -1;  // index of the reference run; -1 for a stress suite
+  int reference = -1;  // index of the reference run; -1 for a stress or floor suite
   bool stress = false;
+  bool floor = false;
 };
 
 // Reads a suite, writes its study file into out_dir/<name>/ and loads it; throws StudyError.
@@ -62,6 +66,8 @@ struct BenchRow {
   bool has_errors = false;
   bench::BenchErrors errors;
   double speedup = std::numeric_limits<double>::quiet_NaN();  // reference wall / this wall; NaN without errors
+  bool has_floor = false;
+  bench::DemFloor floor;  // a floor suite's run (hemocosim-dem-bench's figures)
 };
 
 struct BenchResult {

@@ -5,6 +5,8 @@
 #include "plot.h"
 #include "run_data.h"
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -95,6 +97,27 @@ BenchErrors errors_against(const RunMeasures& run, const RunMeasures& ref) {
   e.l1_rbc = l1_distance(run.profile_rbc, ref.profile_rbc);
   e.d_noise = run.platelets > 0 ? std::sqrt(2.0 / static_cast<double>(run.platelets)) : kNaN;
   return e;
+}
+
+DemFloor read_dem_floor(const std::string& run_dir) {
+  const std::string file = run_dir + "/dem-bench.json";
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error(file + ": missing");
+  try {
+    const auto j = nlohmann::json::parse(in);
+    DemFloor f;
+    f.particles = j.at("particles").get<long>();
+    f.ranks = j.at("ranks").get<int>();
+    f.dem_ns = j.at("intervals").at("ns_per_particle_step").get<double>();
+    f.callback_ns = j.at("intervals").at("callback_ns").get<double>();
+    f.one_run_ns = j.at("one_run").at("ns_per_particle_step").get<double>();
+    f.bare_ns = j.at("bare_liggghts").at("ns_per_particle_step").get<double>();
+    f.dem_over_bare = j.at("dem_over_bare").get<double>();
+    f.peak_mib = j.at("peak_memory_MiB_per_rank").get<double>();
+    return f;
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(file + ": " + e.what());
+  }
 }
 
 }  // namespace hemo::bench

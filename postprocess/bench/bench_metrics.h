@@ -65,4 +65,19 @@ struct BenchErrors {
 };
 BenchErrors errors_against(const RunMeasures& run, const RunMeasures& reference);
 
+// A floor suite's run: hemocosim-dem-bench's figures (its --json file), wall time per
+// particle-step in ns.
+struct DemFloor {
+  long particles = 0;
+  int ranks = 0;
+  double dem_ns = 0;       // our DEM as the node runs it, one LIGGGHTS run per coupling interval
+  double callback_ns = 0;  // of which our fluid-force callback
+  double one_run_ns = 0;   // the same steps in one continuous run
+  double bare_ns = 0;      // bare LIGGGHTS on the same particles (the floor)
+  double dem_over_bare = 0;
+  double peak_mib = 0;  // per rank
+};
+// Reads RUN_DIR/dem-bench.json; throws naming the file when it is missing or incomplete.
+DemFloor read_dem_floor(const std::string& run_dir);
+
 }  // namespace hemo::bench

@@ -349,7 +349,7 @@ StudyResult run_study(const StudyOptions& opt) {
   for (const auto& st : result.runs) {
     Row r;
     r.run = &st;
-    if (st.state != StudyRunStatus::State::failed) {
+    if (st.state != StudyRunStatus::State::failed && !opt.no_analysis) {
       try {
         r.a = analyze_run_dir(st.run_dir);
         r.analysed = true;

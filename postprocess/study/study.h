@@ -35,6 +35,7 @@ struct StudyOptions {
   SceneRunner runner;       // default: `hemocosim run SCENE --out RUN_DIR` as a child process
   bool quiet = false;       // no progress lines
   bool check_only = false;  // expand and validate every scene, print the plan, run nothing
+  bool no_analysis = false;  // the runner makes no coupled runs (bench floor suites): no observables
 };
 
 // What became of one run.

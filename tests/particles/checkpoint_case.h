@@ -4,7 +4,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "h5_output.h"
 #include "particle_node.h"
 
@@ -17,6 +17,7 @@
 #include <vector>
 
 namespace hemo::particles::testing::checkpoint_case {
+using namespace hemo::particles::synthetic;
 
 inline constexpr double kR = 25e-6, kL = 100e-6, kInterval = 1e-5;
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "cell_locator.h"
 
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 
 using hemo::particles::CellLocator;
 using hemo::particles::Vec3;
-using hemo::particles::testing::box_mesh;
+using hemo::particles::synthetic::box_mesh;
 
 namespace {
 
@@ -119,7 +119,7 @@ TEST(CellLocator, RejectsInconsistentMeshes) {
 TEST(CellLocator, WallGapOfAPolygonalVessel) {
   const double R = 25e-6, L = 100e-6;
   const int n = 8;
-  const CellLocator loc(hemo::particles::testing::wedge_mesh(n, 4, R, L));
+  const CellLocator loc(hemo::particles::synthetic::wedge_mesh(n, 4, R, L));
   const double pi = 3.14159265358979323846;
   const double sag = R * (1 - std::cos(pi / n));
   EXPECT_NEAR(loc.wall_gap(), sag, 1e-12 * R);
@@ -160,7 +160,7 @@ TEST(CellLocator, NoWallGapWhereTheMeshStopsShortOfTheVessel) {
   // Mesh points at half the vessel radius: its wall faces are not chords of the vessel, so a
   // point between the mesh and the vessel wall is outside the mesh, not in a gap.
   const double R = 25e-6;
-  auto mesh = hemo::particles::testing::wedge_mesh(8, 4, 0.5 * R, 100e-6);
+  auto mesh = hemo::particles::synthetic::wedge_mesh(8, 4, 0.5 * R, 100e-6);
   mesh.vessel_diameter_m = 2 * R;
   const CellLocator loc(mesh);
   EXPECT_EQ(loc.wall_gap(), 0.0);

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "cell_fields.h"
 #include "deposition.h"
 
@@ -9,9 +9,9 @@
 #include <random>
 
 using namespace hemo::particles;
-using hemo::particles::testing::box_mesh;
-using hemo::particles::testing::fluid_state;
-using hemo::particles::testing::poiseuille;
+using hemo::particles::synthetic::box_mesh;
+using hemo::particles::synthetic::fluid_state;
+using hemo::particles::synthetic::poiseuille;
 
 TEST(Deposition, ConservesVolumeAndMomentumToRoundOff) {
   const double R = 25e-6, L = 100e-6;

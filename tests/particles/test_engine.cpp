@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The LIGGGHTS engine on a synthetic fluid: a few hundred cells in a 50 um x 100 um vessel.
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
 #include "flows.h"
@@ -21,6 +21,7 @@
 
 using namespace hemo::particles;
 using namespace hemo::particles::testing;
+using namespace hemo::particles::synthetic;
 
 namespace {
 
@@ -122,7 +123,7 @@ TEST(DemEngine, FollowsPoiseuilleAndConservesMomentum) {
 // periodic end); measure_overlaps finds the same from all positions with its own grid. Plasma
 // streaming across the vessel at 5 cm/s piles the cells against the wall: pair and wall overlaps.
 TEST(DemEngine, OverlapDiagnosticFindsWhatAGridOfAllParticlesFinds) {
-  const hemo::particles::testing::FieldAt crossflow = [](const std::array<double, 3>&, std::array<double, 3>& u,
+  const hemo::particles::synthetic::FieldAt crossflow = [](const std::array<double, 3>&, std::array<double, 3>& u,
                                                          std::array<double, 9>& g) {
     u = {5e-2, 0, 0};
     g.fill(0.0);
@@ -156,7 +157,7 @@ TEST(DemEngine, OverlapDiagnosticFindsWhatAGridOfAllParticlesFinds) {
 // every-step trajectory to round-off (the held values are the ones a fresh evaluation would give,
 // so this checks the in-between drag, exponential update with the step's contacts included).
 TEST(DemEngine, HeldClosuresAreExactWhereTheyCannotChange) {
-  const hemo::particles::testing::FieldAt uniform = [](const std::array<double, 3>&, std::array<double, 3>& u,
+  const hemo::particles::synthetic::FieldAt uniform = [](const std::array<double, 3>&, std::array<double, 3>& u,
                                                        std::array<double, 9>& g) {
     u = {1e-3, -2e-3, 5e-3};
     g.fill(0.0);
@@ -233,7 +234,7 @@ TEST(DemEngine, ClosuresEveryTenStepsConserveMomentumAndFollowTheEveryStepRun) {
 // weight taken from the scaled mass would fall s times faster; an unscaled mass would reach v_t
 // within the first interval.
 TEST(DemEngine, MassScalingKeepsTheWeightAndScalesTheInertia) {
-  const hemo::particles::testing::FieldAt still = [](const std::array<double, 3>&, std::array<double, 3>& u,
+  const hemo::particles::synthetic::FieldAt still = [](const std::array<double, 3>&, std::array<double, 3>& u,
                                                      std::array<double, 9>& g) {
     u.fill(0.0);
     g.fill(0.0);

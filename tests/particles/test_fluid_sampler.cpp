@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "cell_fields.h"
 #include "fluid_sampler.h"
 #include "over_the_wire.h"
@@ -13,8 +13,8 @@
 #include <vector>
 
 using namespace hemo::particles;
-using hemo::particles::testing::box_mesh;
-using hemo::particles::testing::fluid_state;
+using hemo::particles::synthetic::box_mesh;
+using hemo::particles::synthetic::fluid_state;
 
 namespace {
 // u = u0 + A x, i.e. G = A^T (G[i][j] = d u_j / d x_i = A[j][i]).

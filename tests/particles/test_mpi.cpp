@@ -5,7 +5,7 @@
 // the particles must equal minus the sum of the sources the fluid gets, to round-off, the
 // deposited solid volume the particles' volume, and the particles' momentum must change by
 // exactly the fluid's impulse (nothing touches the wall in this short run).
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "cell_fields.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
@@ -20,7 +20,7 @@
 #include <vector>
 
 using namespace hemo::particles;
-using namespace hemo::particles::testing;
+using namespace hemo::particles::synthetic;
 
 namespace {
 

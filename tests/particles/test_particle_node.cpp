@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The node's steps without the bus: set-up, step-0 feedback, a few coupled steps in a synthetic
 // Poiseuille flow on a polygonal vessel mesh, output, diagnostics, fluid-state checks.
-#include "box_mesh.h"
+#include "synthetic_case.h"
 #include "cell_fields.h"
 #include "h5_output.h"
 #include "particle_node.h"
@@ -14,7 +14,7 @@
 #include <map>
 
 using namespace hemo::particles;
-using namespace hemo::particles::testing;
+using namespace hemo::particles::synthetic;
 
 TEST(ParticleNode, RunsCoupledStepsAndReportsWhatTheCoordinatorNeeds) {
   const double R = 25e-6, L = 100e-6;

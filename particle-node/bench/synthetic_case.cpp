@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include "box_mesh.h"
+#include "synthetic_case.h"
 
 #include "cell_fields.h"
 
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <vector>
 
-namespace hemo::particles::testing {
+namespace hemo::particles::synthetic {
 
 mesh_t box_mesh(int nx, int ny, int nz, double x0, double x1, double y0, double y1, double length, double diameter,
                 const std::string& hash) {
@@ -211,4 +211,4 @@ FieldAt poiseuille(double radius, double u_max) {
   };
 }
 
-}  // namespace hemo::particles::testing
+}  // namespace hemo::particles::synthetic

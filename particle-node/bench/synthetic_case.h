@@ -1,4 +1,5 @@
-// Test support: hand-made meshes and fluid states for the particle node's tests.
+// Synthetic cases without a fluid node: hand-made meshes and fluid states, for the particle
+// node's tests and its DEM bench (hemocosim-dem-bench).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -9,7 +10,7 @@
 #include <array>
 #include <functional>
 
-namespace hemo::particles::testing {
+namespace hemo::particles::synthetic {
 
 // A box [x0,x1] x [y0,y1] x [0,length] of nx x ny x nz hexahedra, OpenFOAM-ordered: internal
 // faces first (owner < neighbour, area vector out of the owner), then the patches
@@ -39,4 +40,4 @@ void use_paper_closures(Scene& scene);
 // Poiseuille flow u_z = u_max (1 - r^2/R^2) (zero outside r > R) and its exact gradient.
 FieldAt poiseuille(double radius, double u_max);
 
-}  // namespace hemo::particles::testing
+}  // namespace hemo::particles::synthetic
