@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <stdexcept>
 #include <tuple>
 #include <type_traits>
@@ -39,14 +40,13 @@ constexpr double kContactReach = 1.02;  // contact histories are cleared within 
 const Species& species_of(const Scene& s, int sp) { return sp == kRbc ? s.rbc : s.platelet; }
 
 // The settings that need no particles yet, the node's and a bare LIGGGHTS run's alike.
-std::vector<std::string> base_settings() {
+std::vector<std::string> base_settings(const DemBookkeeping& bookkeeping) {
   return {
       "units si",
       "atom_style granular",
-      // No re-sorting: on the calibration scene, sorting every 1,000 steps did not make the DEM
-      // faster over its first 75 coupling steps (0.60-0.71 s per step against 0.47-0.54 s without,
-      // one run each on a noisy machine). Tags start in spatial order (create_particles).
-      "atom_modify map array sort 0 0.0",
+      // No re-sorting by default: tags start in spatial order (create_particles). What sorting
+      // would save later in a run is measured in docs/performance.md §6.
+      fmt::format("atom_modify map array sort {} 0.0", bookkeeping.sort_every_steps),
       "boundary f f p",
       "newton off",
       "communicate single vel yes",
@@ -91,8 +91,8 @@ std::string zeros(int n) {
 }  // namespace
 
 DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
-                     bool append_log)
-    : scene_(dem_scene(scene)), locator_(&locator), comm_(comm), log_path_(log_path) {
+                     bool append_log, const DemBookkeeping& bookkeeping)
+    : scene_(dem_scene(scene)), locator_(&locator), comm_(comm), log_path_(log_path), bookkeeping_(bookkeeping) {
   set_up_species(scene);
   start_liggghts(append_log);
   if (scene_.implicit_drag == "co_relaxed") {
@@ -134,7 +134,7 @@ void DemEngine::start_liggghts(bool append_log) {
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
 
   if (append_log && log_path_ != "none") command("log " + log_path_ + " append");  // a resumed run keeps the log
-  for (const auto& line : base_settings()) command(line);
+  for (const auto& line : base_settings(bookkeeping_)) command(line);
 }
 
 void DemEngine::command(const std::string& line) { lmp_->input->one(line.c_str()); }
@@ -182,7 +182,7 @@ void DemEngine::define_box_and_contacts(int n_types) {
 
 std::vector<std::string> DemEngine::contact_model() const {
   std::vector<std::string> lines = {
-      fmt::format("neighbor {:.17g} bin", 0.25 * d_max_),
+      fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * d_max_),
       "neigh_modify delay 0",
   };
   const auto materials = material_fixes(scene_.contact, n_types_);
@@ -200,7 +200,7 @@ std::vector<std::string> DemEngine::contact_model() const {
 }
 
 std::vector<std::string> DemEngine::bare_liggghts_input(const std::string& data_file, double dt, long steps) const {
-  std::vector<std::string> lines = base_settings();
+  std::vector<std::string> lines = base_settings(bookkeeping_);
   lines.push_back("read_data " + data_file);
   for (const auto& line : contact_model()) lines.push_back(line);
   lines.push_back(fmt::format("timestep {:.17g}", dt));
@@ -245,6 +245,7 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
                            std::floor(p->position.y() / d_max_), p->position.x());
   };
   std::stable_sort(order.begin(), order.end(), [&](auto* a, auto* b) { return key(a) < key(b); });
+  if (bookkeeping_.shuffled_tags) std::shuffle(order.begin(), order.end(), std::mt19937(1));
   for (const PlacedParticle* p : order)
     command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type_of_[p->species],
                         p->position.x(), p->position.y(), p->position.z()));

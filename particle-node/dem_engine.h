@@ -96,13 +96,22 @@ struct EngineDiagnostics {
   long lost = 0;                    // particles LIGGGHTS no longer has
 };
 
+// LIGGGHTS's bookkeeping, which changes the cost of a DEM step and, through the order of the
+// force sums, its results at round-off (then chaotically): fixed for runs, varied only by
+// hemocosim-dem-bench to measure what the cost responds to (docs/performance.md §6).
+struct DemBookkeeping {
+  double skin_diameters = 0.25;  // neighbour skin, in largest particle diameters
+  long sort_every_steps = 0;     // LIGGGHTS's spatial sort of the atoms (atom_modify sort); 0: never
+  bool shuffled_tags = false;    // create the particles in random order (a run long after its start)
+};
+
 class DemEngine {
  public:
   // Starts LIGGGHTS for the scene; the box, materials, contact model, wall, integrator and
   // fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
   // goes to `log_path` ("none": no log; appended to with `append_log`); the screen stays quiet.
   DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
-            bool append_log = false);
+            bool append_log = false, const DemBookkeeping& bookkeeping = {});
   ~DemEngine();
   DemEngine(const DemEngine&) = delete;
   DemEngine& operator=(const DemEngine&) = delete;
@@ -338,6 +347,7 @@ class DemEngine {
   std::array<int, kSpeciesCount> type_of_{};  // LIGGGHTS atom type of a species (0: none)
   std::array<int, kSpeciesCount + 2> species_of_type_{};
   int n_types_ = 0;  // atom types, the wall's material the last
+  DemBookkeeping bookkeeping_;
 
   // Per tag (index = LIGGGHTS atom tag, 0 unused), packed for one cache line per particle.
   struct Tracked {
