@@ -158,7 +158,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   ana_cmd->add_option("--window-start", ana.window_start,
-                      "s: start of the averaging window (default: second half of the run)");
+                      "s: start of the averaging window (default: second half of the run, or of [0, end])");
+  ana_cmd->add_option("--window-end", ana.window_end, "s: end of the averaging window (default: the last snapshot)");
   ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")
       ->check(CLI::NonNegativeNumber);
   ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")

@@ -20,15 +20,22 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
 constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
 
-// The averaging window: the second half of the run unless asked otherwise.
-void choose_window(Analysis& a, const RunData& run, double window_start) {
+// The averaging window: the second half of the run unless asked otherwise (an end alone: the
+// second half of the run up to it, so that a longer run can be read as a shorter one).
+void choose_window(Analysis& a, const RunData& run, double window_start, double window_end) {
   const double first = run.snapshots.front().time_s, last = run.snapshots.back().time_s;
-  a.window_is_default = !(window_start >= 0);
-  a.window_start = a.window_is_default ? first + 0.5 * (last - first) : window_start;
-  a.window_end = last;
+  a.window_end = window_end >= 0 ? window_end : last;
+  a.window_is_default = !(window_start >= 0) && !(window_end >= 0);
+  a.window_start = window_start >= 0 ? window_start : first + 0.5 * (a.window_end - first);
   if (a.window_start > last)
     throw RunDataError(fmt::format("{}: window start {} s is after the last snapshot at {} s", run.particles_path,
                                    a.window_start, last));
+  if (a.window_end > last)
+    throw RunDataError(fmt::format("{}: window end {} s is after the last snapshot at {} s", run.particles_path,
+                                   a.window_end, last));
+  if (a.window_end < a.window_start)
+    throw RunDataError(fmt::format("{}: window end {} s is before its start {} s", run.particles_path, a.window_end,
+                                   a.window_start));
 }
 
 // Window means of the fluid node's metrics, and what follows from them.
@@ -36,14 +43,13 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   const auto u = metric_series(run.metrics, "mean_velocity_m_s");
   const auto tau = metric_series(run.metrics, "wall_shear_stress_Pa");
   const auto sup = metric_series(run.metrics, "superficial_velocity_m_s");
-  const double inf = std::numeric_limits<double>::infinity();
-  const double mean_u = time_mean(u.time_s, u.value, a.window_start, inf);
-  for (double t : u.time_s) a.velocity_samples += t >= a.window_start;
+  const double mean_u = time_mean(u.time_s, u.value, a.window_start, a.window_end);
+  for (double t : u.time_s) a.velocity_samples += t >= a.window_start && t <= a.window_end;
   if (u.empty()) a.notes.push_back("metrics.csv has no mean_velocity_m_s: no apparent viscosity");
   a.rheology = apparent_viscosity(mean_u, run.scene.vessel.diameter, run.scene.driving.wall_shear_rate);
-  a.wall_shear_stress = time_mean(tau.time_s, tau.value, a.window_start, inf);
+  a.wall_shear_stress = time_mean(tau.time_s, tau.value, a.window_start, a.window_end);
 
-  const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, inf);
+  const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, a.window_end);
   if (std::isfinite(mean_sup)) {
     a.total_volume_flux = total_volume_flux(mean_sup, mean_cells_flux, a.tube);
     a.total_flux_source = "pi R^2 <alpha u_z> (superficial_velocity_m_s) + sum V_p v_z / L over all cells";
@@ -71,7 +77,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.platelet_volume = run.scene.platelet.volume;
   a.bins = bins;
   a.bin_edges = radial_bin_edges(a.tube, bins);
-  choose_window(a, run, opt.window_start);
+  choose_window(a, run, opt.window_start, opt.window_end);
 
   const Snapshot first = run.load(0);
   const Cells reference = select_species(first, kPlatelet);
@@ -91,7 +97,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
     a.frames.push_back(
         {s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
     if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, plt, s.time_s));
-    if (s.time_s < a.window_start) continue;
+    if (s.time_s < a.window_start || s.time_s > a.window_end) continue;
 
     // Stations are sized once, from the first window snapshot (the RBC count of a periodic
     // vessel does not change); counts given on the command line win.
@@ -198,6 +204,7 @@ std::string format_json(const Analysis& a) {
   j["units"] = "SI (m, s, m^2/s, m^3/s, Pa)";
   j["vessel"] = {{"radius_m", number(a.tube.radius)}, {"length_m", number(a.tube.length)}};
   j["window"] = {{"start_s", number(a.window_start)},
+                 {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},
                  {"default_second_half", a.window_is_default}};
   j["cfl"]["edge"] = {{"method", "edge"},

@@ -16,7 +16,8 @@ struct AnalyzeOptions {
   bool json = false;         // print JSON instead of the table
   int bins = 50;             // radial bins over [0, R]
   double t_fit = 0.1;        // s: D from the MSD over [0, t_fit]
-  double window_start = -1;  // s: start of the averaging window; < 0: the second half of the run
+  double window_start = -1;  // s: start of the averaging window; < 0: the second half of [first, end]
+  double window_end = -1;    // s: its end; < 0: the last snapshot
   int slices = 0;            // CFL stations: axial slices; 0: about 20 RBCs per station
   int sectors = 0;           // CFL stations: angular sectors; 0: about 20 RBCs per station
 };

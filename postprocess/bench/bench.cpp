@@ -86,25 +86,35 @@ std::string error_line(const fs::path& file) {
 
 volatile int stress_failed = 0;
 
+// Runs `argv` as a child, its command line, output and end appended to `log_path`; lines that
+// say "error" go to `progress` too.
+ChildResult run_logged(const std::vector<std::string>& argv, const std::string& log_path,
+                       const std::function<void(const std::string&)>& progress) {
+  std::ofstream log(log_path, std::ios::app);
+  std::string command;
+  for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
+  log << "$ " << command << "\n";
+  log.flush();
+  ChildOptions opt;
+  opt.merge_stderr = true;
+  opt.on_line = [&](const std::string& line) {
+    log << line << "\n";
+    log.flush();
+    if (progress && line.find("error") != std::string::npos) progress(line);
+  };
+  const auto r = run_child(argv, opt);
+  log << "# " << fs::path(argv.front()).filename().string() << " " << r.describe() << "\n";
+  return r;
+}
+
 SceneRunner bench_runner(const std::string& hemocosim, bool stress) {
   return [hemocosim, stress](const std::string& scene, const std::string& run_dir, const std::string& log_path,
                              const std::function<void(const std::string&)>& progress) {
-    std::ofstream log(log_path, std::ios::app);
     if (stress && stress_failed) {
-      log << "not run: an earlier value of this stress suite failed\n";
+      std::ofstream(log_path, std::ios::app) << "not run: an earlier value of this stress suite failed\n";
       return 3;
     }
-    log << "$ " << hemocosim << " run " << scene << " --out " << run_dir << "\n";
-    log.flush();
-    ChildOptions opt;
-    opt.merge_stderr = true;
-    opt.on_line = [&](const std::string& line) {
-      log << line << "\n";
-      log.flush();
-      if (progress && line.find("error") != std::string::npos) progress(line);
-    };
-    const auto r = run_child({hemocosim, "run", scene, "--out", run_dir}, opt);
-    log << "# hemocosim run " << r.describe() << "\n";
+    const auto r = run_logged({hemocosim, "run", scene, "--out", run_dir}, log_path, progress);
     if (stress && !r.ok()) stress_failed = 1;
     return r.exit_code;
   };
@@ -115,28 +125,16 @@ SceneRunner bench_runner(const std::string& hemocosim, bool stress) {
 // RUN_DIR/dem-bench.json.
 SceneRunner floor_runner(const std::string& hemocosim) {
   return [hemocosim](const std::string& scene, const std::string& run_dir, const std::string& log_path,
-                            const std::function<void(const std::string&)>&) {
-    std::ofstream log(log_path, std::ios::app);
+                     const std::function<void(const std::string&)>& progress) {
     fs::create_directories(run_dir);
     fs::copy_file(scene, fs::path(run_dir) / "scene.toml", fs::copy_options::overwrite_existing);
-    const std::string program = (fs::path(hemocosim).parent_path() / "hemocosim-dem-bench").string();
     const Scene parsed = load_scene(scene);
-    const std::vector<std::string> argv = {
-        program, "--scene", scene, "--steps", std::to_string(parsed.time.coupling_steps), "--floor", "--ranks",
-        std::to_string(parsed.run.particle_ranks), "--json", (fs::path(run_dir) / "dem-bench.json").string()};
-    std::string command;
-    for (const auto& a : argv) command += (command.empty() ? "" : " ") + a;
-    log << "$ " << command << "\n";
-    log.flush();
-    ChildOptions opt;
-    opt.merge_stderr = true;
-    opt.on_line = [&](const std::string& line) {
-      log << line << "\n";
-      log.flush();
-    };
-    const auto r = run_child(argv, opt);
-    log << "# hemocosim-dem-bench " << r.describe() << "\n";
-    return r.exit_code;
+    return run_logged({(fs::path(hemocosim).parent_path() / "hemocosim-dem-bench").string(), "--scene", scene,
+                       "--steps", std::to_string(parsed.time.coupling_steps), "--floor", "--ranks",
+                       std::to_string(parsed.run.particle_ranks), "--json",
+                       (fs::path(run_dir) / "dem-bench.json").string()},
+                      log_path, progress)
+        .exit_code;
   };
 }
 

@@ -227,4 +227,21 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   EXPECT_EQ(analyze_run(run, opt).stations.count(), 6);
   opt.window_start = 5;
   EXPECT_NE(error_of([&] { analyze_run(run, opt); }).find("after the last snapshot"), std::string::npos);
+
+  // A window that ends early reads the run as a shorter one: the second half of [0, 0.05] s
+  // holds the one snapshot at 0.05 s, where the walking platelet is still at 2.5 um.
+  opt.window_start = -1;
+  opt.window_end = 0.05;
+  const auto early = analyze_run(run, opt);
+  EXPECT_FALSE(early.window_is_default);
+  EXPECT_DOUBLE_EQ(early.window_start, 0.025);
+  EXPECT_DOUBLE_EQ(early.window_end, 0.05);
+  EXPECT_EQ(early.window_snapshots, 1);
+  EXPECT_EQ(early.velocity_samples, 3);  // the metrics at 0.03, 0.04 and 0.05 s
+  opt.window_end = 0.2;
+  EXPECT_NE(error_of([&] { analyze_run(run, opt); }).find("window end 0.2 s is after the last snapshot"),
+            std::string::npos);
+  opt.window_start = 0.1;
+  opt.window_end = 0.05;
+  EXPECT_NE(error_of([&] { analyze_run(run, opt); }).find("is before its start"), std::string::npos);
 }

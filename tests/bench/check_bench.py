@@ -6,30 +6,17 @@
 # the suite's table.
 # Usage: check_bench.py HEMOCOSIM SUITE OUT_DIR
 # SPDX-License-Identifier: GPL-3.0-or-later
-import csv
 import math
 import os
-import shutil
-import subprocess
 import sys
+
+from bench_harness import fail, run_bench
 
 ERRORS = ["err_U", "err_r_platelet", "err_r_rbc", "err_D", "L1_platelet", "L1_rbc"]
 
 
-def fail(msg):
-    print("FAIL: " + msg)
-    sys.exit(1)
-
-
 def main(hemocosim, suite, out):
-    shutil.rmtree(out, ignore_errors=True)
-    r = subprocess.run([hemocosim, "bench", suite, "--out", out, "--no-plot"], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True)
-    print(r.stdout)
-    if r.returncode != 0:
-        fail("hemocosim bench exited with %d" % r.returncode)
-    with open(os.path.join(out, "bench.csv"), newline="") as f:
-        rows = list(csv.DictReader(f))
+    rows = run_bench(hemocosim, suite, out)
     if len(rows) != 3:
         fail("expected 3 rows in bench.csv, got %d" % len(rows))
     refs = [x for x in rows if x["reference"] == "1"]

@@ -6,18 +6,13 @@
 # bench.md has the floor table. Then that a floor suite with a reference is refused in one line.
 # Usage: check_floor.py HEMOCOSIM SUITE OUT_DIR
 # SPDX-License-Identifier: GPL-3.0-or-later
-import csv
 import json
 import math
 import os
-import shutil
 import subprocess
 import sys
 
-
-def fail(msg):
-    print("FAIL: " + msg)
-    sys.exit(1)
+from bench_harness import fail, run_bench
 
 
 def positive(row, key):
@@ -28,14 +23,7 @@ def positive(row, key):
 
 
 def main(hemocosim, suite, out):
-    shutil.rmtree(out, ignore_errors=True)
-    r = subprocess.run([hemocosim, "bench", suite, "--out", out, "--no-plot"], stdout=subprocess.PIPE,
-                       stderr=subprocess.STDOUT, text=True)
-    print(r.stdout)
-    if r.returncode != 0:
-        fail("hemocosim bench exited with %d" % r.returncode)
-    with open(os.path.join(out, "bench.csv"), newline="") as f:
-        rows = list(csv.DictReader(f))
+    rows = run_bench(hemocosim, suite, out)
     if [x["value"] for x in rows] != ["50", "70"]:
         fail("expected the rows 50 and 70, got %s" % [x["value"] for x in rows])
     particles = []
