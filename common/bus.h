@@ -64,8 +64,8 @@ inline constexpr const char* control = "CONTROL";  // restart / swap requests an
 std::vector<std::string> all();
 // What each process listens to. LCM drops a datagram of a channel nobody listens to in its
 // receive thread, so a process is neither woken nor made to check a tag for the large
-// messages meant for another; at the calibration size those wake-ups, at the moment the
-// receiving node should start, were most of the coupling overhead (docs/notes/performance-log.md).
+// messages meant for another, at the moment the receiving node should start (docs/design.md,
+// Messages; today's coupling overhead: docs/performance.md §1).
 std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend (control: its own bus)
 std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend
 std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend

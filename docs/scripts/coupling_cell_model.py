@@ -13,19 +13,21 @@ given; the fluid then takes minus their impulse J, with the implicit drag K (U' 
 
 K dt = M dt / tau ("instantaneous", sum of beta) or M (1 - e) ("interval_response").
 Prints the largest decaying eigenvalue and the steady mixture acceleration against the exact
-f / (rho + M) (docs/notes/performance-log.md, "the implicit drag's added inertia").
+f / (rho + M) (docs/design.md, Coupling numerics; history: docs/notes/performance-log.md, "the
+implicit drag's added inertia").
 
 With --forced: the coupled relaxation mode against the exact exp(-(dt/tau)(1 + M/rho)), and the
 long-time diffusivity of particles driven by a random force (correlation time tc, held over
 each DEM step of at most 2.5 tau, as contacts are), the fluid damped at rate gamma (its viscous
-time), against the same at dt = 0.05 tau (docs/notes/performance-log.md, "what moves D at short intervals").
+time), against the same at dt = 0.05 tau (an open question of docs/performance.md §6; history:
+docs/notes/performance-log.md, "what moves D at short intervals").
 
 With --contact: the particles held by a spring k (a contact lasting about half its period, as
 the DEM's Hertz contacts do), the plasma damped at rate gamma; the particles move by velocity
 Verlet with the exponential drag in DEM steps of at most 2.8 tau, as the DEM does, the fluid as
 above. Prints the decay rate of the oscillation's energy against a reference at dt = 0.005 tau:
 below 1 the exchange damps the contact less than it should, negative means it feeds it (the
-dense-suspension instability of docs/notes/performance-log.md section 3 is the candidate).
+dense-suspension limit of docs/performance.md §4 is the candidate).
 """
 import sys
 import numpy as np

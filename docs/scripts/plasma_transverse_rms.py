@@ -5,8 +5,8 @@
     /usr/bin/python3 docs/scripts/plasma_transverse_rms.py [--from T] RUN_DIR...
 
 The vessel's axis is z, so U_x, U_y are the cross-flow the particles' feedback stirs. For each
-run, over the fluid snapshots from t = T s (default 0.02; docs/notes/performance-log.md, "what moves D at short
-intervals"), in mm/s:
+run, over the fluid snapshots from t = T s (default 0.02), in mm/s (the stirring of
+docs/performance.md §6; history: docs/notes/performance-log.md, "what moves D at short intervals"):
   rms            sqrt<U_x^2 + U_y^2> over the cells (and per snapshot)
   grid-scale     rms of U - (mean of the cell's face neighbours), transverse part; for a field
                  uncorrelated between cells it is about the rms itself, for a smooth one small
