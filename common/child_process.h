@@ -1,5 +1,6 @@
 // Running a program as a child process: the one fork/exec of hemocosim. run_child waits for it
-// (`plot` runs the Python script, `study` and `bench` one `hemocosim run` per scene);
+// (`plot` runs the Python script, `study` and `bench` one `hemocosim run` per scene, the fluid
+// launcher decomposePar);
 // start_child leaves it running (the coordinator's nodes, coordinator/node_process.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

@@ -21,11 +21,10 @@
 #include "fluid_case.h"
 #include "vessel_mesh.h"
 
+#include <child_process.h>
 #include <mpi_job.h>
 #include <scene.h>
 
-#include <fcntl.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -44,6 +43,7 @@
 
 namespace {
 
+// Replaces this process with the program (same pid for the coordinator): not a child.
 [[noreturn]] void exec(const std::vector<std::string>& args) {
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -55,20 +55,12 @@ namespace {
 
 // Runs a program to completion with its output in `log`; throws with a one-line reason on failure.
 void run_logged(const std::vector<std::string>& args, const std::string& log) {
-  const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error("cannot fork for " + args[0]);
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, STDOUT_FILENO);
-      ::dup2(fd, STDERR_FILENO);
-      ::close(fd);
-    }
-    exec(args);
-  }
-  int status = 0;
-  if (::waitpid(pid, &status, 0) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error(args[0] + " failed (see " + log + ")");
+  std::ofstream out(log, std::ios::trunc);
+  hemo::ChildOptions opt;
+  opt.merge_stderr = true;
+  opt.on_line = [&](const std::string& line) { out << line << '\n'; };
+  const hemo::ChildResult r = hemo::run_child(args, opt);
+  if (!r.ok()) throw std::runtime_error(args[0] + " " + r.describe() + " (see " + log + ")");
 }
 
 // Writes and decomposes the case of an N-rank run.

@@ -258,6 +258,31 @@ TEST(Failures, NodesDieWithAKilledCoordinator) {
   EXPECT_LT(took, 5.0);  // below the node timeout (10 s): they did not merely time out
 }
 
+// One Ctrl-C (or SIGTERM) stops the run within seconds, after the step under way, with a
+// checkpoint of that very step to resume from, and its nodes with it.
+TEST(Failures, AnInterruptStopsTheRunWithinSecondsWithACheckpointOfItsLastStep) {
+  SteppingRun running = start_stepping_run("interrupted", "metrics.csv");
+  auto& result = running.result;
+  const long coordinator = running.coordinator, fluid = running.fluid, particles = running.particles;
+  ASSERT_GT(coordinator, 0);
+  ASSERT_FALSE(live_processes_in_group(fluid).empty());
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(kill(static_cast<pid_t>(coordinator), SIGINT), 0);
+  const auto r = result.get();
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_NE(r.exit_code, 0);
+  std::smatch stopped, checkpoint;
+  ASSERT_TRUE(std::regex_search(r.output, stopped, std::regex("interrupted after step (\\d+)"))) << r.output;
+  ASSERT_TRUE(std::regex_search(r.output, checkpoint, std::regex("its last checkpoint is step (\\d+)"))) << r.output;
+  EXPECT_EQ(stopped[1], checkpoint[1]) << "the checkpoint is of the step the run stopped after";
+  EXPECT_LT(took, 5.0);  // "within a few seconds" (issue #21); a step of this scene takes milliseconds
+  for (int i = 0; i < 50 && !(live_processes_in_group(fluid).empty() && live_processes_in_group(particles).empty());
+       ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_TRUE(live_processes_in_group(fluid).empty());
+  EXPECT_TRUE(live_processes_in_group(particles).empty());
+}
+
 // A second Ctrl-C (or SIGTERM) stops the coordinator at once, and its nodes with it.
 TEST(Failures, ASecondInterruptStopsAtOnce) {
   SteppingRun running = start_stepping_run("interrupted-twice", "particles.pid");
