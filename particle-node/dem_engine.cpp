@@ -170,22 +170,21 @@ void DemEngine::define_box_and_contacts(int n_types) {
   const double R = locator_->radius();
   const double z0 = locator_->z0(), L = locator_->length();
   const double half_box = R + 2 * d_max_;
-  n_types_ = n_types;
   command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
                       half_box, -half_box, half_box, z0, z0 + L));
   command(fmt::format("create_box {} hemo_box", n_types));
-  for (const auto& line : contact_model()) command(line);
+  for (const auto& line : contact_model(n_types)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
   // Defined after the wall: its post_force sees the contact forces and torques of the step.
   command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
 }
 
-std::vector<std::string> DemEngine::contact_model() const {
+std::vector<std::string> DemEngine::contact_model(int n_types) const {
   std::vector<std::string> lines = {
       fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * d_max_),
       "neigh_modify delay 0",
   };
-  const auto materials = material_fixes(scene_.contact, n_types_);
+  const auto materials = material_fixes(scene_.contact, n_types);
   lines.insert(lines.end(), materials.begin(), materials.end());
   lines.insert(lines.end(), {
                                 "pair_style gran model hertz tangential history",
@@ -193,7 +192,7 @@ std::vector<std::string> DemEngine::contact_model() const {
                                 "timestep 1e-7",
                                 fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} "
                                             "zcylinder {:.17g} 0 0",
-                                            kWallFix, n_types_, locator_->radius()),
+                                            kWallFix, n_types, locator_->radius()),
                                 "fix hemo_integrate all nve/sphere",
                             });
   return lines;
@@ -202,7 +201,7 @@ std::vector<std::string> DemEngine::contact_model() const {
 std::vector<std::string> DemEngine::bare_liggghts_input(const std::string& data_file, double dt, long steps) const {
   std::vector<std::string> lines = base_settings(bookkeeping_);
   lines.push_back("read_data " + data_file);
-  for (const auto& line : contact_model()) lines.push_back(line);
+  for (const auto& line : contact_model(lmp_->atom->ntypes)) lines.push_back(line);
   lines.push_back(fmt::format("timestep {:.17g}", dt));
   lines.push_back(fmt::format("run {}", steps));
   return lines;

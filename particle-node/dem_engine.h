@@ -196,8 +196,9 @@ class DemEngine {
   void setup_box(const std::array<bool, kSpeciesCount>& used);
   int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
   void define_box_and_contacts(int n_types);
-  // The neighbour lists, materials, contact model, wall and integrator for n_types_ atom types.
-  std::vector<std::string> contact_model() const;
+  // The neighbour lists, materials, contact model, wall and integrator for n_types atom types
+  // (the wall's material the last).
+  std::vector<std::string> contact_model(int n_types) const;
   void find_fixes();
   double** per_atom(LAMMPS_NS::Fix* fix) const;
   void start_accumulators(bool carry);
@@ -346,7 +347,6 @@ class DemEngine {
   double d_max_ = 0;
   std::array<int, kSpeciesCount> type_of_{};  // LIGGGHTS atom type of a species (0: none)
   std::array<int, kSpeciesCount + 2> species_of_type_{};
-  int n_types_ = 0;  // atom types, the wall's material the last
   DemBookkeeping bookkeeping_;
 
   // Per tag (index = LIGGGHTS atom tag, 0 unused), packed for one cache line per particle.

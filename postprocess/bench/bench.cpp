@@ -324,7 +324,7 @@ std::string bench_csv(const std::vector<BenchRow>& rows) {
                      er ? num(e.r_rbc) : "", er ? num(e.d) : "", er ? num(e.d_noise) : "", er ? num(e.l1_platelet) : "",
                      er ? num(e.l1_rbc) : "", csv_field(r.message), csv_field(r.run_dir), fl ? num(f.dem_ns) : "",
                      fl ? num(f.callback_ns) : "", fl ? num(f.one_run_ns) : "", fl ? num(f.bare_ns) : "",
-                     fl ? num(f.dem_over_bare) : "");
+                     fl ? num(f.over_bare()) : "");
   }
   return c;
 }
@@ -361,7 +361,7 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
         m += fmt::format("| {} | {} | {} | {} ({}) | {} | {} | {} | {} | {:.1f} | {} |\n", r.value,
                          fl ? std::to_string(f.particles) : "", fl ? std::to_string(f.ranks) : "",
                          fl ? g3(f.dem_ns) : "", fl ? g3(f.callback_ns) : "", fl ? g3(f.one_run_ns) : "",
-                         fl ? g3(f.bare_ns) : "", fl ? g3(f.dem_over_bare) : "", fl ? g3(f.peak_mib) : "", r.wall_s,
+                         fl ? g3(f.bare_ns) : "", fl ? g3(f.over_bare()) : "", fl ? g3(f.peak_mib) : "", r.wall_s,
                          r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
       }
       continue;
@@ -469,6 +469,11 @@ BenchResult run_bench(const BenchOptions& opt) {
           r.floor = bench::read_dem_floor(st.run_dir);
           r.has_floor = true;
           r.cost.particle_peak_mib = r.floor.peak_mib;
+          if (r.floor.bare_particles != r.floor.particles) {
+            r.status = "not measured";
+            r.message = fmt::format("bare LIGGGHTS read {} of the {} particles", r.floor.bare_particles,
+                                    r.floor.particles);
+          }
         } catch (const std::exception& e) {
           r.status = "not measured";
           r.message = e.what();
@@ -484,14 +489,13 @@ BenchResult run_bench(const BenchOptions& opt) {
       }
       rows.push_back(r);
     }
-    if (s.floor)
+    if (!s.stress)  // a stress suite is there to fail
       for (const auto& r : rows) result.failed += r.status == "failed";
     if (!s.stress && !s.floor) {
       const BenchRow* ref = nullptr;
       for (const auto& r : rows)
         if (r.reference && r.measured) ref = &r;
       for (auto& r : rows) {
-        if (r.status == "failed") ++result.failed;
         if (!ref || !r.measured) continue;
         r.errors = bench::errors_against(r.measures, ref->measures);
         r.has_errors = true;

@@ -112,7 +112,7 @@ DemFloor read_dem_floor(const std::string& run_dir) {
     f.callback_ns = j.at("intervals").at("callback_ns").get<double>();
     f.one_run_ns = j.at("one_run").at("ns_per_particle_step").get<double>();
     f.bare_ns = j.at("bare_liggghts").at("ns_per_particle_step").get<double>();
-    f.dem_over_bare = j.at("dem_over_bare").get<double>();
+    f.bare_particles = j.at("bare_liggghts").at("particles").get<long>();
     f.peak_mib = j.at("peak_memory_MiB_per_rank").get<double>();
     return f;
   } catch (const nlohmann::json::exception& e) {

@@ -74,8 +74,9 @@ struct DemFloor {
   double callback_ns = 0;  // of which our fluid-force callback
   double one_run_ns = 0;   // the same steps in one continuous run
   double bare_ns = 0;      // bare LIGGGHTS on the same particles (the floor)
-  double dem_over_bare = 0;
-  double peak_mib = 0;  // per rank
+  long bare_particles = 0;  // the particles the bare run read
+  double peak_mib = 0;      // per rank
+  double over_bare() const { return dem_ns / bare_ns; }
 };
 // Reads RUN_DIR/dem-bench.json; throws naming the file when it is missing or incomplete.
 DemFloor read_dem_floor(const std::string& run_dir);
