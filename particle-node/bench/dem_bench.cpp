@@ -16,6 +16,7 @@
 // phase, the deposition timed apart) to the floor.
 #include "dem_engine.h"
 #include "dem_timing.h"
+#include "h5_output.h"
 #include "mpi_launch.h"
 #include "synthetic_case.h"
 
@@ -31,6 +32,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -49,6 +51,9 @@ struct Options {
   int ranks = 1;
   bool floor = false;
   std::string json;
+  // A run's particles late in its course instead of a fresh placement.
+  std::string from_run;
+  double at_time = -1;  // s; < 0: the last snapshot
   // Without a scene: the calibration case's vessel, hematocrit and closures.
   double diameter_um = 100, length_um = 600, hematocrit = 0.15;
   std::string closures = "paper";
@@ -123,6 +128,36 @@ BareRun run_bare_liggghts(const std::vector<std::string>& input, const std::stri
   return bare;
 }
 
+// The particles of `run_dir`'s snapshot nearest `at_time` (the last if negative), z wrapped back
+// into the vessel: the configuration a run has reached (margination, a packed core), to time the
+// DEM on it. Velocities start from rest (the drag brings them to the flow within microseconds)
+// and the engine gives the tags its own spatial order.
+std::vector<PlacedParticle> particles_of_run(const std::string& run_dir, double at_time, const hemo::Scene& scene,
+                                             double* time_s) {
+  const std::string path = run_dir + "/particles.h5";
+  const auto steps = list_snapshots(path);
+  if (steps.empty()) throw std::runtime_error(path + " holds no snapshot");
+  long step = steps.back();
+  if (at_time >= 0) {
+    double best = INFINITY;
+    for (long s : steps)
+      if (double d = std::abs(s * scene.time.coupling_interval - at_time); d < best) best = d, step = s;
+  }
+  const auto snap = read_snapshot(path, step);
+  *time_s = snap.time_s;
+  const double l = scene.vessel.length;
+  std::vector<PlacedParticle> placed;
+  placed.reserve(snap.size());
+  for (std::size_t i = 0; i < snap.size(); ++i) {
+    const int sp = snap.species[i];
+    if (sp != kRbc && sp != kPlatelet) throw std::runtime_error(path + ": a particle of unknown species");
+    const double z = snap.position[3 * i + 2] - l * std::floor(snap.position[3 * i + 2] / l);
+    placed.push_back({sp, sp == kRbc ? scene.rbc.diameter : scene.platelet.diameter,
+                      Vec3(snap.position[3 * i], snap.position[3 * i + 1], z < l ? z : 0.0)});
+  }
+  return placed;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -140,6 +175,11 @@ int main(int argc, char** argv) {
   app.add_option("--ranks", o.ranks, "MPI ranks (re-executes itself under mpirun)")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
+  app.add_option("--from-run", o.from_run,
+                 "Start from a run's particles (RUN_DIR/particles.h5; its scene.toml unless --scene) instead of a "
+                 "fresh placement: the cost late in a run")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--at-time", o.at_time, "With --from-run: the snapshot nearest this time (s); default the last");
   app.add_flag("--floor", o.floor, "Also run bare LIGGGHTS on the same particles and report the ratio");
   app.add_option("--json", o.json, "Write the figures to this JSON file");
   auto* no_scene = app.add_option_group("without --scene", "The synthetic calibration case");
@@ -173,6 +213,7 @@ int main(int argc, char** argv) {
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
+  if (o.scene_file.empty() && !o.from_run.empty()) o.scene_file = o.from_run + "/scene.toml";
   const bool from_file = !o.scene_file.empty();
   int code = 0;
   fs::path work;
@@ -198,7 +239,9 @@ int main(int argc, char** argv) {
     if (rank == 0) fs::create_directories(work);
     MPI_Barrier(comm);
     DemEngine engine(scene, locator, (work / "liggghts.log").string(), comm, false, o.bookkeeping);
-    const auto placed = place_particles(R, l, 0, placement_requests(scene), 1);
+    double start_time_s = 0;
+    const auto placed = o.from_run.empty() ? place_particles(R, l, 0, placement_requests(scene), 1)
+                                           : particles_of_run(o.from_run, o.at_time, scene, &start_time_s);
     const double setup_s = timed(comm, [&] { engine.create_particles(placed); });
     const auto timing = derive_dem_timing(scene, interval);
     const long dem_steps = static_cast<long>(o.steps) * timing.substeps;
@@ -227,6 +270,8 @@ int main(int argc, char** argv) {
     nlohmann::json out = {
         {"scene", from_file ? o.scene_file : "synthetic calibration case"},
         {"particles", placed.size()},
+        {"from_run", o.from_run},
+        {"start_time_s", start_time_s},
         {"ranks", size},
         {"coupling_steps", o.steps},
         {"dem_substeps", timing.substeps},
@@ -264,6 +309,7 @@ int main(int argc, char** argv) {
     if (rank == 0) {
       const auto& iv = out["intervals"];
       const auto& one = out["one_run"];
+      if (!o.from_run.empty()) std::printf("particles of %s at t = %g s\n", o.from_run.c_str(), start_time_s);
       std::printf("%s: %zu particles on %d rank(s), %d coupling steps x %d DEM steps of %.3g s, closures every %d\n"
                   "  skin %.3g diameters, sort every %ld steps%s\n",
                   out["scene"].get<std::string>().c_str(), placed.size(), size, o.steps, timing.substeps, timing.dt,
