@@ -19,11 +19,6 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <netinet/tcp.h>
-#include <poll.h>
-#include <sys/socket.h>
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
@@ -247,73 +242,6 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
 }
 }  // namespace
 
-// LCM's UDP multicast drops large (fragmented) messages when the kernel's receive buffer is
-// small; deploy/install-deps.sh raises it where it may. Say so once when it could not.
-static void warn_if_small_receive_buffer(const std::string& url) {
-  if (url.rfind("udpm", 0) != 0) return;
-  static bool warned = false;
-  std::ifstream in("/proc/sys/net/core/rmem_max");
-  long bytes = 0;
-  if (!(in >> bytes) || bytes >= (2L << 20) || warned) return;
-  warned = true;
-  spdlog::warn(
-      "net.core.rmem_max is {} bytes; LCM over UDP may drop large messages (they are asked for again, "
-      "at a cost in time). Raise it: sysctl -w net.core.rmem_max=8388608 net.core.rmem_default=8388608",
-      bytes);
-}
-
-// The TCP transport (docs/hosts.md): LCM's tcpq provider, connected to the coordinator's relay.
-static bool is_tcpq(const std::string& url) { return url.rfind("tcpq://", 0) == 0; }
-
-// LCM's tcpq client connects with a blocking connect() as the instance is made: where a firewall
-// drops the packets that is minutes of silence, and where the relay is not listening LCM goes on
-// without a connection (every wait then times out). A connection tried first, with a bound,
-// turns both into one line. Returns the URL.
-static const std::string& reachable(const std::string& url) {
-  if (!is_tcpq(url)) return url;
-  const std::string where = url.substr(7);
-  const auto colon = where.rfind(':');
-  sockaddr_in sa{};
-  sa.sin_family = AF_INET;
-  const std::string host = where.substr(0, colon);
-  const int port = colon == std::string::npos ? 7700 : std::atoi(where.c_str() + colon + 1);
-  // LCM 1.3 takes only a numeric address here: a host name would silently mean 0.0.0.0.
-  if (::inet_pton(AF_INET, host.c_str(), &sa.sin_addr) != 1 || port <= 0 || port > 65535)
-    throw std::runtime_error(fmt::format("bus URL {}: LCM's tcpq needs an IPv4 address and a port", url));
-  sa.sin_port = htons(static_cast<std::uint16_t>(port));
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  int err = fd < 0 ? errno : 0;
-  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof sa) != 0) {
-    err = errno;
-    if (err == EINPROGRESS) {
-      pollfd p{fd, POLLOUT, 0};
-      const int n = ::poll(&p, 1, 10000);
-      socklen_t len = sizeof err;
-      if (n == 1)
-        ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len);
-      else
-        err = ETIMEDOUT;
-    }
-  }
-  if (fd >= 0) ::close(fd);
-  if (err != 0)
-    throw std::runtime_error(fmt::format(
-        "cannot reach the bus relay at {}: {} (the coordinator runs it while the run goes; from this host, a "
-        "firewall or hosts.relay_address may be in the way: docs/hosts.md)",
-        where, std::strerror(err)));
-  return url;
-}
-
-// LCM's tcpq client writes a message as five small sends; Nagle's algorithm holds each later one
-// until the one before is acknowledged. A reconnection LCM makes later gets a socket without
-// this: slower, not wrong.
-static void no_delay(lcm::LCM& lcm, const std::string& url) {
-  if (!is_tcpq(url)) return;
-  const int fd = lcm.getFileno();
-  const int one = 1;
-  if (fd >= 0) ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-}
-
 namespace channel {
 std::vector<std::string> all() {
   return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
@@ -324,31 +252,17 @@ std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state,
 }  // namespace channel
 
 Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
-    : ctx_(ctx), sender_(std::move(sender)), lcm_(reachable(ctx.lcm_url)) {
-  if (!lcm_.good() || (is_tcpq(ctx.lcm_url) && lcm_.getFileno() < 0))
-    throw std::runtime_error("cannot open the LCM bus at " + ctx.lcm_url);
-  no_delay(lcm_, ctx.lcm_url);
-  warn_if_small_receive_buffer(ctx.lcm_url);
+    : ctx_(ctx), sender_(std::move(sender)) {
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
-  // LCM's UDP provider joins the group at the first subscription and checks that a datagram it
-  // sends comes back; when it does not (multicast dropped on this host too, by a firewall), the
-  // subscription is null and LCM's C++ wrapper would hand it on (a crash in setQueueCapacity).
-  lcm_subscription_t* probe = lcm_subscribe(
-      lcm_.getUnderlyingLCM(), topic(channel::heartbeat).c_str(), +[](const lcm_recv_buf_t*, const char*, void*) {},
-      nullptr);
-  if (probe == nullptr)
-    throw std::runtime_error(fmt::format(
-        "cannot listen on the LCM bus at {}: multicast sent from this host does not come back to it (LCM's self "
-        "test: a firewall drops UDP to 224.0.0.0/4, or the route for it is wrong); where multicast cannot pass, "
-        "use the TCP transport (--transport tcp; docs/hosts.md)",
-        ctx.lcm_url));
-  lcm_unsubscribe(lcm_.getUnderlyingLCM(), probe);
+  wire_ = Wire::open(ctx.lcm_url);
   opened_us_ = wall_clock_us();
   // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
   // receipt: a burst of junk while a node computes a step would push genuine messages out
-  // uncounted. Room for a flood of several seconds instead, so that whatever arrives is handled
-  // here and counted by cause; bounded, so that a flood cannot take all memory.
-  for (const auto& kind : kinds) lcm_.subscribe(topic(kind), &Bus::on_raw, this)->setQueueCapacity(kSubscriptionQueue);
+  // uncounted. Room for a flood of several seconds instead (kSubscriptionQueue), so that whatever
+  // arrives is handled here and counted by cause; bounded, so that a flood cannot take all memory.
+  for (const auto& kind : kinds)
+    wire_->subscribe(topic(kind), [this](const std::uint8_t* data, std::size_t len, const std::string& chan,
+                                         std::int64_t recv_utime) { on_raw(data, len, chan, recv_utime); });
 }
 
 Bus::~Bus() { log_counters(/*even_if_clean=*/false); }
@@ -381,7 +295,7 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
   stamp_and_sign(buf, ctx_.secret);
   {
     std::lock_guard<std::mutex> lock(publish_mutex_);
-    lcm_.publish(topic(kind), buf.data(), static_cast<unsigned>(buf.size()));
+    wire_->publish(topic(kind), buf.data(), buf.size());
   }
   if (keep) kept_[kind][step] = std::move(buf);
 }
@@ -413,9 +327,9 @@ bool Bus::accept_seq(const std::string& sender, std::int64_t seq) {
 // Runs inside LCM's C dispatch: nothing may be thrown through it (an exception there left
 // LCM's receive buffer allocated, and the next message aborted the process in
 // lcm_ringbuf_dealloc; issue #21).
-void Bus::on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& chan) {
+void Bus::on_raw(const std::uint8_t* data, std::size_t len, const std::string& chan, std::int64_t recv_utime) {
   try {
-    handle_raw(static_cast<const std::uint8_t*>(rbuf->data), rbuf->data_size, chan, rbuf->recv_utime);
+    handle_raw(data, len, chan, recv_utime);
   } catch (...) {
     count(&BusCounters::rejected_corrupt);
   }
@@ -451,7 +365,7 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   while (inbox_.empty()) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
     if (left <= 0) break;
-    if (lcm_.handleTimeout(static_cast<int>(left)) < 0) {
+    if (wire_->handle(static_cast<int>(left)) < 0) {
       if (errno == EINTR) break;  // a signal: let the caller look at it
       if (is_tcpq(ctx_.lcm_url))
         throw std::runtime_error("lost the connection to the bus relay at " + ctx_.lcm_url.substr(7) +
@@ -459,7 +373,7 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
       throw std::runtime_error("LCM receive failed on " + ctx_.lcm_url);
     }
   }
-  while (lcm_.handleTimeout(0) > 0) {
+  while (wire_->handle(0) > 0) {
   }  // drain what is already queued
   std::vector<Received> batch;
   batch.swap(inbox_);
@@ -542,31 +456,32 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
                      HeardReport report)
     : impl_(new Impl) {
   impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
-    lcm::LCM lcm(ctx.lcm_url);
-    no_delay(lcm, ctx.lcm_url);
+    // A transport that cannot be opened here was reported by the process's bus; the thread
+    // then only keeps the heard report (nothing) and stops with its owner.
+    std::unique_ptr<Wire> wire;
+    try {
+      wire = Wire::open(ctx.lcm_url);
+    } catch (const std::exception&) {
+    }
     const std::string channel = ctx.run_id + "/" + channel::heartbeat;
-    lcm::Subscription* subscription = nullptr;
+    bool listening = false;
     std::size_t reported = 0;  // heard senders in the file so far
     bool written = false;
-    struct Listener {
-      Impl* impl;
-      const RunContext* ctx;
-      const std::string* self;
-    } listener{impl_, &ctx, &sender};
-    if (report.listen && lcm.good()) {
+    if (report.listen && wire) {
       // Authentic heartbeats of this run only: a forger without the secret cannot make a
       // broken bus look whole.
-      subscription = lcm.subscribeFunction(
-          channel,
-          +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Listener* l) {
-            const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
-            const auto raw = parse_envelope(data, rbuf->data_size);
-            if (!raw || raw->envelope.run_id != l->ctx->run_id || raw->envelope.sender == *l->self) return;
-            if (!verify(data, rbuf->data_size, l->ctx->secret)) return;
-            std::lock_guard<std::mutex> lock(l->impl->heard_mutex);
-            l->impl->heard.insert(raw->envelope.sender);
-          },
-          &listener);
+      try {
+        wire->subscribe(channel, [this, &ctx, &sender](const std::uint8_t* data, std::size_t len, const std::string&,
+                                                      std::int64_t) {
+          const auto raw = parse_envelope(data, len);
+          if (!raw || raw->envelope.run_id != ctx.run_id || raw->envelope.sender == sender) return;
+          if (!verify(data, len, ctx.secret)) return;
+          std::lock_guard<std::mutex> lock(impl_->heard_mutex);
+          impl_->heard.insert(raw->envelope.sender);
+        });
+        listening = true;
+      } catch (const std::exception&) {
+      }
     }
     const auto start = Clock::now();
     while (!impl_->stop.load()) {
@@ -594,7 +509,7 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
       hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
       stamp_and_sign(buf, ctx.secret);
-      if (lcm.good()) lcm.publish(channel, buf.data(), static_cast<unsigned>(buf.size()));
+      if (wire) wire->publish(channel, buf.data(), buf.size());
       if (!report.file.empty()) {
         const auto heard = this->heard();
         if (!written || heard.size() != reported) write_heard_report(report.file, heard);
@@ -603,13 +518,12 @@ Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s,
       }
       const auto next = Clock::now() + std::chrono::duration<double>(period_s);
       while (!impl_->stop.load() && Clock::now() < next) {
-        if (subscription)
-          lcm.handleTimeout(50);
+        if (listening)
+          wire->handle(50);
         else
           std::this_thread::sleep_for(std::chrono::milliseconds(50));
       }
     }
-    if (subscription) lcm.unsubscribe(subscription);
   });
 }
 

@@ -4,8 +4,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "wire.h"
+
 #include <hemo/envelope_t.hpp>
-#include <lcm/lcm-cpp.hpp>
 
 #include <array>
 #include <chrono>
@@ -134,9 +135,6 @@ struct Received {
   }
 };
 
-// Messages a subscription keeps unhandled before LCM discards new ones (LCM's default: 30).
-inline constexpr int kSubscriptionQueue = 10000;
-
 class Bus {
  public:
   // Listens to the run's channels of the given kinds.
@@ -188,13 +186,14 @@ class Bus {
  private:
   void count(std::uint64_t BusCounters::*field);
   void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep);
-  void on_raw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);  // never throws
+  void on_raw(const std::uint8_t* data, std::size_t len, const std::string& channel,
+              std::int64_t recv_utime);  // never throws
   void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel, std::int64_t recv_utime);
   bool accept_seq(const std::string& sender, std::int64_t seq);
 
   RunContext ctx_;
   std::string sender_;
-  lcm::LCM lcm_;
+  std::unique_ptr<Wire> wire_;
   std::mutex publish_mutex_;
   mutable std::mutex counters_mutex_;
   BusCounters counters_;

@@ -209,3 +209,53 @@ TEST(Bus, EachProcessHearsOnlyWhatIsMeantForIt) {
   EXPECT_EQ(coordinator.counters().accepted, 1u);
   EXPECT_EQ(particles.counters().accepted, 1u);
 }
+
+// The in-memory transport (inproc://NAME) that the runtime's unit tests run on: the same bus
+// above it, so the same deliveries, echoes and refusals as over LCM.
+TEST(InProcessBus, DeliversToEveryBusOfItsNameWithTheSameChecksAsLcm) {
+  auto ctx = test::make_context("inproc");
+  ctx.lcm_url = "inproc://" + ctx.run_id;
+  auto elsewhere = ctx;
+  elsewhere.lcm_url = "inproc://" + ctx.run_id + "-other";
+  Bus alice(ctx, "alice"), bob(ctx, "bob"), carol(elsewhere, "carol");
+  step_order_t o{};
+  o.time_s = 0.5;
+  alice.publish(channel::step, o, 2);
+  auto got = collect(bob, 1, 1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].envelope.sender, "alice");
+  EXPECT_DOUBLE_EQ(got[0].as<step_order_t>().time_s, 0.5);
+  EXPECT_TRUE(collect(carol, 0.2, 1).empty());  // another name: another hub
+  collect(alice, 0.2, 1);
+  EXPECT_EQ(alice.counters().own, 1u);  // its own message comes back, as multicast loops it back
+
+  // A raw datagram on the hub goes through the same checks: a wrong key is a bad tag.
+  auto raw = Wire::open(ctx.lcm_url);
+  auto forged = encoded_order(ctx, 99, 9.0);
+  auto wrong_key = ctx.secret;
+  wrong_key[3] ^= 0x40;
+  sign(forged, wrong_key);
+  raw->publish(bob.topic(channel::step), forged.data(), forged.size());
+  const std::vector<std::uint8_t> junk = {1, 2, 3};
+  raw->publish(bob.topic(channel::step), junk.data(), junk.size());
+  EXPECT_TRUE(collect(bob, 0.2, 1).empty());
+  EXPECT_EQ(bob.counters().rejected_auth, 1u);
+  EXPECT_EQ(bob.counters().rejected_short, 1u);
+  EXPECT_EQ(bob.counters().accepted, 1u);
+}
+
+TEST(InProcessBus, WaitsForADatagramAndKeepsAtMostTheQueueBound) {
+  auto raw = Wire::open("inproc://bound-test");
+  int handled = 0;
+  raw->subscribe("ch", [&](const std::uint8_t*, std::size_t, const std::string&, std::int64_t) { ++handled; });
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(raw->handle(100), 0);  // nothing: it waits out the timeout
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(90));
+  const std::uint8_t byte = 7;
+  for (int i = 0; i < kSubscriptionQueue + 5; ++i) raw->publish("ch", &byte, 1);
+  raw->publish("not-listened", &byte, 1);
+  while (raw->handle(0) > 0) {
+  }
+  EXPECT_EQ(handled, kSubscriptionQueue);
+  EXPECT_THROW(Wire::open("inproc://"), std::runtime_error);
+}

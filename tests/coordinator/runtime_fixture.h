@@ -1,6 +1,7 @@
 // A run of the coupling runtime (coordinator/run_driver.h) with fake nodes: a fresh run
 // directory, a scene of fast steps and short timeouts, and drive() called as `hemocosim run`
-// calls it, with the nodes launched by a FakeLauncher.
+// calls it, with the nodes launched by a FakeLauncher. The bus is in memory (common/wire.h,
+// inproc://): the same envelope, tags and checks as a run's, no socket, no engine.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -28,6 +29,8 @@ class RuntimeTest : public ::testing::Test {
     auto [dir, ctx] = RunDirectory::create(root_ + "/run", scene_file);
     dir_ = dir;
     ctx_ = ctx;
+    ctx_.lcm_url = "inproc://" + root_;
+    dir_.record_bus_url(ctx_.lcm_url);
     scene_.time.coupling_interval = 1e-3;
     scene_.time.coupling_steps = 8;
     scene_.output.every_steps = 4;
