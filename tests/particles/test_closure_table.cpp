@@ -20,6 +20,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <vector>
 
 using namespace hemo::particles;
@@ -117,14 +118,23 @@ Generated generate(const fs::path& closure_dir, const fs::path& out_dir) {
   return g;
 }
 
+// A fresh folder under the temp dir, removed with its parent when the test ends.
+struct Scratch {
+  fs::path dir;
+  explicit Scratch(const std::string& name) : dir(hemo::test::fresh_run_dir(name)) { fs::create_directories(dir); }
+  ~Scratch() {
+    std::error_code ignored;
+    fs::remove_all(dir.parent_path(), ignored);
+  }
+};
+
 // A fresh copy of closures/*.h, to add a header to.
-fs::path copy_of_the_headers(const std::string& name) {
-  const fs::path dir = hemo::test::fresh_run_dir(name);
-  fs::create_directories(dir);
-  for (const auto& e : fs::directory_iterator(kClosures))
-    if (e.path().extension() == ".h") fs::copy_file(e.path(), dir / e.path().filename());
-  return dir;
-}
+struct CopyOfTheHeaders : Scratch {
+  explicit CopyOfTheHeaders(const std::string& name) : Scratch(name) {
+    for (const auto& e : fs::directory_iterator(kClosures))
+      if (e.path().extension() == ".h") fs::copy_file(e.path(), dir / e.path().filename());
+  }
+};
 
 // The X("name", Class) lines of one slot's list in a generated closure_table.h.
 std::vector<std::string> table_lines(const std::string& table, const std::string& slot) {
@@ -323,7 +333,8 @@ TEST(ClosureTable, TheRegistrationLinesInTheHeadersAreTheTable) {
 // The table the build compiled is what closure_table.cmake makes of the headers today (the class
 // of each name too, which the names alone do not show), and it spells every line of theirs.
 TEST(ClosureTable, TheBuildsTableIsTheGeneratorsOnTheHeaders) {
-  const fs::path out = hemo::test::fresh_run_dir("closure-table-now");
+  const Scratch scratch("closure-table-now");
+  const fs::path& out = scratch.dir;
   const auto g = generate(kClosures, out);
   ASSERT_EQ(g.result.exit_code, 0) << g.result.output;
   EXPECT_EQ(g.table, read_text(fs::path(HEMO_CLOSURE_TABLE_DIR) / "closure_table.h"));
@@ -353,7 +364,8 @@ TEST(ClosureTable, TheRecipesRegistrationInANewHeaderIsAllItTakes) {
   const auto& r = mine[0];
   ASSERT_NE(block.find("#ifdef HEMO_CLOSURE\n"), std::string::npos) << block;
 
-  const fs::path dir = copy_of_the_headers("closure-table-new");
+  const CopyOfTheHeaders copy("closure-table-new");
+  const fs::path& dir = copy.dir;
   std::ofstream(dir / "my_law.h") << "#pragma once\n\n" << block << "\nclass " << r.cls << ";\n";
   const auto g = generate(dir, dir / "out");
   ASSERT_EQ(g.result.exit_code, 0) << g.result.output;
@@ -374,7 +386,8 @@ TEST(ClosureTable, TheGeneratorRefusesABadRegistrationNamingItsHeader) {
        {"HEMO_CLOSURE(drag, my_law, MyLaw)", "HEMO_CLOSURE(drag, \"My-Law\", MyLaw)",
         "HEMO_CLOSURE(drag, \"my_law\", MyLaw)  // a comment", "HEMO_CLOSURE(adhesion, \"my_law\", MyLaw)",
         "HEMO_CLOSURE(drag, \"stokes\", MyLaw)"}) {
-    const fs::path dir = copy_of_the_headers("closure-table-bad");
+    const CopyOfTheHeaders copy("closure-table-bad");
+    const fs::path& dir = copy.dir;
     std::ofstream(dir / "my_law.h") << "#pragma once\n#ifdef HEMO_CLOSURE\n" << line << "\n#endif\n";
     const auto g = generate(dir, dir / "out");
     EXPECT_NE(g.result.exit_code, 0) << line << "\n" << g.result.output;
