@@ -69,8 +69,9 @@ struct Species {
   std::string orientation_integrator = "splitting";
 };
 
-// Names the scene accepts per closure slot, in the order messages list them: the particle node's
-// closure table (particle-node/closures/table/closure_table.h), the one list of closures.
+// Names the scene accepts per closure slot, in the order messages list them (by name): the
+// particle node's closure table, closure_table.h, generated at configure time from the
+// HEMO_CLOSURE line in each closure's header (particle-node/closures/closure_table.cmake).
 const std::vector<std::string>& known_drag_closures();
 const std::vector<std::string>& known_lift_closures();
 const std::vector<std::string>& known_torque_closures();

@@ -12,8 +12,25 @@
 // nonlinear law beta = |F| / |u - v| depends on the slip (beta(Re)). The engine applies it with
 // the exponential update of exponential_drag.h, stable whatever the DEM step. Lift and torque
 // are returned as vectors and applied explicitly.
+//
+// Registration: a closure's header names it, one line per closure, in a block the compiler skips
+// (LAMMPS's `#ifdef PairStyle` convention):
+//
+//   #ifdef HEMO_CLOSURE
+//   HEMO_CLOSURE(drag, "stokes", StokesDrag)      // slot, the name a scene writes, the class
+//   #endif
+//
+// CMake reads these lines (closure_table.cmake) into the closure table, closure_table.h in the
+// build directory: the registry (registry.cpp) builds closures from it, scene validation
+// (common/scene.cpp) takes the names it accepts from it. Nothing else lists a closure.
+// "none" (no lift, no torque) is NoClosure's, below.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
+
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(lift, "none", NoClosure)
+HEMO_CLOSURE(torque, "none", NoClosure)
+#endif
 
 #include "../vec.h"
 
@@ -51,8 +68,8 @@ struct ClosureParams {
 
 class ClosureRegistry;
 
-// Every closure answers to the name it was made under (table/closure_table.h, for logs). Only the
-// registry sets it, so the name is spelled once, in the table, and not again in the class.
+// Every closure answers to the name it was made under (its HEMO_CLOSURE line, for logs). Only the
+// registry sets it, so the name is spelled once, in the registration, and not again in the class.
 class NamedClosure {
  public:
   const std::string& name() const { return name_; }
@@ -91,9 +108,12 @@ class TorqueClosure : public NamedClosure {
   virtual bool needs_orientation() const { return false; }
 };
 
-// Closures by name (table/closure_table.h); "none" gives nullptr for lift and torque. Throw
-// std::invalid_argument naming the known ones for an unknown name. The names come in the table's
-// order: the ones scene validation accepts.
+// The table's "none": the slot is left empty (no lift, no torque).
+struct NoClosure {};
+
+// Closures by name (the generated closure_table.h); "none" gives nullptr for lift and torque.
+// Throw std::invalid_argument naming the known ones for an unknown name. The names come in the
+// table's order, sorted: the ones scene validation accepts.
 std::unique_ptr<DragClosure> make_drag_closure(const std::string& name, const ClosureParams& params);
 std::unique_ptr<LiftClosure> make_lift_closure(const std::string& name, const ClosureParams& params);
 std::unique_ptr<TorqueClosure> make_torque_closure(const std::string& name, const ClosureParams& params);

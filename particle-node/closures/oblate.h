@@ -33,6 +33,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(drag, "oblate", OblateDrag)
+HEMO_CLOSURE(lift, "oblate", OblateLift)
+HEMO_CLOSURE(torque, "oblate", OblateTorque)
+#endif
+
 #include "closure.h"
 
 namespace hemo::particles {

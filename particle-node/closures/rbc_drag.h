@@ -14,6 +14,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(drag, "rbc_fit", RbcFitDrag)
+#endif
+
 #include "closure.h"
 
 namespace hemo::particles {

@@ -12,6 +12,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(lift, "rbc_lift", RbcLift)
+#endif
+
 #include "closure.h"
 
 namespace hemo::particles {

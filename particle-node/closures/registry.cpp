@@ -1,14 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// The factories of the closures in table/closure_table.h. A new closure: its own file (CMake
-// picks up closures/*.cpp), its line in the table, its header included here, a test.
+// The factories of the closures in the closure table. Both includes below are generated from the
+// HEMO_CLOSURE lines of closures/*.h (closure_table.cmake): a new closure needs no line here.
 #include "closure.h"
-#include "oblate.h"
-#include "rbc_drag.h"
-#include "rbc_lift.h"
-#include "schiller_naumann_drag.h"
-#include "shear_lift.h"
-#include "stokes_drag.h"
-#include "table/closure_table.h"
+#include "closure_headers.h"  // every header that registers a closure
+#include "closure_table.h"    // HEMO_{DRAG,LIFT,TORQUE}_CLOSURES(X): X("name", Class), by name
 
 #include <initializer_list>
 #include <map>
@@ -19,9 +14,6 @@
 #include <vector>
 
 namespace hemo::particles {
-
-// The table's "none": the slot is left empty (no lift, no torque).
-struct NoClosure {};
 
 // Friend of NamedClosure: the one place a closure is given its table name.
 class ClosureRegistry {
@@ -43,7 +35,7 @@ namespace {
 template <class Base>
 using Factory = std::unique_ptr<Base> (*)(const ClosureParams&);
 
-// In the table's order (for messages), with a map beside it to find a name.
+// In the table's order (by name, for messages), with a map beside it to find a name.
 template <class Base>
 struct Table {
   std::vector<std::string> names;

@@ -7,6 +7,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(drag, "schiller_naumann", SchillerNaumannDrag)
+#endif
+
 #include "closure.h"
 
 #include <cmath>

@@ -17,6 +17,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(lift, "shear_lift", ShearLift)
+#endif
+
 #include "closure.h"
 
 namespace hemo::particles {

@@ -3,6 +3,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#ifdef HEMO_CLOSURE
+HEMO_CLOSURE(drag, "stokes", StokesDrag)
+#endif
+
 #include "closure.h"
 
 namespace hemo::particles {

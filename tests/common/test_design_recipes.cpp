@@ -1,6 +1,7 @@
-// docs/design.md, "Extending hemocosim": the recipes for a message and a CLI command stay true.
-// (The closure recipe's check is tests/particles/test_closure_table.cpp, the observable's
-// tests/studies/test_observables.cpp, the scene keys' test_scene.cpp.)
+// docs/design.md, "Extending hemocosim": the recipes for a message and a CLI command stay true,
+// and the closure recipe's "no CMake edit". (The rest of the closure recipe's check is
+// tests/particles/test_closure_table.cpp, the observable's tests/studies/test_observables.cpp, the
+// scene keys' test_scene.cpp.)
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 
@@ -112,6 +113,23 @@ TEST(DesignRecipes, EveryMessageCarriesTheEnvelopeFirst) {
 TEST(DesignRecipes, MessagesAreGlobbed) {
   const std::string cmake = read_text(kSource / "messages" / "CMakeLists.txt");
   EXPECT_NE(cmake.find("file(GLOB HEMO_LCM_TYPES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.lcm)"),
+            std::string::npos);
+}
+
+// A closure: no CMake edit either. Its sources are globbed, and so are the headers whose
+// HEMO_CLOSURE lines closure_table.cmake makes into the closure table; an edited header re-runs
+// the generator (CMake's own dependency).
+TEST(DesignRecipes, ClosuresAreGlobbed) {
+  const std::string top = read_text(kSource / "CMakeLists.txt");
+  EXPECT_NE(
+      top.find("file(GLOB HEMO_CLOSURE_HEADERS CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/particle-node/closures/*.h)"),
+      std::string::npos);
+  EXPECT_NE(top.find("set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${HEMO_CLOSURE_HEADERS})"),
+            std::string::npos);
+  EXPECT_NE(top.find("hemo_closure_table(${CMAKE_BINARY_DIR}/generated/closures ${HEMO_CLOSURE_HEADERS})"),
+            std::string::npos);
+  const std::string node = read_text(kSource / "particle-node" / "CMakeLists.txt");
+  EXPECT_NE(node.find("file(GLOB HEMO_CLOSURE_SOURCES CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/closures/*.cpp)"),
             std::string::npos);
 }
 
