@@ -2,7 +2,7 @@
 #include "scene.h"
 
 #include "hosts.h"
-
+#include "placement.h"
 #include "units.h"
 
 #include <closure_table.h>
@@ -350,7 +350,8 @@ void read_species(Reader& r, Species& s, bool rbc) {
 
 }  // namespace
 
-static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue);
+static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
+                        SceneCheck check = SceneCheck::values);
 
 namespace {
 
@@ -479,7 +480,45 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   }
 }
 
+// Whether the particles can be placed, found by placing them: the particle node's own placement
+// (common/placement.h, the same function and order), with the scene's seed, in the vessel the
+// node places in. That vessel is the built-in fluid node's mesh, whose diameter and length are
+// the scene's (fluid-node/vessel_mesh.cpp, fill_mesh_message; the particle node refuses a mesh
+// that differs) and whose lowest point, the node's z0, is z = 0 (make_vessel_mesh extrudes from
+// z = 0): the check's placement is the node's, bit for bit (tests/particles,
+// PlacementInTheMesh.*). Why not a bound on the volume fraction: what fits depends on the
+// vessel's size (the wall gap, how the lattice meets the wall), on the species' mix and on the
+// seed; a safe bound would refuse scenes that run, a loose one pass scenes that stop at step 0.
+void check_placement(Reader& r, const Scene& s) {
+  namespace pl = particles;
+  if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
+  try {
+    pl::place_particles(s.vessel.radius(), s.vessel.length, 0.0, pl::placement_requests(s), s.run.seed);
+  } catch (const pl::PlacementError& e) {
+    const Species* sp = e.species == pl::kRbc ? &s.rbc : e.species == pl::kPlatelet ? &s.platelet : nullptr;
+    if (sp == nullptr) {  // not a species' (validation rules out such vessels and requests)
+      r.problem("vessel.diameter_um", r.line_of("vessel.diameter_um"), std::string("cannot be placed: ") + e.what(),
+                r.value_text("vessel.diameter_um"));
+      return;
+    }
+    // The key that made the species present, and so is in the file.
+    const std::string key = sp->name + (sp == &s.rbc ? ".hematocrit" : ".number_density_per_ul");
+    const double vessel = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+    const double asked = static_cast<double>(e.requested) * units::pi / 6 * std::pow(sp->diameter, 3) / vessel;
+    r.problem(key, r.line_of(key),
+              fmt::format("cannot be placed: {} {}s of {:g} um, a sphere volume fraction of {:.3g}, in a vessel of "
+                          "{:g} x {:g} um; the particle node's placement (run.seed {}) would stop at step 0: {}",
+                          e.requested, sp == &s.rbc ? "RBC" : "platelet", sp->diameter / units::um, asked,
+                          s.vessel.diameter / units::um, s.vessel.length / units::um, s.run.seed, e.what()),
+              r.value_text(key));
+  }
+}
+
 }  // namespace
+
+bool placement_checked(const Scene& s) {
+  return particles::rbc_count(s) + particles::platelet_count(s) <= kMaxCheckedPlacement;
+}
 
 // The deepest nesting a TOML text can make: the dots of the current [table] header, plus open
 // brackets and braces and the dots of the keys on a line (a.b.c = 1 is three levels), outside
@@ -609,9 +648,9 @@ static toml::table parse_scene_file(const std::string& path) {
   }
 }
 
-Scene load_scene(const std::string& path) {
+Scene load_scene(const std::string& path, SceneCheck check) {
   std::vector<SceneKey> unused;
-  return read_scene(parse_scene_file(path), path, unused);
+  return read_scene(parse_scene_file(path), path, unused, check);
 }
 
 std::string SceneKey::allowed() const {
@@ -671,7 +710,8 @@ static void read_hosts(Reader& r, Scene& s) {
   }
 }
 
-static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue) {
+static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
+                        SceneCheck check) {
   Scene s;
   s.source_path = path;
   Reader r(root);
@@ -823,6 +863,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   if (r.problems().empty()) check_geometry_and_work(r, s);
+  if (check == SceneCheck::placement && r.problems().empty()) check_placement(r, s);
   r.report_unknown();
   catalogue = std::move(r.catalogue());
   if (!r.problems().empty()) throw SceneError(path, r.problems());

@@ -19,7 +19,9 @@ int list_keys_command() {
 
 int check_command(const std::string& scene_path) {
   if (scene_path.empty()) throw std::runtime_error("check needs a scene file (or --keys)");
-  const Scene s = load_scene(scene_path);  // throws SceneError listing every problem
+  // Throws SceneError listing every problem, a run's too: the particles are placed here as the
+  // particle node will place them at step 0 (SceneCheck::placement).
+  const Scene s = load_scene(scene_path, SceneCheck::placement);
   const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
   const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;
   const long platelets = s.platelet.present ? std::lround(s.platelet.number_density * volume) : 0;
@@ -28,7 +30,12 @@ int check_command(const std::string& scene_path) {
              s.vessel.length / units::um, s.mesh.cells());
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
-  fmt::print("  particles   {} RBCs, {} platelets\n", rbcs, platelets);
+  fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
+             rbcs + platelets == 0 ? std::string()
+             : placement_checked(s)
+                 ? fmt::format(", placed as the particle node will at step 0 (run.seed {})", s.run.seed)
+                 : fmt::format(", not placed here (more than {}: the particle node places them at step 0)",
+                               kMaxCheckedPlacement));
   if (s.time.adaptive_interval())
     fmt::print(
         "  time        {:.4g} s physical in coupling intervals of at most {:.3g} s, each the longest {:.3g} s / 2^j "

@@ -151,7 +151,9 @@ void place_nodes(Scene& scene, RunOptions opt) {
 }  // namespace
 
 int run_command(const RunOptions& opt) {
-  Scene scene = load_scene(opt.scene);
+  // Refused here, before the run directory and the nodes, what the particle node would refuse at
+  // step 0: particles that cannot be placed (the same placement, SceneCheck::placement).
+  Scene scene = load_scene(opt.scene, SceneCheck::placement);
   try {
     place_nodes(scene, opt);
   } catch (const std::invalid_argument& e) {

@@ -57,9 +57,9 @@
 #include "fluid_sampler.h"
 #include "h5_output.h"
 #include "orientation.h"
-#include "placement.h"
 
 #include <mpi.h>
+#include <placement.h>
 #include <scene.h>
 
 #include <array>

@@ -40,8 +40,8 @@
 
 #include "cell_locator.h"
 #include "fluid_sampler.h"
-#include "vec.h"
 
+#include <vec.h>
 #include <hemo/particle_feedback_t.hpp>
 
 #include <memory>

@@ -6,9 +6,9 @@
 #pragma once
 
 #include "closures/closure.h"
-#include "vec.h"
 
 #include <scene.h>
+#include <vec.h>
 
 #include <memory>
 #include <string>

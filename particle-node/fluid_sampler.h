@@ -6,8 +6,8 @@
 #pragma once
 
 #include "cell_locator.h"
-#include "vec.h"
 
+#include <vec.h>
 #include <hemo/fluid_state_t.hpp>
 
 #include <string>

@@ -19,7 +19,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include "vec.h"
+#include <vec.h>
 
 #include <Eigen/Geometry>
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "overlap.h"
 
-#include "spatial_hash.h"
+#include <spatial_hash.h>
 
 #include <algorithm>
 #include <cmath>

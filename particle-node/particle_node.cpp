@@ -4,11 +4,11 @@
 #include "agree.h"
 #include "checkpoint_file.h"
 #include "engine_state.h"
-#include "placement.h"
 
 #include <checkpoint.h>
 #include <clock.h>
 #include <fmt/format.h>
+#include <placement.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>

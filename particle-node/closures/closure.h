@@ -32,7 +32,7 @@ HEMO_CLOSURE(lift, "none", NoClosure)
 HEMO_CLOSURE(torque, "none", NoClosure)
 #endif
 
-#include "../vec.h"
+#include <vec.h>
 
 #include <scene.h>
 

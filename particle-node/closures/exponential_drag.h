@@ -21,7 +21,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include "../vec.h"
+#include <vec.h>
 
 #include <cmath>
 

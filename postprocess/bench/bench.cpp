@@ -416,6 +416,7 @@ BenchResult run_bench(const BenchOptions& opt) {
     so.hemocosim = hemocosim;
     so.runner = s.floor ? floor_runner(hemocosim) : bench_runner(hemocosim, s.stress);
     so.no_analysis = s.floor;
+    so.check_placement = !s.stress;
     if (!opt.quiet) fmt::print(stderr, "bench {}: {}\n", s.name, s.path);
     const StudyResult sr = run_study(so);
     std::vector<BenchRow> rows;
@@ -549,6 +550,7 @@ std::vector<std::string> check_bench(const BenchOptions& opt) {
     const BenchSuite suite = load_bench_suite(f, tmp.path());
     StudyOptions so;
     so.study = suite.study_path;
+    so.check_placement = !suite.stress;
     try {
       auto plan = check_study(so);
       // The plan names the study file written from the suite, a temporary: name the suite instead.

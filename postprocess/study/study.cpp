@@ -271,7 +271,8 @@ StudyResult run_study(const StudyOptions& opt) {
   fs::create_directories(out / "runs");
   fs::create_directories(out / "logs");
   fs::copy_file(study.path, out / "study.toml", fs::copy_options::overwrite_existing);
-  const auto cases = expand_study(study, (out / "scenes").string(), reduction);
+  const auto cases = expand_study(study, (out / "scenes").string(), reduction,
+                                  opt.check_placement ? SceneCheck::placement : SceneCheck::values);
 
   auto say = [&opt](const std::string& line) {
     if (!opt.quiet) fmt::print(stderr, "{}\n", line);
@@ -409,7 +410,8 @@ std::vector<std::string> check_study(const StudyOptions& opt) {
   const Study study = load_study(resolve_study(opt.study));
   const Reduction reduction_spec;
   const ScratchFolder tmp("hemocosim-study-check");
-  const auto cases = expand_study(study, tmp.path(), opt.reduced ? &reduction_spec : nullptr);
+  const auto cases = expand_study(study, tmp.path(), opt.reduced ? &reduction_spec : nullptr,
+                                  opt.check_placement ? SceneCheck::placement : SceneCheck::values);
   std::vector<std::string> lines;
   lines.push_back(fmt::format("{}: ok, {} runs of {} (base {}){}", study.path, cases.size(), swept_header(study),
                               study.base, opt.reduced ? ", reduced" : ""));

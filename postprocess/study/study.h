@@ -36,6 +36,10 @@ struct StudyOptions {
   bool quiet = false;       // no progress lines
   bool check_only = false;  // expand and validate every scene, print the plan, run nothing
   bool no_analysis = false;  // the runner makes no coupled runs (bench floor suites): no observables
+  // Whether every run's particles are placed before any run starts, a run that cannot be placed
+  // refusing the study (as `hemocosim run` would refuse that run). false: each run is left to
+  // refuse its own (bench stress suites, whose runs are there to find where they fail).
+  bool check_placement = true;
 };
 
 // What became of one run.

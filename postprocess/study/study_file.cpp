@@ -260,7 +260,8 @@ std::string resolve_study(const std::string& name_or_file) {
 
 // ---- Expansion -------------------------------------------------------------------------------
 
-std::vector<StudyCase> expand_study(const Study& study, const std::string& scenes_dir, const Reduction* reduction) {
+std::vector<StudyCase> expand_study(const Study& study, const std::string& scenes_dir, const Reduction* reduction,
+                                    SceneCheck check) {
   toml::table base;
   try {
     base = toml::parse_file(study.base);
@@ -318,7 +319,7 @@ std::vector<StudyCase> expand_study(const Study& study, const std::string& scene
 
     // The scene loader is the judge: an unknown swept key or a value of the wrong kind is refused.
     try {
-      load_scene(c.scene_path);
+      load_scene(c.scene_path, check);
     } catch (const SceneError& e) {
       std::string why;
       for (const auto& p : e.problems()) {

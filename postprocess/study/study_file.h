@@ -25,6 +25,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "scene.h"
+
 #include <toml++/toml.h>
 
 #include <stdexcept>
@@ -85,8 +87,11 @@ struct StudyCase {
 };
 
 // Writes the scenes of all runs into `scenes_dir` (created) and validates each with the scene
-// loader; throws StudyError naming the run and the problem (an unknown swept key says so).
-std::vector<StudyCase> expand_study(const Study& study, const std::string& scenes_dir, const Reduction* reduction);
+// loader, as far as `check` says (SceneCheck::placement: also that its particles can be placed,
+// as `hemocosim run` checks before it starts the nodes); throws StudyError naming the run and the
+// problem (an unknown swept key says so).
+std::vector<StudyCase> expand_study(const Study& study, const std::string& scenes_dir, const Reduction* reduction,
+                                    SceneCheck check = SceneCheck::values);
 
 // Sets a dotted key in a parsed TOML table to a value given as TOML text ("799", "\"oblate\"",
 // "[1, 2]"), creating tables on the way; throws StudyError if a part of the path is a value.

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <map>
 #include <set>
 
@@ -184,9 +185,21 @@ implicit_drag = "explicit"
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
 }
 
+// Every committed scene (scenes/*.toml and the bench suites' base) passes what `hemocosim check`
+// and `run` check, its particles' placement included (the studies' and suites' scenes: ctest
+// study_check.*, bench_check.*).
 TEST(Scene, ShippedScenesAreValid) {
-  for (const char* name : {"quickstart.toml", "calibration.toml", "calibration-cfdem.toml"}) {
-    EXPECT_NO_THROW(load_scene(std::string(HEMO_SCENES_DIR) + "/" + name)) << name;
+  std::vector<std::string> scenes = {std::string(HEMO_SCENES_DIR) + "/bench/base.toml"};
+  for (const auto& e : std::filesystem::directory_iterator(HEMO_SCENES_DIR))
+    if (e.path().extension() == ".toml") scenes.push_back(e.path().string());
+  ASSERT_GE(scenes.size(), 4u);
+  for (const auto& path : scenes) {
+    EXPECT_NO_THROW(load_scene(path)) << path;
+    try {
+      load_scene(path, SceneCheck::placement);
+    } catch (const SceneError& e) {
+      ADD_FAILURE() << e.what();
+    }
   }
 }
 

@@ -1,7 +1,8 @@
 // A generated corpus of malformed scenes (issue #21): every key with the wrong type, negative,
 // zero, NaN, infinite, huge and out-of-range values; syntax errors; deep nesting; empty, binary,
-// huge and special files. Each must be refused naming its key, one line per problem; a sample
-// goes through `hemocosim check` itself: exit code 2, no crash, no hang.
+// huge and special files; scenes whose particles cannot be placed. Each must be refused naming
+// its key, one line per problem; a sample goes through `hemocosim check` itself: exit code 2, no
+// crash, no hang.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_command.h"
 #include "scene.h"
@@ -11,6 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -73,9 +75,9 @@ std::string write_file(const std::string& name, const std::string& text) {
 }
 
 // The problems of a scene file; empty when it loads.
-std::vector<SceneProblem> problems_of_file(const std::string& path) {
+std::vector<SceneProblem> problems_of_file(const std::string& path, SceneCheck check = SceneCheck::values) {
   try {
-    load_scene(path);
+    load_scene(path, check);
   } catch (const SceneError& e) {
     return e.problems();
   }
@@ -185,6 +187,7 @@ bool names(const std::vector<SceneProblem>& ps, const std::string& key) {
 
 TEST(SceneCorpus, TheBaseSceneIsValid) {
   EXPECT_TRUE(problems_of_file(write_file("base.toml", text_of(kBase))).empty());
+  EXPECT_TRUE(problems_of_file(write_file("base.toml", text_of(kBase)), SceneCheck::placement).empty());
 }
 
 TEST(SceneCorpus, EveryKeyWithEveryKindOfBadValueIsRefusedNamingIt) {
@@ -233,6 +236,64 @@ TEST(SceneCorpus, TheIssuesExamplesNameTheRightCause) {
     EXPECT_NE(ps[0].str("scene").find(e.key + " = "), std::string::npos) << ps[0].str("scene");  // with its value
     EXPECT_EQ(ps[0].message.find("negative"), std::string::npos) << ps[0].str("scene");
   }
+}
+
+// Scenes valid key by key whose particles cannot be placed (issue #21: "placement feasible at
+// the hematocrit"). The base's vessel is the quick start's (50 x 100 um); random addition and the
+// close-packed lattice fill it to a sphere volume fraction of ~0.54.
+std::vector<Case> placement_cases() {
+  return {{"Ht 0.58 in a 50-um vessel", "rbc.hematocrit", with("rbc.hematocrit", "0.58")},
+          {"platelets at 4e7 per ul beside Ht 0.15", "platelet.number_density_per_ul",
+           with("platelet.number_density_per_ul", "40000000")}};
+}
+
+// The line of `table.name` in a text made by text_of.
+int line_in(const std::string& text, const std::string& key) {
+  const auto dot = key.find('.');
+  const auto table = text.find("[" + key.substr(0, dot) + "]\n");
+  const auto at = text.find("\n" + key.substr(dot + 1) + " = ", table);
+  if (table == std::string::npos || at == std::string::npos) return 0;
+  return 2 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+}
+
+// load_scene, which every node calls, takes them (the particle node places its particles itself,
+// once); SceneCheck::placement, which `hemocosim check` and `run` use, refuses each in one problem
+// naming the species' key, its line and its value.
+TEST(SceneCorpus, ParticlesThatCannotBePlacedAreRefusedNamingTheSpeciesKey) {
+  int i = 0;
+  for (const auto& c : placement_cases()) {
+    const std::string path = write_file("placement-" + std::to_string(i++) + ".toml", c.text);
+    EXPECT_TRUE(problems_of_file(path).empty()) << c.name;
+    const auto ps = problems_of_file(path, SceneCheck::placement);
+    ASSERT_EQ(ps.size(), 1u) << c.name;
+    EXPECT_EQ(ps[0].key, c.key) << ps[0].str("scene");
+    EXPECT_GT(ps[0].line, 0);
+    EXPECT_EQ(ps[0].line, line_in(c.text, c.key)) << ps[0].str("scene");
+    EXPECT_EQ(ps[0].message.rfind("cannot be placed: ", 0), 0u) << ps[0].str("scene");
+    EXPECT_NE(ps[0].message.find("volume fraction"), std::string::npos) << ps[0].str("scene");
+    EXPECT_NE(ps[0].str("scene").find(c.key + " = "), std::string::npos) << ps[0].str("scene");
+    EXPECT_EQ(ps[0].str("scene").find('\n'), std::string::npos);
+  }
+}
+
+// The same through the program: `hemocosim check` exits 2 with one line naming the file, the
+// line, the key and its value; `hemocosim run` refuses it alike before it makes a run directory
+// or starts a node.
+TEST(SceneCorpus, HemocosimCheckAndRunRefuseHematocrit058InA50umVessel) {
+  const Case c = placement_cases().front();
+  const std::string path = write_file("program-placement.toml", c.text);
+  const std::string expected = "hemocosim: error: " + path + ":" + std::to_string(line_in(c.text, c.key)) +
+                               ": rbc.hematocrit = 0.58: cannot be placed: ";
+  const auto check = test::run("timeout -s KILL 60 " + test::bin("hemocosim") + " check '" + path + "' 2>&1");
+  EXPECT_EQ(check.exit_code, 2) << check.output;
+  EXPECT_EQ(check.output.rfind(expected, 0), 0u) << check.output;
+  EXPECT_EQ(std::count(check.output.begin(), check.output.end(), '\n'), 1) << check.output;
+  const std::string out = scratch() + "/refused-run";
+  const auto run =
+      test::run("timeout -s KILL 60 " + test::bin("hemocosim") + " run '" + path + "' --out '" + out + "' 2>&1");
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_EQ(run.output.rfind(expected, 0), 0u) << run.output;
+  EXPECT_FALSE(std::filesystem::exists(out)) << "the refused run made its directory";
 }
 
 TEST(SceneCorpus, ARunOfTooManyParticleStepsIsRefusedWithTheFigure) {
@@ -368,6 +429,8 @@ TEST_P(SceneCorpusProgram, HemocosimCheckRefusesEveryCorpusSceneWithExitCode2) {
     ::unlink(fifo.c_str());
     ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
     cases.push_back({fifo, "(file)"});
+    for (const auto& c : placement_cases())
+      cases.push_back({write_file("program-file-" + std::to_string(i++) + ".toml", c.text), c.key});
   }
   ASSERT_GE(keys.size(), 400u) << "the corpus has shrunk";
   for (const auto& [path, key] : cases) {

@@ -8,8 +8,8 @@
 //    steps; the largest |d phi| of any cell per step (what d alpha / dt sees) and its RMS;
 //  * the cost of a deposition per particle.
 #include "deposition.h"
-#include "placement.h"
 
+#include <placement.h>
 #include <vessel_mesh.h>
 #include <hemo/mesh_t.hpp>
 

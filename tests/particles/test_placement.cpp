@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "overlap.h"
-#include "placement.h"
 
 #include <gtest/gtest.h>
+#include <placement.h>
 
 #include <chrono>
 #include <cmath>

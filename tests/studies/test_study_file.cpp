@@ -111,6 +111,19 @@ TEST(StudyFile, ValueOfTheWrongKindIsRefused) {
   EXPECT_NE(e.find("rbc.hematocrit: expected a number (the swept key)"), std::string::npos) << e;
 }
 
+// `hemocosim study` and `bench` (but for stress suites) expand with SceneCheck::placement: a run
+// whose particles cannot be placed refuses the study before any run starts, as `hemocosim run`
+// would refuse that run.
+TEST(StudyFile, ParticlesThatCannotBePlacedAreRefusedNamingTheRun) {
+  Fixture fx("dense", "base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.58]\n");
+  EXPECT_NO_THROW(expand_study(load_study(fx.study), fx.scenes(), nullptr));  // values only: left to each run
+  const std::string e =
+      error_of([&] { expand_study(load_study(fx.study), fx.scenes(), nullptr, SceneCheck::placement); });
+  EXPECT_NE(e.find("run 02-0.58 (0.58)"), std::string::npos) << e;
+  EXPECT_NE(e.find("rbc.hematocrit: cannot be placed: "), std::string::npos) << e;
+  EXPECT_NE(e.find("(the swept key)"), std::string::npos) << e;
+}
+
 TEST(StudyFile, ImpossibleValueIsRefusedNamingTheRun) {
   Fixture fx("neg", "base = \"base.toml\"\n[sweep]\nkey = \"rbc.hematocrit\"\nvalues = [0.1, 0.9]\n");
   const std::string e = error_of([&] { expand_study(load_study(fx.study), fx.scenes(), nullptr); });

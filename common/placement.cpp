@@ -184,7 +184,7 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
       std::ostringstream msg;
       msg << "cannot place any " << species_name(req.species) << ": diameter " << req.diameter
           << " m does not fit in a vessel of radius " << radius << " m";
-      throw PlacementError(msg.str());
+      throw PlacementError(msg.str(), req.species, req.count, 0, packing.volume_fraction());
     }
     // Random sequential addition jams near a sphere volume fraction of 0.3 in a vessel; a
     // species it cannot place is placed again on lattice sites (0.70 in bulk; 0.51 in the
@@ -202,7 +202,7 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
           << " attempts each) nor on a close-packed lattice: the vessel is too full (sphere volume fraction "
           << packing.volume_fraction() << " so far); lower the hematocrit or the platelet density, or use a longer "
           << "vessel";
-      throw PlacementError(msg.str());
+      throw PlacementError(msg.str(), req.species, req.count, n, packing.volume_fraction());
     }
   }
   return std::move(packing.placed());

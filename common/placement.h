@@ -5,6 +5,9 @@
 // sites of a randomly turned close-packed lattice (0.51 in a 50 um vessel). Reproducible from
 // the seed (own uniform mapping of mt19937_64, so the result does not depend on the standard
 // library's distributions).
+// Pure geometry, in hemocommon: the particle node places its particles with it at step 0, and
+// `hemocosim check` / `run` run the very same placement beforehand to refuse a scene whose
+// particles cannot be placed (common/scene.h, SceneCheck::placement).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -38,6 +41,18 @@ struct PlacementOptions {
 class PlacementError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+  // A species that found no room: `placed` of its `requested` particles fitted (on the lattice,
+  // the last way tried), and the spheres placed by then, of every species, fill
+  // `volume_fraction` of the vessel.
+  PlacementError(const std::string& what, int species, long requested, long placed, double volume_fraction)
+      : std::runtime_error(what),
+        species(species),
+        requested(requested),
+        placed(placed),
+        volume_fraction(volume_fraction) {}
+  int species = -1;  // SpeciesIndex; -1: no species to blame (a vessel or request that is no such)
+  long requested = 0, placed = 0;
+  double volume_fraction = 0;
 };
 
 // Number of RBCs: hematocrit x vessel volume / V_RBC (rounded); platelets: number density x
