@@ -277,7 +277,7 @@ TEST(Bus, InjectedDropsCountOnlyOthersGenuineMessages) {
     const auto g = order_from(ctx, "coordinator", i, ctx.secret);
     publish(g), ++sent;
     genuine.push_back(i);
-    publish(g), ++sent;                                                     // a replay
+    publish(g), ++sent;                                                   // a replay
     publish(order_from(ctx, "coordinator", 100 + i, wrong_key)), ++sent;  // forged
     publish(order_from(ctx, "fluid", 200 + i, wrong_key)), ++sent;        // forged in its name
     publish(order_from(ctx, "fluid", 300 + i, ctx.secret)), ++sent;       // its own echo
