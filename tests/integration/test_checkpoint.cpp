@@ -29,7 +29,9 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <thread>
+#include <unordered_map>
 
 using namespace hemo::test;
 namespace fs = std::filesystem;
@@ -400,15 +402,39 @@ TEST(Checkpoint, UnstableStepIsNotKeptAsACheckpoint) {
 
 namespace {
 
-// Genuine datagrams of a run, captured from its bus (the fuzzer replays and mangles them).
-// Also each process's latest heartbeat, which every process hears: replayed, it comes back to
-// its sender as its own echo.
+// LCM (1.3) sends a message as one UDP packet when its channel name, a NUL and its bytes fit in
+// 1,435 bytes (LCM_SHORT_MESSAGE_MAX_SIZE), else as several, and a receiver silently discards one
+// it cannot reassemble. Its publish reports success even when one of the packets could not be
+// sent: whether a multi-packet message went out whole, the fuzzer learns by hearing it back.
+constexpr std::size_t kLcmSingleDatagram = 1435;
+bool multi_packet(const std::string& channel, std::size_t bytes) {
+  return channel.size() + 1 + bytes > kLcmSingleDatagram;
+}
+std::uint64_t hash_of(const std::uint8_t* d, std::size_t n) {
+  return std::hash<std::string_view>()(std::string_view(reinterpret_cast<const char*>(d), n));
+}
+
+// What the fuzzer hears on the run's channels. Genuine datagrams, captured (the fuzzer replays
+// and mangles them), and each process's latest heartbeat, which every process hears: replayed,
+// it comes back to its sender as its own echo. And its own multi-packet messages coming back
+// whole: those were sent whole (the run's own traffic never repeats a message's bytes).
 struct Capture {
   const std::vector<std::uint8_t>* secret = nullptr;
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> got;
   std::map<std::string, std::vector<std::uint8_t>> heartbeat;  // by sender
+  std::unordered_map<std::uint64_t, long> multi_on_its_way;    // sent, not heard back yet, by hash of the bytes
+  long multi_awaited = 0;
+  std::map<std::string, long> multi_heard_back;  // by channel
   void on(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     const auto* d = static_cast<const std::uint8_t*>(rbuf->data);
+    if (multi_packet(channel, rbuf->data_size)) {
+      const auto it = multi_on_its_way.find(hash_of(d, rbuf->data_size));
+      if (it != multi_on_its_way.end() && it->second > 0) {
+        --it->second, --multi_awaited;
+        ++multi_heard_back[channel];
+        return;
+      }
+    }
     if (!hemo::verify(d, rbuf->data_size, *secret)) return;  // the fuzzer's own
     if (got.size() < 400) got.emplace_back(channel, std::vector<std::uint8_t>(d, d + rbuf->data_size));
     const auto env = hemo::parse_envelope(d, rbuf->data_size);
@@ -437,11 +463,7 @@ struct Expected {
   long short_or_malformed = 0, other_run = 0, bad_tag = 0, own = 0, authentic = 0;
   long bad_tag_in_own_name = 0;  // of bad_tag: naming the process as their sender
 };
-// LCM (1.3) sends a message as one UDP packet when its channel name, a NUL and its bytes fit in
-// 1,435 bytes (LCM_SHORT_MESSAGE_MAX_SIZE), else as several. Its publish reports success even
-// when one of those packets could not be sent, and a receiver silently discards a message it
-// cannot reassemble: multi-packet ones are counted apart (at most that many may be missing).
-constexpr std::size_t kLcmSingleDatagram = 1435;
+// Multi-packet ones are counted apart (kLcmSingleDatagram).
 struct ExpectedBySize {
   Expected single, multi;
 };
@@ -461,6 +483,7 @@ struct Fuzzed {
   long first_step = -1, last_step = -1;  // the run's, as the fuzzing began and ended
   double seconds = 0;
   std::map<std::string, long> by_kind;             // sent on each channel
+  std::map<std::string, long> multi_not_whole;     // multi-packet ones not heard back whole, by channel kind
   std::map<std::string, ExpectedBySize> expected;  // by process
 };
 
@@ -502,12 +525,16 @@ Fuzzed fuzz_run(const std::string& dir, long from, long to, long enough, const s
     ++f.sent;
     const std::string kind = channel.substr(channel.rfind('/') + 1);
     ++f.by_kind[kind];
+    const bool multi = multi_packet(channel, b.size());
+    if (multi) {
+      ++capture.multi_on_its_way[hash_of(b.data(), b.size())], ++capture.multi_awaited;
+      ++f.multi_not_whole[kind];  // until heard back
+    }
     const auto env = hemo::parse_envelope(b.data(), b.size());
     const bool authentic = env && hemo::verify(b.data(), b.size(), ctx.secret);
     for (const auto& [process, kinds_heard] : heard) {
       if (std::find(kinds_heard.begin(), kinds_heard.end(), kind) == kinds_heard.end()) continue;
-      auto& e =
-          channel.size() + 1 + b.size() <= kLcmSingleDatagram ? f.expected[process].single : f.expected[process].multi;
+      auto& e = multi ? f.expected[process].multi : f.expected[process].single;
       if (!env)
         ++e.short_or_malformed;
       else if (env->envelope.run_id != ctx.run_id)
@@ -578,6 +605,12 @@ Fuzzed fuzz_run(const std::string& dir, long from, long to, long enough, const s
   }
   f.last_step = last_metrics_step(dir);
   f.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  // Its last multi-packet messages back (a second at most).
+  for (int i = 0; i < 50 && capture.multi_awaited > 0; ++i) raw.handleTimeout(20);
+  while (raw.handleTimeout(0) > 0) {
+  }
+  for (const auto& [channel, n] : capture.multi_heard_back)
+    f.multi_not_whole[channel.substr(channel.rfind('/') + 1)] -= n;
   return f;
 }
 
@@ -736,8 +769,9 @@ long pid_in(const std::string& file) {
 // one's drops by cause (its bus's counts) reconcile with the hostile datagrams sent on the
 // channels it hears, as the fuzzer classified them: never more than were sent, and no fewer than
 // were sent less what the kernel dropped on that process's sockets (or before any socket) while
-// they came; no hostile datagram is accepted; and the run ends bit for bit as the same scene run
-// in peace.
+// they came, and less the messages of several packets that did not go out whole (the fuzzer
+// hears its own back); no hostile datagram is accepted; and the run ends bit for bit as the same
+// scene run in peace.
 TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
   const std::string peace = fresh_run_dir("fuzz-peace"), war = fresh_run_dir("fuzz-war");
   const std::string text = scene_with_checkpoints(1000, 500);
@@ -796,6 +830,7 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
                                                    {"fluid", file_text(war + "/fluid.log")},
                                                    {"particles", file_text(war + "/particles.log")},
                                                    {"monitor", file_text(monitor.err)}};
+  const auto heard = channels_heard();
   for (const auto& [process, log] : logs) {
     const auto got = bus_counts(log, process);
     const auto& want = f.expected.at(process);
@@ -832,20 +867,25 @@ TEST(LiveFuzz, ARunUnderHostileDatagramsEndsBitForBitAsInPeace) {
                          short_of(s.bad_tag, auth_got) + short_of(s.authentic, authentic_got) +
                          short_of(s.own, own_got);
     EXPECT_LE(missing, lost) << process;
-    // The same with the multi-packet ones: reported, not checked (see kLcmSingleDatagram).
+    // The same with the multi-packet ones, which may also be missing for not having gone out
+    // whole: at most those the fuzzer did not hear back whole (kLcmSingleDatagram).
     const long missing_all = short_of(s.short_or_malformed + m.short_or_malformed, short_got) +
                              short_of(s.other_run + m.other_run, foreign_got) +
                              short_of(s.bad_tag + m.bad_tag, auth_got) +
                              short_of(s.authentic + m.authentic, authentic_got) + short_of(s.own + m.own, own_got);
+    long not_whole = 0;
+    for (const auto& kind : heard.at(process))
+      not_whole += f.multi_not_whole.count(kind) ? f.multi_not_whole.at(kind) : 0;
+    EXPECT_LE(missing_all, lost + not_whole) << process;
     std::printf(
         "%s (%zu UDP sockets, %ld dropped by the kernel): sent short %ld (+%ld multi-packet), other run %ld (+%ld), "
         "bad tag %ld (+%ld; %ld in its name), replays %ld (+%ld), own %ld (+%ld); counted short %ld, other run %ld, "
         "bad tag %ld, replay/pre-start %ld, own %ld, accepted %ld of %ld received; single-packet ones missing %ld, "
-        "with the multi-packet ones %ld\n",
+        "with the multi-packet ones %ld (of which the fuzzer did not hear %ld back whole)\n",
         process.c_str(), after.by_process.at(process).size(), socket_drops, s.short_or_malformed, m.short_or_malformed,
         s.other_run, m.other_run, s.bad_tag, m.bad_tag, s.bad_tag_in_own_name + m.bad_tag_in_own_name, s.authentic,
         m.authentic, s.own, m.own, short_got, foreign_got, auth_got, authentic_got, own_got, got.at("accepted"),
-        got.at("received"), missing, missing_all);
+        got.at("received"), missing, missing_all, not_whole);
   }
   // The monitor showed its own drops in its table too.
   const std::string table = file_text(monitor.out);
