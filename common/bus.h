@@ -79,12 +79,13 @@ std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, he
 //   short        no well-formed envelope: too short for it, or a string length zero, negative
 //                or past the end, or not NUL-terminated
 //   foreign      another run's id
+//   auth         the HMAC tag does not verify (whatever sender the envelope names)
 //   (own)        our own message looped back by multicast (not a rejection)
-//   (injected)   dropped on purpose by run.drop_every (fault injection, not a rejection)
-//   auth         the HMAC tag does not verify
 //   prestart     sequence number (the sender's wall clock in microseconds) from before this
 //                bus was opened, less a clock-skew allowance: a recording played back
 //   replay       sequence number already seen from that sender
+//   (injected)   dropped on purpose by run.drop_every (fault injection, not a rejection): every
+//                n-th of the others' authentic, fresh messages but heartbeats
 //   undecodable  authentic, but does not decode as its channel's type
 struct BusCounters {
   std::uint64_t received = 0;  // datagrams handed to the bus by LCM

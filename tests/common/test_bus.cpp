@@ -259,3 +259,87 @@ TEST(InProcessBus, WaitsForADatagramAndKeepsAtMostTheQueueBound) {
   EXPECT_EQ(handled, kSubscriptionQueue);
   EXPECT_THROW(Wire::open("inproc://"), std::runtime_error);
 }
+
+namespace {
+// A step order from `sender`, signed with `key`; published raw, as anyone on the LAN can.
+std::vector<std::uint8_t> order_from(const RunContext& ctx, const std::string& sender, double time,
+                                     const std::vector<std::uint8_t>& key) {
+  auto buf = encoded_order(ctx, Bus::next_seq(), time);
+  step_order_t o{};
+  o.decode(buf.data(), 0, static_cast<int>(buf.size()));
+  o.envelope.sender = sender;
+  buf.assign(static_cast<std::size_t>(o.getEncodedSize()), 0);
+  o.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  sign(buf, key);
+  return buf;
+}
+
+// Polls until `bus` has counted `n` datagrams (or 3 s went by).
+std::vector<Received> until_received(Bus& bus, std::uint64_t n) {
+  std::vector<Received> got;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  while (bus.counters().received < n && std::chrono::steady_clock::now() < end)
+    bus.poll(0.05, [&](const Received& r) { got.push_back(r); });
+  return got;
+}
+}  // namespace
+
+// Nothing unauthenticated is believed of an envelope: a forged datagram that carries the
+// receiver's own sender name is a bad tag, not the receiver's own echo (issue #21). Only an
+// authentic one is an echo.
+TEST(Bus, AForgedDatagramInTheReceiversNameIsABadTagNotItsOwnEcho) {
+  auto ctx = test::make_context("ownname");
+  Bus fluid(ctx, "fluid", channel::heard_by_fluid());
+  lcm::LCM raw(ctx.lcm_url);
+  auto wrong_key = ctx.secret;
+  wrong_key[0] ^= 0x80;
+  const auto forged = order_from(ctx, "fluid", 1.0, wrong_key);
+  raw.publish(fluid.topic(channel::step), forged.data(), static_cast<unsigned>(forged.size()));
+  auto got = until_received(fluid, 1);
+  EXPECT_TRUE(got.empty());
+  EXPECT_EQ(fluid.counters().rejected_auth, 1u) << fluid.counters().str();
+  EXPECT_EQ(fluid.counters().own, 0u) << fluid.counters().str();
+
+  const auto echo = order_from(ctx, "fluid", 2.0, ctx.secret);  // as if it had published it
+  raw.publish(fluid.topic(channel::step), echo.data(), static_cast<unsigned>(echo.size()));
+  got = until_received(fluid, 2);
+  EXPECT_TRUE(got.empty());
+  EXPECT_EQ(fluid.counters().own, 1u) << fluid.counters().str();
+  EXPECT_EQ(fluid.counters().rejected_auth, 1u) << fluid.counters().str();
+}
+
+// run.drop_every simulates UDP losing others' genuine messages: every n-th of them is dropped,
+// whatever hostile datagrams (forged, in its own name, replays, foreign) come in between, so
+// that the genuine traffic loses the same messages with and without them.
+TEST(Bus, InjectedDropsCountOnlyOthersGenuineMessages) {
+  auto ctx = test::make_context("dropevery");
+  ctx.drop_every = 3;
+  Bus fluid(ctx, "fluid", channel::heard_by_fluid());
+  lcm::LCM raw(ctx.lcm_url);
+  auto wrong_key = ctx.secret;
+  wrong_key[0] ^= 0x80;
+  auto publish = [&](const std::vector<std::uint8_t>& b) {
+    raw.publish(fluid.topic(channel::step), b.data(), static_cast<unsigned>(b.size()));
+  };
+  std::uint64_t sent = 0;
+  std::vector<double> genuine;
+  for (int i = 0; i < 9; ++i) {
+    const auto g = order_from(ctx, "coordinator", i, ctx.secret);
+    publish(g), ++sent;
+    genuine.push_back(i);
+    publish(g), ++sent;                                                   // a replay
+    publish(order_from(ctx, "coordinator", 100 + i, wrong_key)), ++sent;  // forged
+    publish(order_from(ctx, "fluid", 200 + i, wrong_key)), ++sent;        // forged in its name
+    publish(order_from(ctx, "fluid", 300 + i, ctx.secret)), ++sent;       // its own echo
+  }
+  const auto got = until_received(fluid, sent);
+  std::vector<double> times;
+  for (const auto& r : got) times.push_back(r.as<step_order_t>().time_s);
+  EXPECT_EQ(times, (std::vector<double>{0, 1, 3, 4, 6, 7})) << fluid.counters().str();
+  const auto k = fluid.counters();
+  EXPECT_EQ(k.injected_drops, 3u) << k.str();
+  EXPECT_EQ(k.rejected_replay, 9u) << k.str();
+  EXPECT_EQ(k.rejected_auth, 18u) << k.str();
+  EXPECT_EQ(k.own, 9u) << k.str();
+  EXPECT_EQ(k.received, sent) << k.str();
+}

@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -40,6 +41,27 @@ bool wait_until_stepping(const std::string& dir, double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   return false;
+}
+
+Background::Background(const std::string& command, const std::string& files)
+    : out(files + ".out"), err(files + ".err") {
+  const std::string pid_file = files + ".pid", script = files + ".sh";
+  std::ofstream(script) << "echo $$ > " << pid_file << "\nexec " << command << " > " << out << " 2> " << err << "\n";
+  done = std::async(std::launch::async, [=] { return run("sh " + script); });
+  for (int i = 0; i < 100 && pid == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::ifstream(pid_file) >> pid;
+  }
+}
+
+void Background::signal(int sig) const {
+  if (pid > 0) kill(static_cast<pid_t>(pid), sig);
+}
+
+Background::~Background() {
+  if (!done.valid()) return;
+  signal(SIGINT);
+  done.wait();
 }
 
 std::vector<std::string> snapshot_names(const std::string& h5_path) {

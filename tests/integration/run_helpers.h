@@ -4,6 +4,7 @@
 
 #include "run_command.h"
 
+#include <future>
 #include <map>
 #include <string>
 #include <vector>
@@ -19,6 +20,18 @@ std::string small_scene_text(long coupling_steps, const std::string& run_keys = 
 // Waits (up to `timeout_s`) until the run in `dir` is stepping: both nodes have reported steps
 // in metrics.csv (about 60 rows a step), not merely started. True if it got there.
 bool wait_until_stepping(const std::string& dir, double timeout_s = 120);
+
+// A program in the background, its stdout and stderr in files (FILES.out, FILES.err), its pid
+// known; interrupted (SIGINT) and waited for when it goes out of scope.
+struct Background {
+  std::string out, err;
+  std::future<CommandResult> done;
+  long pid = 0;
+
+  Background(const std::string& command, const std::string& files);
+  void signal(int sig) const;
+  ~Background();
+};
 
 // One particle snapshot of particles.h5.
 struct Snapshot {

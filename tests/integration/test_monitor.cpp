@@ -37,31 +37,6 @@ std::vector<json> json_lines(const std::string& text) {
   return rows;
 }
 
-// A program in the background, its stdout and stderr in files, its pid known.
-struct Background {
-  std::string out, err;
-  std::future<CommandResult> done;
-  long pid = 0;
-
-  Background(const std::string& command, const std::string& files) : out(files + ".out"), err(files + ".err") {
-    const std::string pid_file = files + ".pid", script = files + ".sh";
-    std::ofstream(script) << "echo $$ > " << pid_file << "\nexec " << command << " > " << out << " 2> " << err << "\n";
-    done = std::async(std::launch::async, [=] { return run("sh " + script); });
-    for (int i = 0; i < 100 && pid == 0; ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      std::ifstream(pid_file) >> pid;
-    }
-  }
-  void signal(int sig) const {
-    if (pid > 0) kill(static_cast<pid_t>(pid), sig);
-  }
-  ~Background() {
-    if (!done.valid()) return;
-    signal(SIGINT);
-    done.wait();
-  }
-};
-
 // The run, started in the background; the constructor returns once the nodes have reported a
 // step (metrics.csv has rows: about 60 a step), so a monitor started then sees steps at once.
 struct LiveRun {
