@@ -502,6 +502,24 @@ struct Heartbeat::Impl {
   std::thread thread;
   mutable std::mutex heard_mutex;
   std::set<std::string> heard;
+
+  // What the subscription's callback needs: whose heartbeats are authentic, and its own name.
+  struct Listener {
+    Impl* impl;
+    const RunContext* ctx;
+    const std::string* self;
+  };
+
+  // The thread's work until stopped: a heartbeat every period, the heard report rewritten when
+  // the set grew, and in between the heartbeats of others received (when listening).
+  void run(const RunContext& ctx, const std::string& sender, double period_s,
+           const std::function<BusCounters()>& counters, const HeardReport& report);
+  static lcm::Subscription* listen(lcm::LCM& lcm, const std::string& channel, Listener& listener);
+  void wait(lcm::LCM& lcm, lcm::Subscription* subscription, double period_s) const;
+  std::set<std::string> heard_senders() const {
+    std::lock_guard<std::mutex> lock(heard_mutex);
+    return heard;
+  }
 };
 
 std::string heard_report_file(const RunContext& ctx, const std::string& sender) {
@@ -536,88 +554,96 @@ void write_heard_report(const std::string& file, const std::set<std::string>& he
   std::ofstream(tmp) << "host=" << host << " heard=" << list << "\n";
   std::filesystem::rename(tmp, file, ec);
 }
+// A heartbeat of `sender`, encoded and signed.
+std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::string& sender, double uptime_s,
+                                           const std::function<BusCounters()>& counters) {
+  heartbeat_t hb;
+  hb.envelope.run_id = ctx.run_id;
+  hb.envelope.sender = sender;
+  hb.envelope.step = -1;
+  hb.envelope.seq = Bus::next_seq();
+  hb.envelope.sent_unix_ns = 0;
+  std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
+  hb.uptime_s = uptime_s;
+  if (counters) {
+    const auto k = counters();
+    hb.accepted = static_cast<std::int64_t>(k.accepted);
+    hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
+    hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
+    hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
+    hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
+    hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
+    hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
+  } else {
+    hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
+        hb.rejected_replay = hb.rejected_undecodable = 0;
+  }
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
+  hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  stamp_and_sign(buf, ctx.secret);
+  return buf;
+}
 }  // namespace
 
 Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s, std::function<BusCounters()> counters,
                      HeardReport report)
     : impl_(new Impl) {
-  impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
-    lcm::LCM lcm(ctx.lcm_url);
-    no_delay(lcm, ctx.lcm_url);
-    const std::string channel = ctx.run_id + "/" + channel::heartbeat;
-    lcm::Subscription* subscription = nullptr;
-    std::size_t reported = 0;  // heard senders in the file so far
-    bool written = false;
-    struct Listener {
-      Impl* impl;
-      const RunContext* ctx;
-      const std::string* self;
-    } listener{impl_, &ctx, &sender};
-    if (report.listen && lcm.good()) {
-      // Authentic heartbeats of this run only: a forger without the secret cannot make a
-      // broken bus look whole.
-      subscription = lcm.subscribeFunction(
-          channel,
-          +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Listener* l) {
-            const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
-            const auto raw = parse_envelope(data, rbuf->data_size);
-            if (!raw || raw->envelope.run_id != l->ctx->run_id || raw->envelope.sender == *l->self) return;
-            if (!verify(data, rbuf->data_size, l->ctx->secret)) return;
-            std::lock_guard<std::mutex> lock(l->impl->heard_mutex);
-            l->impl->heard.insert(raw->envelope.sender);
-          },
-          &listener);
-    }
-    const auto start = Clock::now();
-    while (!impl_->stop.load()) {
-      heartbeat_t hb;
-      hb.envelope.run_id = ctx.run_id;
-      hb.envelope.sender = sender;
-      hb.envelope.step = -1;
-      hb.envelope.seq = Bus::next_seq();
-      hb.envelope.sent_unix_ns = 0;
-      std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
-      hb.uptime_s = std::chrono::duration<double>(Clock::now() - start).count();
-      if (counters) {
-        const auto k = counters();
-        hb.accepted = static_cast<std::int64_t>(k.accepted);
-        hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
-        hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
-        hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
-        hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
-        hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
-        hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
-      } else {
-        hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
-            hb.rejected_replay = hb.rejected_undecodable = 0;
-      }
-      std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
-      hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      stamp_and_sign(buf, ctx.secret);
-      if (lcm.good()) lcm.publish(channel, buf.data(), static_cast<unsigned>(buf.size()));
-      if (!report.file.empty()) {
-        const auto heard = this->heard();
-        if (!written || heard.size() != reported) write_heard_report(report.file, heard);
-        written = true;
-        reported = heard.size();
-      }
-      const auto next = Clock::now() + std::chrono::duration<double>(period_s);
-      while (!impl_->stop.load() && Clock::now() < next) {
-        if (subscription)
-          lcm.handleTimeout(50);
-        else
-          std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-    }
-    if (subscription) lcm.unsubscribe(subscription);
-  });
+  impl_->thread = std::thread([impl = impl_, ctx, sender = std::move(sender), period_s, counters = std::move(counters),
+                               report = std::move(report)] { impl->run(ctx, sender, period_s, counters, report); });
 }
 
-std::set<std::string> Heartbeat::heard() const {
-  std::lock_guard<std::mutex> lock(impl_->heard_mutex);
-  auto heard = impl_->heard;
-  return heard;
+void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, double period_s,
+                          const std::function<BusCounters()>& counters, const HeardReport& report) {
+  lcm::LCM lcm(ctx.lcm_url);
+  no_delay(lcm, ctx.lcm_url);
+  const std::string channel = ctx.run_id + "/" + channel::heartbeat;
+  Listener listener{this, &ctx, &sender};
+  lcm::Subscription* subscription = report.listen && lcm.good() ? listen(lcm, channel, listener) : nullptr;
+  std::size_t reported = 0;  // heard senders in the file so far
+  bool written = false;
+  const auto start = Clock::now();
+  while (!stop.load()) {
+    const auto buf =
+        signed_heartbeat(ctx, sender, std::chrono::duration<double>(Clock::now() - start).count(), counters);
+    if (lcm.good()) lcm.publish(channel, buf.data(), static_cast<unsigned>(buf.size()));
+    if (!report.file.empty()) {
+      const auto now_heard = heard_senders();
+      if (!written || now_heard.size() != reported) write_heard_report(report.file, now_heard);
+      written = true;
+      reported = now_heard.size();
+    }
+    wait(lcm, subscription, period_s);
+  }
+  if (subscription) lcm.unsubscribe(subscription);
 }
+
+lcm::Subscription* Heartbeat::Impl::listen(lcm::LCM& lcm, const std::string& channel, Listener& listener) {
+  // Authentic heartbeats of this run only: a forger without the secret cannot make a broken bus
+  // look whole.
+  return lcm.subscribeFunction(
+      channel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Listener* l) {
+        const auto* data = static_cast<const std::uint8_t*>(rbuf->data);
+        const auto raw = parse_envelope(data, rbuf->data_size);
+        if (!raw || raw->envelope.run_id != l->ctx->run_id || raw->envelope.sender == *l->self) return;
+        if (!verify(data, rbuf->data_size, l->ctx->secret)) return;
+        std::lock_guard<std::mutex> lock(l->impl->heard_mutex);
+        l->impl->heard.insert(raw->envelope.sender);
+      },
+      &listener);
+}
+
+void Heartbeat::Impl::wait(lcm::LCM& lcm, lcm::Subscription* subscription, double period_s) const {
+  const auto next = Clock::now() + std::chrono::duration<double>(period_s);
+  while (!stop.load() && Clock::now() < next) {
+    if (subscription)
+      lcm.handleTimeout(50);
+    else
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+std::set<std::string> Heartbeat::heard() const { return impl_->heard_senders(); }
 
 Heartbeat::~Heartbeat() {
   impl_->stop = true;
