@@ -131,8 +131,11 @@ void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const 
 }
 
 void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double** f) {
-  const int* type = liggghts_.atom().type;
-  double** impulse = per_atom(liggghts_.fixes().impulse);
+  // Locals, so that the loop does not reload them through this object for every particle.
+  const LiggghtsSession& liggghts = liggghts_;
+  const std::array<Vec3, kSpeciesCount>& weight = species_.weight;
+  const int* type = liggghts.atom().type;
+  double** impulse = per_atom(liggghts.fixes().impulse);
   // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' fluid force at this
   // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
   if (cell_plasma_) cell_plasma_->relax(comm_);
@@ -142,7 +145,7 @@ void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double
     FluidForce& ff = step_forces_[i];
     if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
     const Vec3 fluid_force = ff.total();
-    const Vec3 applied = fluid_force + ff.pressure + species_.weight[liggghts_.species_of_type(type[i])];
+    const Vec3 applied = fluid_force + ff.pressure + weight[liggghts.species_of_type(type[i])];
     f[i][0] = applied.x();
     f[i][1] = applied.y();
     f[i][2] = applied.z();

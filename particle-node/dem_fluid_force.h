@@ -63,8 +63,8 @@ class DemFluidForce {
 
   // One coupling step's DEM run.
   struct Run {
-    long coupling_step = 0;  // labels errors
-    std::int64_t first_step = 0;
+    long coupling_step = 0;       // labels errors
+    std::int64_t first_step = 0;  // LIGGGHTS's step count as the run starts
     int steps = 0;
     double dt = 0;
     const FluidSampler* fluid = nullptr;
@@ -88,6 +88,7 @@ class DemFluidForce {
   double max_reynolds(int species) const { return max_re_[species]; }
   double min_relaxation_time() const { return min_relaxation_time_; }  // NaN before the first run
   long outside_mesh() const { return outside_total_; }
+  // Wall seconds spent in the callback since the last call.
   double take_seconds() { return std::exchange(seconds_, 0.0); }
 
   void save(EngineState& state) const;
@@ -98,11 +99,11 @@ class DemFluidForce {
   // One force evaluation of a run, the same for every atom.
   struct ForceStep {
     std::int64_t ntimestep = 0;
-    double duration = 0;      // how long its force acts in this run (half a step at the run's ends)
-    bool last = false;        // the run's last: its force is kept for the next run's first half kick
-    bool evaluate = false;    // the closures are evaluated (else the held ones apply)
-    double** held = nullptr;  // the closures held per atom (null: none)
-    OrientationTracker::Step spin;
+    double duration = 0;            // how long its force acts in this run (half a step at the run's ends)
+    bool last = false;              // the run's last: its force is kept for the next run's first half kick
+    bool evaluate = false;          // the closures are evaluated (else the held ones apply)
+    double** held = nullptr;        // the closures held per atom (null: none)
+    OrientationTracker::Step spin;  // what the orientations take from it
   };
   // Atom i's fluid force (into step_forces_, its cell into step_cells_) and its orientation's
   // kick; `f` zeroed for now.
