@@ -425,6 +425,19 @@ struct Heartbeat::Impl {
   std::thread thread;
   mutable std::mutex heard_mutex;
   std::set<std::string> heard;
+
+  // The thread's work until stopped: a heartbeat every period, the heard report rewritten when
+  // the set grew, and in between the heartbeats of others received (when listening).
+  void run(const RunContext& ctx, const std::string& sender, double period_s,
+           const std::function<BusCounters()>& counters, const HeardReport& report);
+  // Subscribes to the run's heartbeats; false when the transport cannot listen here.
+  bool listen(Wire& wire, const std::string& channel, const RunContext& ctx, const std::string& self);
+  // Until the next heartbeat is due, handling what arrives meanwhile (when listening).
+  void wait(Wire* listening, double period_s) const;
+  std::set<std::string> heard_senders() const {
+    std::lock_guard<std::mutex> lock(heard_mutex);
+    return heard;
+  }
 };
 
 std::string heard_report_file(const RunContext& ctx, const std::string& sender) {
@@ -459,88 +472,102 @@ void write_heard_report(const std::string& file, const std::set<std::string>& he
   std::ofstream(tmp) << "host=" << host << " heard=" << list << "\n";
   std::filesystem::rename(tmp, file, ec);
 }
+// A heartbeat of `sender`, encoded and signed.
+std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::string& sender, double uptime_s,
+                                           const std::function<BusCounters()>& counters) {
+  heartbeat_t hb;
+  hb.envelope.run_id = ctx.run_id;
+  hb.envelope.sender = sender;
+  hb.envelope.step = -1;
+  hb.envelope.seq = Bus::next_seq();
+  hb.envelope.sent_unix_ns = 0;
+  std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
+  hb.uptime_s = uptime_s;
+  if (counters) {
+    const auto k = counters();
+    hb.accepted = static_cast<std::int64_t>(k.accepted);
+    hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
+    hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
+    hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
+    hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
+    hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
+    hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
+  } else {
+    hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
+        hb.rejected_replay = hb.rejected_undecodable = 0;
+  }
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
+  hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  stamp_and_sign(buf, ctx.secret);
+  return buf;
+}
 }  // namespace
 
 Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s, std::function<BusCounters()> counters,
                      HeardReport report)
     : impl_(new Impl) {
-  impl_->thread = std::thread([this, ctx, sender, period_s, counters, report] {
-    // A transport that cannot be opened here was reported by the process's bus; the thread
-    // then only keeps the heard report (nothing) and stops with its owner.
-    std::unique_ptr<Wire> wire;
-    try {
-      wire = Wire::open(ctx.lcm_url);
-    } catch (const std::exception&) {
-    }
-    const std::string channel = ctx.run_id + "/" + channel::heartbeat;
-    bool listening = false;
-    std::size_t reported = 0;  // heard senders in the file so far
-    bool written = false;
-    if (report.listen && wire) {
-      // Authentic heartbeats of this run only: a forger without the secret cannot make a
-      // broken bus look whole.
-      try {
-        wire->subscribe(channel, [this, &ctx, &sender](const std::uint8_t* data, std::size_t len, const std::string&,
-                                                      std::int64_t) {
-          const auto raw = parse_envelope(data, len);
-          if (!raw || raw->envelope.run_id != ctx.run_id || raw->envelope.sender == sender) return;
-          if (!verify(data, len, ctx.secret)) return;
-          std::lock_guard<std::mutex> lock(impl_->heard_mutex);
-          impl_->heard.insert(raw->envelope.sender);
-        });
-        listening = true;
-      } catch (const std::exception&) {
-      }
-    }
-    const auto start = Clock::now();
-    while (!impl_->stop.load()) {
-      heartbeat_t hb;
-      hb.envelope.run_id = ctx.run_id;
-      hb.envelope.sender = sender;
-      hb.envelope.step = -1;
-      hb.envelope.seq = Bus::next_seq();
-      hb.envelope.sent_unix_ns = 0;
-      std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
-      hb.uptime_s = std::chrono::duration<double>(Clock::now() - start).count();
-      if (counters) {
-        const auto k = counters();
-        hb.accepted = static_cast<std::int64_t>(k.accepted);
-        hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
-        hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
-        hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
-        hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
-        hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
-        hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
-      } else {
-        hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
-            hb.rejected_replay = hb.rejected_undecodable = 0;
-      }
-      std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
-      hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
-      stamp_and_sign(buf, ctx.secret);
-      if (wire) wire->publish(channel, buf.data(), buf.size());
-      if (!report.file.empty()) {
-        const auto heard = this->heard();
-        if (!written || heard.size() != reported) write_heard_report(report.file, heard);
-        written = true;
-        reported = heard.size();
-      }
-      const auto next = Clock::now() + std::chrono::duration<double>(period_s);
-      while (!impl_->stop.load() && Clock::now() < next) {
-        if (listening)
-          wire->handle(50);
-        else
-          std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-    }
-  });
+  impl_->thread = std::thread([impl = impl_, ctx, sender = std::move(sender), period_s, counters = std::move(counters),
+                               report = std::move(report)] { impl->run(ctx, sender, period_s, counters, report); });
 }
 
-std::set<std::string> Heartbeat::heard() const {
-  std::lock_guard<std::mutex> lock(impl_->heard_mutex);
-  auto heard = impl_->heard;
-  return heard;
+void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, double period_s,
+                          const std::function<BusCounters()>& counters, const HeardReport& report) {
+  // A transport that cannot be opened here was reported by the process's bus; the thread then
+  // publishes nothing and stops with its owner.
+  std::unique_ptr<Wire> wire;
+  try {
+    wire = Wire::open(ctx.lcm_url);
+  } catch (const std::exception&) {
+  }
+  const std::string channel = ctx.run_id + "/" + channel::heartbeat;
+  const bool listening = report.listen && wire && listen(*wire, channel, ctx, sender);
+  std::size_t reported = 0;  // heard senders in the file so far
+  bool written = false;
+  const auto start = Clock::now();
+  while (!stop.load()) {
+    const auto buf =
+        signed_heartbeat(ctx, sender, std::chrono::duration<double>(Clock::now() - start).count(), counters);
+    if (wire) wire->publish(channel, buf.data(), buf.size());
+    if (!report.file.empty()) {
+      const auto now_heard = heard_senders();
+      if (!written || now_heard.size() != reported) write_heard_report(report.file, now_heard);
+      written = true;
+      reported = now_heard.size();
+    }
+    wait(listening ? wire.get() : nullptr, period_s);
+  }
 }
+
+bool Heartbeat::Impl::listen(Wire& wire, const std::string& channel, const RunContext& ctx,
+                             const std::string& self) {
+  // Authentic heartbeats of this run only: a forger without the secret cannot make a broken bus
+  // look whole.
+  try {
+    wire.subscribe(channel, [this, &ctx, &self](const std::uint8_t* data, std::size_t len, const std::string&,
+                                               std::int64_t) {
+      const auto raw = parse_envelope(data, len);
+      if (!raw || raw->envelope.run_id != ctx.run_id || raw->envelope.sender == self) return;
+      if (!verify(data, len, ctx.secret)) return;
+      std::lock_guard<std::mutex> lock(heard_mutex);
+      heard.insert(raw->envelope.sender);
+    });
+    return true;
+  } catch (const std::exception&) {
+    return false;  // LCM's self test failed: the bus check will say what this host does not hear
+  }
+}
+
+void Heartbeat::Impl::wait(Wire* listening, double period_s) const {
+  const auto next = Clock::now() + std::chrono::duration<double>(period_s);
+  while (!stop.load() && Clock::now() < next) {
+    if (listening)
+      listening->handle(50);
+    else
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+std::set<std::string> Heartbeat::heard() const { return impl_->heard_senders(); }
 
 Heartbeat::~Heartbeat() {
   impl_->stop = true;

@@ -6,6 +6,8 @@
 #include <mpi.h>
 
 #include <climits>
+#include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace hemo::particles {
@@ -22,6 +24,19 @@ inline std::string agree_on_error(std::string error, MPI_Comm comm) {
   error.resize(static_cast<std::size_t>(len));
   MPI_Bcast(error.data(), len, MPI_CHAR, first, comm);
   return error;
+}
+
+// Runs `check` on every rank; when it throws std::invalid_argument on some, throws the lowest
+// rank's on all. Collective.
+inline void agreed(const std::function<void()>& check, MPI_Comm comm) {
+  std::string error;
+  try {
+    check();
+  } catch (const std::invalid_argument& e) {
+    error = e.what();
+  }
+  error = agree_on_error(error, comm);
+  if (!error.empty()) throw std::invalid_argument(error);
 }
 
 }  // namespace hemo::particles

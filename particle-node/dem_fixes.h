@@ -1,9 +1,11 @@
-// The LIGGGHTS fixes DemEngine defines and the per-atom values they carry, and the engine's
-// reductions over ranks. Private to the engine's units (dem_engine.cpp defines the fixes,
-// dem_fluid_force.cpp fills them every DEM step): a column's meaning is spelled once, here.
+// The LIGGGHTS fixes the DEM engine defines and the per-atom values they carry, and the engine's
+// reductions over ranks. Private to the engine's units, with LIGGGHTS's headers (dem_session.cpp
+// defines the fixes, dem_fluid_force.cpp and dem_orientation.cpp fill them every DEM step,
+// dem_checkpoint.cpp carries them over): a column's meaning is spelled once, here.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <fix.h>
 #include <mpi.h>
 
 namespace hemo::particles::dem {
@@ -34,6 +36,9 @@ enum ClosureSlot {
 };
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta
 constexpr int kRotationValues = 7;  // q (w, x, y, z), L (3)
+
+// This rank's rows of a per-atom fix (null: no fix).
+inline double** per_atom(LAMMPS_NS::Fix* fix) { return fix != nullptr ? fix->array_atom : nullptr; }
 
 inline double sum_all(double v, MPI_Comm comm) {
   MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, comm);

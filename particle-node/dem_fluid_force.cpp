@@ -1,8 +1,6 @@
-// DemEngine's fluid-force callback and its reaction on the fluid: every DEM step each particle's
-// cell, the plasma there, its species' closures (or the ones held since their last evaluation),
-// the drag with the exponential update, the impulse accumulated for the feedback; after a run,
-// deposit() hands the impulses to the fluid's cells (see dem_engine.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "dem_fluid_force.h"
+
 #include <atom.h>
 #include <clock.h>
 #include <fmt/format.h>
@@ -10,64 +8,111 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 #include "closures/exponential_drag.h"
-#include "dem_engine.h"
 #include "dem_fixes.h"
 
 namespace hemo::particles {
 
 using namespace dem;
 
-void DemEngine::force_callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f) {
-  auto* engine = static_cast<DemEngine*>(self);
-  if (engine->rebuilding_) return;
-  const auto t0 = std::chrono::steady_clock::now();
-  engine->on_force(ntimestep, nlocal, tag, x, f);
-  engine->fluid_force_seconds_ += seconds_since(t0);
+DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, const DemSpecies& species,
+                             LiggghtsSession& liggghts, ParticleTracking& tracking, OrientationTracker& orientation,
+                             FirstProblem& problems, MPI_Comm comm)
+    : scene_(scene),
+      locator_(locator),
+      species_(species),
+      liggghts_(liggghts),
+      tracking_(tracking),
+      orientation_(orientation),
+      problems_(problems),
+      comm_(comm) {
+  if (scene_.implicit_drag == "co_relaxed") {
+    cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
+    take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
+  }
 }
 
-void DemEngine::on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f) {
-  ++callbacks_;
+void DemFluidForce::callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f) {
+  auto* force = static_cast<DemFluidForce*>(self);
+  const auto t0 = std::chrono::steady_clock::now();
+  force->on_force(ntimestep, nlocal, tag, x, f);
+  force->seconds_ += seconds_since(t0);
+}
+
+void DemFluidForce::start_run(const Run& run, bool carry) {
+  run_ = run;
+  centreline_speed_ = run.fluid->max_cell_speed();
+  evaluations_ = 0;
+  outside_ = 0;
+  max_slip_squared_.fill(0.0);
+  max_beta_.fill(0.0);
+  // With `pre no` the last force of the previous run acts for the first half step of this one:
+  // its impulse belongs to this interval.
+  double** acc = per_atom(liggghts_.fixes().impulse);
+  const int nlocal = liggghts_.atom().nlocal;
+  for (int i = 0; i < nlocal; ++i)
+    for (int d = 0; d < 4; ++d) acc[i][d] = carry ? 0.5 * run.dt * acc[i][4 + d] : 0.0;
+  if (cell_plasma_) cell_plasma_->start_interval();
+}
+
+void DemFluidForce::finish_run(long evaluations) {
+  run_.fluid = nullptr;
+  if (evaluations_ != evaluations)
+    throw std::runtime_error(fmt::format("LIGGGHTS evaluated the fluid forces {} times in a run of {} steps, not {}",
+                                         evaluations_, run_.steps, evaluations));
+  outside_total_ = static_cast<long>(sum_all(static_cast<double>(outside_), comm_));
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    max_re_[sp] =
+        species_.forces[sp]
+            ? species_.forces[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
+            : 0.0;
+  min_relaxation_time_ = std::numeric_limits<double>::infinity();
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    if (const double beta = max_all(max_beta_[sp], comm_); beta > 0)
+      min_relaxation_time_ = std::min(min_relaxation_time_, species_.mass[sp] / beta);
+}
+
+void DemFluidForce::on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f) {
+  ++evaluations_;
   // Verlet: the setup force and the last force of a run act for half a step in this run (see
-  // header); the other half of the last one is delivered by the next run and kept for it.
+  // DemEngine's header); the other half of the last one is delivered by the next run and kept
+  // for it.
   ForceStep step;
   step.ntimestep = ntimestep;
-  step.last = ntimestep == run_start_ + run_steps_;
-  step.duration = (step.last || ntimestep == run_start_ ? 0.5 : 1.0) * dt_;
-  // Orientation: a step's kick is applied once, at its first evaluation (a `pre yes` setup
-  // re-evaluates the step the previous run ended on); the drift to this step comes first.
-  step.advance = ntimestep > last_rotation_step_;
-  step.drift = step.advance && last_rotation_step_ >= 0;
-  step.held = per_atom(closure_fix_);
+  step.last = ntimestep == run_.first_step + run_.steps;
+  step.duration = (step.last || ntimestep == run_.first_step ? 0.5 : 1.0) * run_.dt;
+  step.spin = orientation_.step(ntimestep, run_.dt, run_.coupling_step);
+  step.held = per_atom(liggghts_.fixes().closures);
   // The closures at the run's first evaluation (a new flow) and every closure_every_ after;
   // a held fluid force only at the first (CFDEM: once per exchange).
-  step.evaluate =
-      step.held == nullptr ||
-      (fluid_force_ == FluidForceUpdate::per_dem_step ? (callbacks_ - 1) % closure_every_ == 0 : callbacks_ == 1);
+  step.evaluate = step.held == nullptr ||
+                  (update_ == Update::per_dem_step ? (evaluations_ - 1) % closure_every_ == 0 : evaluations_ == 1);
   step_forces_.resize(nlocal);
   step_cells_.assign(nlocal, -1);  // -1: no fluid force this step (problem noted)
   for (int i = 0; i < nlocal; ++i) step_fluid_force(step, i, tag[i], x[i], f[i]);
-  finish_rotation_step(step);
+  orientation_.finish_step(step.spin);
   apply_fluid_forces(step, nlocal, f);
 }
 
-void DemEngine::step_fluid_force(const ForceStep& step, int i, int t, const double* x, double* f) {
-  const int sp = species_of_type_[lmp_->atom->type[i]];
-  const double* v = lmp_->atom->v[i];
-  const double* contact = lmp_->atom->f[i];  // pair and wall forces of this step so far
+void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const double* x, double* f) {
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  const int sp = liggghts_.species_of_type(atom.type[i]);
+  const double* v = atom.v[i];
+  const double* contact = atom.f[i];  // pair and wall forces of this step so far
   const Vec3 xi(x[0], x[1], x[2]);
   const Vec3 vi(v[0], v[1], v[2]);
   f[0] = f[1] = f[2] = 0.0;
   if (!xi.allFinite() || !vi.allFinite()) {
-    note_problem(t, fmt::format("particle {} has a non-finite position or velocity at coupling step {} (DEM step {})",
-                                t, coupling_step_, step.ntimestep));
+    problems_.note(t, fmt::format("particle {} has a non-finite position or velocity at coupling step {} (DEM step {})",
+                                  t, run_.coupling_step, step.ntimestep));
     return;
   }
-  const OrientationIntegrator* rotation = rotation_[sp].get();
-  Spin spin;
-  if (rotation) spin = spin_at_step(i, t, *rotation, step.drift);
-  const Vec3& weight = weight_[sp];
+  const OrientationIntegrator* rotation = species_.rotation[sp].get();
+  OrientationTracker::Spin spin;
+  if (rotation) spin = orientation_.at_step(step.spin, i, t, *rotation);
+  const Vec3& weight = species_.weight[sp];
   const Vec3 other = Vec3(contact[0], contact[1], contact[2]) + weight;
   FluidForce& ff = step_forces_[i];
   if (step.evaluate) {
@@ -78,16 +123,19 @@ void DemEngine::step_fluid_force(const ForceStep& step, int i, int t, const doub
     if (step.held) hold(ff, plasma_velocity, cell, step.held[i]);
     step_cells_[i] = cell;
   } else {
-    ff = held_fluid_force(step.held[i], vi, other, fluid_force_ == FluidForceUpdate::held);
+    ff = held_fluid_force(step.held[i], vi, other, update_ == Update::held);
     step_cells_[i] = static_cast<int>(step.held[i][kCell]);
   }
   if (cell_plasma_) cell_plasma_->add(step_cells_[i], step.duration * ff.total(), step.duration * ff.ratio * ff.beta);
-  if (rotation) kick_and_store_spin(step, i, t, *rotation, spin, ff.torque);
+  if (rotation) orientation_.kick_and_store(step.spin, i, t, *rotation, spin, ff.torque);
 }
 
-void DemEngine::apply_fluid_forces(const ForceStep& step, int nlocal, double** f) {
-  const int* type = lmp_->atom->type;
-  double** impulse = per_atom(impulse_fix_);
+void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double** f) {
+  // Locals, so that the loop does not reload them through this object for every particle.
+  const LiggghtsSession& liggghts = liggghts_;
+  const std::array<Vec3, kSpeciesCount>& weight = species_.weight;
+  const int* type = liggghts.atom().type;
+  double** impulse = per_atom(liggghts.fixes().impulse);
   // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' fluid force at this
   // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
   if (cell_plasma_) cell_plasma_->relax(comm_);
@@ -97,7 +145,7 @@ void DemEngine::apply_fluid_forces(const ForceStep& step, int nlocal, double** f
     FluidForce& ff = step_forces_[i];
     if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
     const Vec3 fluid_force = ff.total();
-    const Vec3 applied = fluid_force + ff.pressure + weight_[species_of_type_[type[i]]];
+    const Vec3 applied = fluid_force + ff.pressure + weight[liggghts.species_of_type(type[i])];
     f[i][0] = applied.x();
     f[i][1] = applied.y();
     f[i][2] = applied.z();
@@ -105,43 +153,46 @@ void DemEngine::apply_fluid_forces(const ForceStep& step, int nlocal, double** f
   }
 }
 
-int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
-                                    Vec3& plasma_velocity) {
-  unwrap_z(p.tag, p.x.z());
-  const int cell = cell_of(p.tag, p.x);
+int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+                                        Vec3& plasma_velocity) {
+  tracking_.unwrap_z(p.tag, p.x.z());
+  const int cell = tracking_.cell_of(p.tag, p.x);
   if (cell < 0) {
     ++outside_;
     // Mostly a cell pushed through the wall by a contact the DEM step cannot resolve: say so.
-    note_problem(p.tag, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
-                                    "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m; with a DEM step of {:.3g} s "
-                                    "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
-                                    p.tag, coupling_step_, ntimestep, p.x.x(), p.x.y(), p.x.z(),
-                                    std::hypot(p.x.x(), p.x.y()), dt_));
+    problems_.note(p.tag, fmt::format("particle {} is outside the fluid mesh at coupling step {} (DEM step {}), "
+                                      "x = ({:.6g}, {:.6g}, {:.6g}) m, r = {:.6g} m; with a DEM step of {:.3g} s "
+                                      "(if contacts pushed it through the wall, raise time.dem_steps_per_contact)",
+                                      p.tag, run_.coupling_step, ntimestep, p.x.x(), p.x.y(), p.x.z(),
+                                      std::hypot(p.x.x(), p.x.y()), run_.dt));
     return -1;
   }
-  const SpeciesForces& forces = *forces_[p.species];
+  const SpeciesForces& forces = *species_.forces[p.species];
+  const FluidSampler& fluid = *run_.fluid;
   ParticleFlow flow;
   flow.cell = cell;
-  flow.velocity = fluid_->velocity(cell, locator_->wrap(p.x));
+  flow.velocity = fluid.velocity(cell, locator_.wrap(p.x));
   flow.slip = flow.velocity - p.v;
   if (forces.needs_gradient()) {
-    flow.gradient = fluid_->gradient(cell);
-    flow.shear_rate = fluid_->shear_rate(cell);
+    flow.gradient = fluid.gradient(cell);
+    flow.shear_rate = fluid.shear_rate(cell);
     flow.centreline_speed = centreline_speed_;
   }
   flow.axis = p.axis;
   // The plasma's pressure on the particle's volume acts like its weight: on the particle, in
   // the drag's exponential update, not exchanged.
-  const Vec3 pressure = pressure_force_ ? Vec3(-volume_[p.species] * fluid_->pressure_gradient(cell)) : Vec3::Zero();
+  const Vec3 pressure =
+      pressure_force_ ? Vec3(-species_.volume[p.species] * fluid.pressure_gradient(cell)) : Vec3::Zero();
   // CFDEM's explicit force (coupling.fluid_force = "held") is the closures at the exchange's own
   // slip, held: evaluated as over a step of no length (drag beta (u - v), lift at that slip).
-  ff = forces.evaluate(flow, other + pressure, fluid_force_ == FluidForceUpdate::held ? 0.0 : dt_);
+  ff = forces.evaluate(flow, other + pressure, update_ == Update::held ? 0.0 : run_.dt);
   ff.pressure = pressure;
   if (!ff.finite()) {
-    note_problem(p.tag, fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
-                                    "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
-                                    p.tag, coupling_step_, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(),
-                                    ff.lift.x(), ff.lift.y(), ff.lift.z(), flow.slip.norm()));
+    problems_.note(p.tag,
+                   fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
+                               "drag ({:.3g}, {:.3g}, {:.3g}) N, lift ({:.3g}, {:.3g}, {:.3g}) N, slip {:.3g} m/s",
+                               p.tag, run_.coupling_step, ntimestep, ff.drag.x(), ff.drag.y(), ff.drag.z(), ff.lift.x(),
+                               ff.lift.y(), ff.lift.z(), flow.slip.norm()));
     return -1;
   }
   max_slip_squared_[p.species] = std::max(max_slip_squared_[p.species], flow.slip.squaredNorm());
@@ -150,7 +201,7 @@ int DemEngine::evaluate_fluid_force(const Particle& p, const Vec3& other, std::i
   return cell;
 }
 
-void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* h) {
+void DemFluidForce::hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* h) {
   h[kBeta] = ff.beta;
   h[kCell] = cell;
   h[kRatio] = ff.ratio;
@@ -163,7 +214,7 @@ void DemEngine::hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell
   }
 }
 
-FluidForce DemEngine::held_fluid_force(const double* h, const Vec3& v, const Vec3& other, bool constant_drag) {
+FluidForce DemFluidForce::held_fluid_force(const double* h, const Vec3& v, const Vec3& other, bool constant_drag) {
   FluidForce ff;
   ff.beta = h[kBeta];
   ff.ratio = h[kRatio];
@@ -179,7 +230,7 @@ FluidForce DemEngine::held_fluid_force(const double* h, const Vec3& v, const Vec
   return ff;
 }
 
-void DemEngine::accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last) {
+void DemFluidForce::accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last) {
   for (int d = 0; d < 3; ++d) acc[d] += duration * fluid_force[d];
   acc[3] += duration * beta;
   if (last) {  // kept for the next run's first half kick
@@ -188,33 +239,25 @@ void DemEngine::accumulate_impulse(double* acc, const Vec3& fluid_force, double 
   }
 }
 
-void DemEngine::start_accumulators(bool carry) {
-  // With `pre no` the last force of the previous run acts for the first half step of this one:
-  // its impulse belongs to this interval.
-  double** acc = per_atom(impulse_fix_);
-  const int nlocal = lmp_->atom->nlocal;
-  for (int i = 0; i < nlocal; ++i)
-    for (int d = 0; d < 4; ++d) acc[i][d] = carry ? 0.5 * dt_ * acc[i][4 + d] : 0.0;
-}
-
-void DemEngine::deposit(Deposition& deposition) {
+void DemFluidForce::deposit(Deposition& deposition) {
   deposition.clear();
-  const int nlocal = lmp_->atom->nlocal;
-  const int* tag = lmp_->atom->tag;
-  const int* type = lmp_->atom->type;
-  double** x = lmp_->atom->x;
-  double** acc = per_atom(impulse_fix_);
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  const int nlocal = atom.nlocal;
+  const int* tag = atom.tag;
+  const int* type = atom.type;
+  double** x = atom.x;
+  double** acc = per_atom(liggghts_.fixes().impulse);
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
-    const int cell = cell_of(tag[i], xi);
-    const int sp = species_of_type_[type[i]];
+    const int cell = tracking_.cell_of(tag[i], xi);
+    const int sp = liggghts_.species_of_type(type[i]);
     if (cell < 0) continue;
     const double beta_time = acc[i][3];
     // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly.
     const double drag_response = cell_plasma_          ? 0.0
                                  : held_velocity_drag_ ? beta_time
-                                                       : interval_drag_response(mass_[sp], beta_time);
-    deposition.add_particle(cell, locator_->wrap(xi), 0.5 * diameter_[sp], volume_[sp],
+                                                       : interval_drag_response(species_.mass[sp], beta_time);
+    deposition.add_particle(cell, locator_.wrap(xi), 0.5 * species_.diameter[sp], species_.volume[sp],
                             Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);
   }
   int size = 1;
@@ -223,11 +266,23 @@ void DemEngine::deposit(Deposition& deposition) {
   take_plasma_mass(deposition);
 }
 
-void DemEngine::take_plasma_mass(const Deposition& deposition) {
+void DemFluidForce::take_plasma_mass(const Deposition& deposition) {
   if (!cell_plasma_) return;
-  for (int c = 0; c < locator_->n_cells(); ++c)
+  for (int c = 0; c < locator_.n_cells(); ++c)
     cell_plasma_->set_plasma_mass(
-        c, scene_.plasma.density * std::max(0.0, locator_->volume(c) - deposition.solid_volume(c)));
+        c, scene_.plasma.density * std::max(0.0, locator_.volume(c) - deposition.solid_volume(c)));
+}
+
+void DemFluidForce::save(EngineState& s) const {
+  s.max_reynolds.assign(max_re_.begin(), max_re_.end());
+  s.min_relaxation_time = min_relaxation_time_;
+  s.outside_total = outside_total_;
+}
+
+void DemFluidForce::restore(const EngineState& s) {
+  for (int sp = 0; sp < kSpeciesCount; ++sp) max_re_[sp] = s.max_reynolds[sp];
+  min_relaxation_time_ = s.min_relaxation_time;
+  outside_total_ = static_cast<long>(s.outside_total);
 }
 
 }  // namespace hemo::particles

@@ -1,8 +1,9 @@
-// What DemEngine reports between runs (collective): every particle for particles.h5, and the
-// step's diagnostics (see dem_engine.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
+#include "dem_output.h"
+
 #include <atom.h>
 #include <force.h>
+#include <lammps.h>
 #include <neigh_list.h>
 #include <neighbor.h>
 #include <pair.h>
@@ -10,34 +11,33 @@
 #include <algorithm>
 #include <cmath>
 
-#include "dem_engine.h"
 #include "dem_fixes.h"
 
 namespace hemo::particles {
 
 using namespace dem;
 
-EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
+EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
   EngineDiagnostics d;
-  d.particles = n_particles_;
-  d.outside_mesh = outside_total_;
-  const double core_r = 0.5 * locator_->radius();
-  const int nlocal = lmp_->atom->nlocal;
-  const int* tag = lmp_->atom->tag;
-  double** x = lmp_->atom->x;
-  double** v = lmp_->atom->v;
+  d.particles = liggghts_.particles();
+  const double core_r = 0.5 * locator_.radius();
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  const int nlocal = atom.nlocal;
+  const int* tag = atom.tag;
+  double** x = atom.x;
+  double** v = atom.v;
   double sums[4] = {0, 0, 0, 0};  // count, particle v_z, fluid u_z, particles in the wall gap
   double max_speed = 0;
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     max_speed = std::max(max_speed, Vec3(v[i][0], v[i][1], v[i][2]).norm());
     bool in_gap = false;
-    const int cell = cell_of(tag[i], xi, &in_gap);
+    const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
     if (cell < 0 || std::hypot(xi.x(), xi.y()) >= core_r) continue;
     sums[0] += 1;
     sums[1] += v[i][2];
-    if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_->wrap(xi)).z();
+    if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_.wrap(xi)).z();
   }
   MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
   d.core_particles = static_cast<long>(sums[0]);
@@ -47,27 +47,24 @@ EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
     d.core_fluid_axial_velocity = sums[2] / sums[0];
   }
   d.max_speed = max_all(max_speed, comm_);
-  d.max_reynolds[0] = max_re_[0];
-  d.max_reynolds[1] = max_re_[1];
-  d.lost = lost_;
-
   d.max_overlap = max_all(local_max_overlap(), comm_);
   return d;
 }
 
-double DemEngine::local_max_overlap() const {
+double DemOutput::local_max_overlap() const {
   // The pairs LIGGGHTS keeps for its contacts: every pair that touches is in the neighbour list
   // (atoms move less than half the skin between builds) and ghosts carry this step's positions,
   // so one pass over the list finds what measure_overlaps finds with a grid of all particles.
   // Before the first run there is no list; placement leaves no overlaps (test_placement).
-  const double* r = lmp_->atom->radius;
-  double** x = lmp_->atom->x;
-  const int nlocal = lmp_->atom->nlocal;
+  const LAMMPS_NS::LAMMPS& lmp = liggghts_.lammps();
+  const double* r = lmp.atom->radius;
+  double** x = lmp.atom->x;
+  const int nlocal = lmp.atom->nlocal;
   double worst = 0;
   for (int i = 0; i < nlocal; ++i)
-    worst = std::max(worst, (std::hypot(x[i][0], x[i][1]) + r[i] - locator_->radius()) / (2 * r[i]));
-  const LAMMPS_NS::NeighList* list = lmp_->force->pair != nullptr ? lmp_->force->pair->list : nullptr;
-  if (list == nullptr || lmp_->neighbor->ncalls == 0) return worst;
+    worst = std::max(worst, (std::hypot(x[i][0], x[i][1]) + r[i] - locator_.radius()) / (2 * r[i]));
+  const LAMMPS_NS::NeighList* list = lmp.force->pair != nullptr ? lmp.force->pair->list : nullptr;
+  if (list == nullptr || lmp.neighbor->ncalls == 0) return worst;
   for (int k = 0; k < list->inum; ++k) {
     const int i = list->ilist[k];
     const int* neighbours = list->firstneigh[i];
@@ -82,29 +79,30 @@ double DemEngine::local_max_overlap() const {
   return worst;
 }
 
-ParticleSnapshot DemEngine::snapshot(long step, double time_s) {
-  const std::size_t n = static_cast<std::size_t>(n_particles_);
+ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
+  const std::size_t n = static_cast<std::size_t>(liggghts_.particles());
   // Per tag: species, position (3), velocity (3), orientation (4); summed over ranks (each atom
   // on one rank). A tag no rank has (lost) keeps zeros.
   constexpr int kPer = 11;
   std::vector<double> buf(kPer * n, 0.0);
-  const int nlocal = lmp_->atom->nlocal;
-  const int* tag = lmp_->atom->tag;
-  const int* type = lmp_->atom->type;
-  double** x = lmp_->atom->x;
-  double** v = lmp_->atom->v;
-  double** rot = per_atom(rotation_fix_);
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  const int nlocal = atom.nlocal;
+  const int* tag = atom.tag;
+  const int* type = atom.type;
+  double** x = atom.x;
+  double** v = atom.v;
+  double** rot = per_atom(liggghts_.fixes().rotation);
   for (int i = 0; i < nlocal; ++i) {
     const std::size_t k = kPer * static_cast<std::size_t>(tag[i] - 1);
-    const int sp = species_of_type_[type[i]];
+    const int sp = liggghts_.species_of_type(type[i]);
     buf[k] = sp;
     buf[k + 1] = x[i][0];
     buf[k + 2] = x[i][1];
-    buf[k + 3] = unwrap_z(tag[i], x[i][2]);
+    buf[k + 3] = tracking_.unwrap_z(tag[i], x[i][2]);
     buf[k + 4] = v[i][0];
     buf[k + 5] = v[i][1];
     buf[k + 6] = v[i][2];
-    if (rotation_[sp])
+    if (species_.rotation[sp])
       for (int d = 0; d < 4; ++d) buf[k + 7 + d] = rot[i][d];
     else
       buf[k + 7] = 1;

@@ -1,9 +1,10 @@
 // What the DEM carries from one coupling step to the next, as one rank holds it: the file
-// engine-rank<r>.h5 of a particle checkpoint (DemEngine::checkpoint_state / restore).
+// engine-rank<r>.h5 of a particle checkpoint (DemEngine::checkpoint_state / restore; each of the
+// engine's pieces saves and restores its own part).
 //
 // LIGGGHTS keeps no more between two runs than its atoms, their fixes' per-atom values and the
 // contact histories (pair and wall); its neighbour lists and ghost atoms are rebuilt from those
-// (DemEngine::rebuild_neighbours), and the checkpoint is taken right after such a rebuild, in
+// (LiggghtsSession::rebuild_neighbours), and the checkpoint is taken right after such a rebuild, in
 // the ranks' own atom order, so that a restored engine rebuilds exactly the same lists. Our own
 // per-tag tracking (periodic crossings, last z, the locate cache) is kept whole on every rank.
 // SPDX-License-Identifier: GPL-3.0-or-later
@@ -12,6 +13,7 @@
 #include "checkpoint_file.h"
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -92,6 +94,14 @@ struct EngineState {
     f("tracked", tracked);
   }
 };
+
+// A vector of a checkpoint that must hold `expected` values: std::invalid_argument otherwise.
+template <class T>
+void expect_size(const std::vector<T>& values, std::size_t expected, const char* name) {
+  if (values.size() != expected)
+    throw std::invalid_argument(std::string("the checkpoint's '") + name + "' holds " + std::to_string(values.size()) +
+                                " values, not " + std::to_string(expected));
+}
 
 inline std::string engine_state_file(const std::string& folder, int rank) {
   return folder + "/engine-rank" + std::to_string(rank) + ".h5";

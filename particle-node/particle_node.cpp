@@ -63,25 +63,33 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
   require_same(scene.vessel.diameter, mesh.vessel_diameter_m, "vessel diameter");
   require_same(scene.vessel.length, mesh.vessel_length_m, "vessel length");
   std::filesystem::create_directories(run_dir);
-  for (int sp = 0; sp < kSpeciesCount; ++sp) used_[sp] = (sp == kRbc ? rbc_count(scene) : platelet_count(scene)) > 0;
-  if (!used_[kRbc] && !used_[kPlatelet])
-    throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
+  find_used_species();
   set_interval(scene.time.coupling_interval);
   if (resume_step > 0)
     resume(resume_step);
   else
     start();
+  log_particles();
+}
+
+void ParticleNode::find_used_species() {
+  for (int sp = 0; sp < kSpeciesCount; ++sp) used_[sp] = (sp == kRbc ? rbc_count(scene_) : platelet_count(scene_)) > 0;
+  if (!used_[kRbc] && !used_[kPlatelet])
+    throw std::runtime_error("the scene has no particles (no hematocrit, no platelets)");
+}
+
+void ParticleNode::log_particles() const {
   spdlog::info(
       "particles: {} ({} RBC, {} platelets) in {} fluid cells (wall gap {:.3g} um); solid fraction "
       "'{}'",
-      engine_->particle_count(), rbc_count(scene), platelet_count(scene), locator_.n_cells(), locator_.wall_gap() * 1e6,
-      scene.solid_fraction);
+      engine_->particle_count(), rbc_count(scene_), platelet_count(scene_), locator_.n_cells(),
+      locator_.wall_gap() * 1e6, scene_.solid_fraction);
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (used_[sp])
       spdlog::info(
           "{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
           engine_->tracks_orientation(sp)
-              ? ", orientation tracked (" + (sp == kRbc ? scene.rbc : scene.platelet).orientation_integrator + ")"
+              ? ", orientation tracked (" + (sp == kRbc ? scene_.rbc : scene_.platelet).orientation_integrator + ")"
               : std::string());
 }
 

@@ -75,8 +75,11 @@ class ParticleNode {
 
  private:
   struct NodeCheckpoint;
+  // The constructor's steps, in order (start or resume).
+  void find_used_species();
   void start();
   void resume(long step);
+  void log_particles() const;
   NodeCheckpoint read_checkpoint(long step) const;
   void check_fits(const NodeCheckpoint& saved, long step, const std::string& path) const;
   void write_node_checkpoint(const std::string& path);

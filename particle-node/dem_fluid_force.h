@@ -1,0 +1,173 @@
+// The fluid's force on the particles, evaluated in LIGGGHTS's `fix external pf/callback` every
+// DEM step, and the impulse it gave them, deposited into the fluid's cells after each run.
+//
+// Every DEM step the callback locates each particle's fluid cell, samples the plasma there,
+// evaluates the species' closures (SpeciesForces), applies the drag with the exponential update
+// (the contact forces LIGGGHTS computed for the step count as the step's other forces), and
+// accumulates each particle's impulse for the feedback. Platelets' orientations take their step
+// in the same pass (OrientationTracker).
+//
+// Each particle's interval impulse (integral of F dt and of beta dt, and its last force for the
+// next interval's first half kick) lives in a `fix property/atom`, so that it moves with its atom
+// between ranks; its forces are weighted as Velocity Verlet applies them (DemEngine's header).
+// After a run every rank deposits its own atoms (deposit()) and the per-cell arrays are summed
+// over ranks.
+//
+// time.closure_every_dem_steps = m > 1: the particle's cell, the plasma velocity there and the
+// closures (beta, lift, torque) are evaluated at the first step of every run and every m steps
+// after; they are kept per atom (another `fix property/atom`, which moves with its atom between
+// ranks), and the steps in between apply the drag with them to the particle's current velocity
+// and the step's contacts (the exponential update). They vary with the flow the particle sees,
+// on the scale of the coupling interval; the contacts vary on the DEM step's scale. The bench
+// suite `closure-interval` measures what m costs in accuracy.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "cell_locator.h"
+#include "cell_plasma.h"
+#include "dem_orientation.h"
+#include "dem_problem.h"
+#include "dem_session.h"
+#include "dem_species.h"
+#include "dem_tracking.h"
+#include "deposition.h"
+#include "engine_state.h"
+#include "fluid_forces.h"
+#include "fluid_sampler.h"
+
+#include <mpi.h>
+#include <scene.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <utility>
+#include <vector>
+
+namespace hemo::particles {
+
+class DemFluidForce {
+ public:
+  // `scene`: the DEM's (dem_scene).
+  DemFluidForce(const Scene& scene, const CellLocator& locator, const DemSpecies& species, LiggghtsSession& liggghts,
+                ParticleTracking& tracking, OrientationTracker& orientation, FirstProblem& problems, MPI_Comm comm);
+  DemFluidForce(const DemFluidForce&) = delete;
+  DemFluidForce& operator=(const DemFluidForce&) = delete;
+
+  // What LIGGGHTS's fix external calls, with this object as the target.
+  static void callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
+  // Closure values kept per atom between evaluations (the fix for them is needed).
+  bool holds_closures() const { return closure_every_ > 1 || update_ != Update::per_dem_step; }
+
+  // One coupling step's DEM run.
+  struct Run {
+    long coupling_step = 0;       // labels errors
+    std::int64_t first_step = 0;  // LIGGGHTS's step count as the run starts
+    int steps = 0;
+    double dt = 0;
+    const FluidSampler* fluid = nullptr;
+  };
+  // Before the run. `carry`: the run goes on with the last force of the previous run (`pre no`),
+  // whose second half kick belongs to this interval.
+  void start_run(const Run& run, bool carry);
+  // After it: throws std::runtime_error unless LIGGGHTS called the force `evaluations` times;
+  // the run's largest Reynolds numbers, shortest relaxation time and particles outside the mesh
+  // over all ranks (collective).
+  void finish_run(long evaluations);
+
+  // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
+  // its current position, and sums the per-cell accumulators over ranks. Collective.
+  void deposit(Deposition& deposition);
+  // The plasma mass of each cell, rho (V - solid volume), from a deposition.
+  void take_plasma_mass(const Deposition& deposition);
+  const CellPlasmaRelaxation* cell_plasma() const { return cell_plasma_.get(); }
+
+  // Of the last run, over all ranks.
+  double max_reynolds(int species) const { return max_re_[species]; }
+  double min_relaxation_time() const { return min_relaxation_time_; }  // NaN before the first run
+  long outside_mesh() const { return outside_total_; }
+  // Wall seconds spent in the callback since the last call.
+  double take_seconds() { return std::exchange(seconds_, 0.0); }
+
+  void save(EngineState& state) const;
+  void restore(const EngineState& state);
+
+ private:
+  void on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f);
+  // One force evaluation of a run, the same for every atom.
+  struct ForceStep {
+    std::int64_t ntimestep = 0;
+    double duration = 0;            // how long its force acts in this run (half a step at the run's ends)
+    bool last = false;              // the run's last: its force is kept for the next run's first half kick
+    bool evaluate = false;          // the closures are evaluated (else the held ones apply)
+    double** held = nullptr;        // the closures held per atom (null: none)
+    OrientationTracker::Step spin;  // what the orientations take from it
+  };
+  // Atom i's fluid force (into step_forces_, its cell into step_cells_) and its orientation's
+  // kick; `f` zeroed for now.
+  void step_fluid_force(const ForceStep& step, int i, int tag, const double* x, double* f);
+  // The step's fluid forces, after the co-relaxed plasma answered them, onto LIGGGHTS's `f` and
+  // into the impulses.
+  void apply_fluid_forces(const ForceStep& step, int nlocal, double** f);
+  // One particle as the force callback sees it.
+  struct Particle {
+    int tag, species;
+    Vec3 x, v;
+    Vec3 axis;  // symmetry axis (platelets with orientation; +z otherwise)
+  };
+  // Locates the particle, samples the plasma there and evaluates its species' closures; returns
+  // its cell, or -1 (problem noted) when it is outside the mesh or the force is not finite.
+  int evaluate_fluid_force(const Particle& p, const Vec3& other, std::int64_t ntimestep, FluidForce& ff,
+                           Vec3& plasma_velocity);
+  // Keeps the closures per atom for the steps until the next evaluation (closure_every_ > 1),
+  static void hold(const FluidForce& ff, const Vec3& plasma_velocity, int cell, double* held);
+  // and applies them there: the drag on the current velocity, with this step's other forces.
+  // (constant_drag: the drag held too, coupling.fluid_force = "held").
+  static FluidForce held_fluid_force(const double* held, const Vec3& v, const Vec3& other, bool constant_drag);
+  // The step's impulse (F dt, beta dt), and the last step's force for the next run's first kick.
+  static void accumulate_impulse(double* acc, const Vec3& fluid_force, double beta, double duration, bool last);
+
+  const Scene& scene_;
+  const CellLocator& locator_;
+  const DemSpecies& species_;
+  LiggghtsSession& liggghts_;
+  ParticleTracking& tracking_;
+  OrientationTracker& orientation_;
+  FirstProblem& problems_;
+  MPI_Comm comm_;
+
+  const int closure_every_ = scene_.time.closure_every_dem_steps;
+  // coupling.fluid_force: when the closures are evaluated and what is held until the next.
+  enum class Update { per_dem_step, held_implicit_drag, held };
+  const Update update_ = scene_.fluid_force == "held"                 ? Update::held
+                         : scene_.fluid_force == "held_implicit_drag" ? Update::held_implicit_drag
+                                                                      : Update::per_dem_step;
+  // coupling.pressure_gradient_force: -V_p grad P on every particle (fluid states carry grad P).
+  const bool pressure_force_ = scene_.pressure_gradient_force;
+  // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
+  const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
+  // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).
+  std::unique_ptr<CellPlasmaRelaxation> cell_plasma_;
+
+  // The run in progress.
+  Run run_;
+  double centreline_speed_ = 0;
+  long evaluations_ = 0;
+  long outside_ = 0;                                      // on this rank
+  std::array<double, kSpeciesCount> max_slip_squared_{};  // (m/s)^2, on this rank
+  std::array<double, kSpeciesCount> max_beta_{};          // N s/m, on this rank
+  // This step's fluid force per local atom, and the cell it acts in (-1: none), between the
+  // callback's evaluation and its application (the co-relaxation comes in between).
+  std::vector<FluidForce> step_forces_;
+  std::vector<int> step_cells_;
+  double seconds_ = 0;  // wall seconds in the callback since take_seconds
+
+  // The last run's, over all ranks.
+  std::array<double, kSpeciesCount> max_re_{};
+  double min_relaxation_time_ = std::numeric_limits<double>::quiet_NaN();
+  long outside_total_ = 0;
+};
+
+}  // namespace hemo::particles

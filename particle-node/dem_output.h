@@ -1,0 +1,54 @@
+// What the engine shows of its particles between runs (collective): every particle for
+// particles.h5, and the state part of a coupling step's diagnostics.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "cell_locator.h"
+#include "dem_session.h"
+#include "dem_species.h"
+#include "dem_tracking.h"
+#include "fluid_sampler.h"
+#include "h5_output.h"
+
+#include <mpi.h>
+
+namespace hemo::particles {
+
+// What a coupling step's DEM tells about itself (the node's step diagnostics).
+struct EngineDiagnostics {
+  long particles = 0;
+  long outside_mesh = 0;                    // particles found in no fluid cell during the interval
+  long in_wall_gap = 0;                     // particles now between a flat wall face and the round wall
+  double core_particle_axial_velocity = 0;  // mean v_z of particles with r < R/2 (m/s)
+  double core_fluid_axial_velocity = 0;     // mean fluid u_z sampled at those particles (m/s)
+  long core_particles = 0;
+  double max_overlap = 0;           // largest overlap / smaller diameter (pairs and wall)
+  double max_speed = 0;             // m/s
+  double max_reynolds[2] = {0, 0};  // per species, over the last run
+  long lost = 0;                    // particles LIGGGHTS no longer has
+};
+
+class DemOutput {
+ public:
+  DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking, const DemSpecies& species,
+            const CellLocator& locator, MPI_Comm comm)
+      : liggghts_(liggghts), tracking_(tracking), species_(species), locator_(locator), comm_(comm) {}
+
+  // The particles at the current state in `fluid` (null: no fluid state yet): count, core
+  // velocities, wall gap, largest speed and overlap. What the last run found is the caller's.
+  EngineDiagnostics diagnostics(const FluidSampler* fluid);
+  // Every particle, sorted by id, z unwrapped (complete on every rank).
+  ParticleSnapshot snapshot(long step, double time_s);
+
+ private:
+  // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
+  double local_max_overlap() const;
+
+  const LiggghtsSession& liggghts_;
+  ParticleTracking& tracking_;
+  const DemSpecies& species_;
+  const CellLocator& locator_;
+  MPI_Comm comm_;
+};
+
+}  // namespace hemo::particles

@@ -1,0 +1,270 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "dem_session.h"
+
+#include <atom.h>
+#include <fix.h>
+#include <fix_external.h>
+#include <fix_property_atom.h>
+#include <fmt/format.h>
+#include <input.h>
+#include <lammps.h>
+#include <modify.h>
+#include <neighbor.h>
+#include <units.h>
+#include <update.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <tuple>
+#include <type_traits>
+
+#include "dem_fixes.h"
+
+namespace hemo::particles {
+
+static_assert(std::is_same_v<LAMMPS_NS::bigint, std::int64_t>, "LIGGGHTS built with another bigint");
+
+using namespace dem;
+
+namespace {
+
+constexpr long kLogRotateSteps = 1000;  // the LIGGGHTS run log keeps at most this many coupling steps
+constexpr double kContactReach = 1.02;  // contact histories are cleared within this x the contact distance
+
+// The settings that need no particles yet, the node's and a bare LIGGGHTS run's alike.
+std::vector<std::string> base_settings(const DemBookkeeping& bookkeeping) {
+  return {
+      "units si",
+      "atom_style granular",
+      // No re-sorting by default: tags start in spatial order (create_particles). What sorting
+      // would save later in a run is measured in docs/performance.md §6.
+      fmt::format("atom_modify map array sort {} 0.0", bookkeeping.sort_every_steps),
+      "boundary f f p",
+      "newton off",
+      "communicate single vel yes",
+      // Cells are softer (7.5e5 Pa) than LIGGGHTS's SI floor of 5e6 Pa.
+      "soft_particles yes",
+      "processors 1 1 *",
+      "thermo 0",
+      // A lost atom is our error (named, one line), not LIGGGHTS's exit.
+      "thermo_modify lost ignore",
+  };
+}
+
+// The materials per atom type and type pair (LIGGGHTS's property/global fixes); the wall's
+// material is the last type.
+std::vector<std::string> material_fixes(const Contact& c, int n_types) {
+  std::string youngs, poisson, restitution, friction;
+  for (int i = 1; i <= n_types; ++i) {
+    const bool wi = i == n_types;
+    youngs += fmt::format(" {:.17g}", wi ? c.wall_youngs_modulus : c.cell_youngs_modulus);
+    poisson += fmt::format(" {:.17g}", wi ? c.wall_poisson_ratio : c.cell_poisson_ratio);
+    for (int j = 1; j <= n_types; ++j) {
+      const bool wall_pair = wi || j == n_types;
+      restitution += fmt::format(" {:.17g}", wall_pair ? c.cell_wall_restitution : c.cell_cell_restitution);
+      friction += fmt::format(" {:.17g}", c.friction);
+    }
+  }
+  return {
+      "fix m1 all property/global youngsModulus peratomtype" + youngs,
+      "fix m2 all property/global poissonsRatio peratomtype" + poisson,
+      fmt::format("fix m3 all property/global coefficientRestitution peratomtypepair {}{}", n_types, restitution),
+      fmt::format("fix m4 all property/global coefficientFriction peratomtypepair {}{}", n_types, friction),
+  };
+}
+
+// " 0 0 ... 0": the initial values of a per-atom vector fix.
+std::string zeros(int n) {
+  std::string s;
+  for (int k = 0; k < n; ++k) s += " 0";
+  return s;
+}
+
+// The fluid force while the neighbour lists are rebuilt: none (the forces are thrown away).
+void no_force(void*, std::int64_t, int, int*, double**, double**) {}
+
+}  // namespace
+
+LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
+                                 const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping,
+                                 MPI_Comm comm)
+    : contact_(contact),
+      locator_(locator),
+      species_(species),
+      log_path_(log_path),
+      bookkeeping_(bookkeeping),
+      comm_(comm) {
+  std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
+                                   append_log ? std::string("none") : log_path_};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
+  atom_ = lmp_->atom;
+
+  if (append_log && log_path_ != "none") command("log " + log_path_ + " append");  // a resumed run keeps the log
+  for (const auto& line : base_settings(bookkeeping_)) command(line);
+}
+
+LiggghtsSession::~LiggghtsSession() { delete lmp_; }
+
+void LiggghtsSession::command(const std::string& line) { lmp_->input->one(line.c_str()); }
+
+void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bool rotation, bool held_closures,
+                                 ForceCallback callback, void* target) {
+  callback_ = callback;
+  callback_target_ = target;
+  define_box_and_contacts(assign_atom_types(used));
+  // A pair's tangential history is cleared when it separates, not at the next neighbour-list
+  // rebuild: LIGGGHTS clears it only for pairs within this factor x the contact distance (and
+  // keeps the rest until a rebuild drops it), so with 1 a pair that separates and touches again
+  // before the next rebuild would find its old shear spring, and results would depend on when
+  // lists are rebuilt (a checkpoint rebuilds them). The band, 2 % of the contact distance
+  // (53 nm for two platelets), is wider than a separating pair moves in a DEM step (~1 nm at the
+  // impact velocity the step is made for), and adds ~5 % of pairs to the lists.
+  lmp_->neighbor->register_contact_dist_factor(kContactReach);
+  if (rotation)
+    command(fmt::format("fix {} all property/atom hemoRotation vector yes no no 1 0 0 0 0 0 0", kRotationFix));
+  if (held_closures)
+    command(fmt::format("fix {} all property/atom hemoClosures vector no no no{}", kClosureFix, zeros(kClosureSlots)));
+  find_fixes(rotation, held_closures);
+}
+
+int LiggghtsSession::assign_atom_types(const std::array<bool, kSpeciesCount>& used) {
+  // LIGGGHTS wants granular atom types to start at 1 without holes: the species that have
+  // particles take types 1, 2 (RBC before platelet), the wall's material the next one, the last.
+  int n_types = 0;
+  for (int sp = 0; sp < kSpeciesCount; ++sp) type_of_[sp] = used[sp] ? ++n_types : 0;
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    if (used[sp]) species_of_type_[type_of_[sp]] = sp;
+  return ++n_types;
+}
+
+void LiggghtsSession::define_box_and_contacts(int n_types) {
+  const double R = locator_.radius();
+  const double z0 = locator_.z0(), L = locator_.length();
+  const double half_box = R + 2 * species_.d_max;
+  command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
+                      half_box, -half_box, half_box, z0, z0 + L));
+  command(fmt::format("create_box {} hemo_box", n_types));
+  for (const auto& line : contact_model(n_types)) command(line);
+  command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
+  // Defined after the wall: its post_force sees the contact forces and torques of the step.
+  command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
+}
+
+std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
+  std::vector<std::string> lines = {
+      fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * species_.d_max),
+      "neigh_modify delay 0",
+  };
+  const auto materials = material_fixes(contact_, n_types);
+  lines.insert(lines.end(), materials.begin(), materials.end());
+  lines.insert(lines.end(), {
+                                "pair_style gran model hertz tangential history",
+                                "pair_coeff * *",
+                                "timestep 1e-7",
+                                fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} "
+                                            "zcylinder {:.17g} 0 0",
+                                            kWallFix, n_types, locator_.radius()),
+                                "fix hemo_integrate all nve/sphere",
+                            });
+  return lines;
+}
+
+std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps) const {
+  std::vector<std::string> lines = base_settings(bookkeeping_);
+  lines.push_back("read_data " + data_file);
+  for (const auto& line : contact_model(atom_->ntypes)) lines.push_back(line);
+  lines.push_back(fmt::format("timestep {:.17g}", dt));
+  lines.push_back(fmt::format("run {}", steps));
+  return lines;
+}
+
+void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
+  auto find = [&](const char* id) {
+    const int ifix = lmp_->modify->find_fix(id);
+    if (ifix < 0) throw std::runtime_error(std::string("LIGGGHTS did not create the fix ") + id);
+    return lmp_->modify->fix[ifix];
+  };
+  fluid_fix_ = static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix));
+  fluid_fix_->set_callback(callback_, callback_target_);
+  fixes_.impulse = find(kImpulseFix);
+  if (rotation) fixes_.rotation = find(kRotationFix);
+  if (held_closures) fixes_.closures = find(kClosureFix);
+  fixes_.wall_history = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
+  if (fixes_.wall_history == nullptr)
+    throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
+}
+
+std::vector<const PlacedParticle*> LiggghtsSession::create_particles(const std::vector<PlacedParticle>& particles) {
+  // Tags follow a spatial order (axial slabs, then rows): neighbours in space are neighbours in
+  // memory at the start, for LIGGGHTS and for our per-tag arrays alike.
+  const double d_max = species_.d_max;
+  std::vector<const PlacedParticle*> order;
+  for (const auto& p : particles) order.push_back(&p);
+  auto key = [&](const PlacedParticle* p) {
+    return std::make_tuple(std::floor((p->position.z() - locator_.z0()) / d_max), std::floor(p->position.y() / d_max),
+                           p->position.x());
+  };
+  std::stable_sort(order.begin(), order.end(), [&](auto* a, auto* b) { return key(a) < key(b); });
+  if (bookkeeping_.shuffled_tags) std::shuffle(order.begin(), order.end(), std::mt19937(1));
+  for (const PlacedParticle* p : order)
+    command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type_of_[p->species],
+                        p->position.x(), p->position.y(), p->position.z()));
+  for (int sp = 0; sp < kSpeciesCount; ++sp) {
+    if (type_of_[sp] == 0) continue;
+    // LIGGGHTS sets the mass from diameter and density: density = m / (pi d^3 / 6).
+    const double diameter = species_.diameter[sp];
+    const double density = species_.mass[sp] / (units::pi / 6 * std::pow(diameter, 3));
+    command(fmt::format("set type {} diameter {:.17g} density {:.17g}", type_of_[sp], diameter, density));
+  }
+  if (count_particles() != static_cast<long>(particles.size()))
+    throw std::runtime_error(
+        fmt::format("LIGGGHTS created {} of {} particles (some outside the box?)", particles_, particles.size()));
+  return order;
+}
+
+long LiggghtsSession::count_particles() { return particles_ = static_cast<long>(atom_->natoms); }
+
+long LiggghtsSession::local_particles() const { return atom_->nlocal; }
+
+std::int64_t LiggghtsSession::dem_step() const { return lmp_->update->ntimestep; }
+
+long LiggghtsSession::neighbour_builds() const { return static_cast<long>(lmp_->neighbor->ncalls); }
+
+void LiggghtsSession::set_timestep(double dt) { command(fmt::format("timestep {:.17g}", dt)); }
+
+void LiggghtsSession::run(int steps, bool pre) {
+  command(fmt::format("run {} pre {} post no", steps, pre ? "yes" : "no"));
+}
+
+void LiggghtsSession::rotate_log(long coupling_step) {
+  if (log_path_ != "none" && coupling_step % kLogRotateSteps == 1) command("log " + log_path_ + ".steps");
+}
+
+void LiggghtsSession::rebuild_neighbours() {
+  if (!box_set_up()) throw std::logic_error("no particles to rebuild the neighbour lists of");
+  const auto builds = lmp_->neighbor->ncalls;  // a set-up zeroes it; the overlap diagnostic reads it
+  fluid_fix_->set_callback(&no_force, nullptr);
+  command("run 0 pre yes post no");
+  fluid_fix_->set_callback(callback_, callback_target_);
+  lmp_->neighbor->ncalls = builds;
+}
+
+LiggghtsSession::Lost LiggghtsSession::find_lost() const {
+  // LIGGGHTS drops an atom that leaves the box (thermo_modify lost ignore).
+  Lost lost;
+  const long have = static_cast<long>(sum_all(static_cast<double>(atom_->nlocal), comm_));
+  lost.count = particles_ - have;
+  if (lost.count == 0) return lost;
+  std::vector<double> present(particles_ + 1, 0.0);
+  for (int i = 0; i < atom_->nlocal; ++i) present[atom_->tag[i]] = 1;
+  MPI_Allreduce(MPI_IN_PLACE, present.data(), static_cast<int>(present.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  for (long t = 1; t <= particles_ && lost.first == 0; ++t)
+    if (present[t] == 0) lost.first = t;
+  return lost;
+}
+
+}  // namespace hemo::particles

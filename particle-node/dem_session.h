@@ -1,0 +1,142 @@
+// LIGGGHTS 3.8 in-process (Debian's libliggghts), driven by input commands: the LAMMPS instance,
+// its box, materials, contact model, wall and integrator, the particles as its atoms, the fixes
+// the engine keeps its per-atom values in, and its runs.
+//
+// Particles are LIGGGHTS granular atoms (type 1 = RBC, 2 = platelet, 3 = the vessel wall's
+// material; LIGGGHTS wants types from 1 without holes, so a scene without RBCs has platelets
+// as type 1 and the wall as type 2) in SI units, Hertz–Mindlin contacts with tangential history
+// between all cells and with the wall (`pair gran` and a `wall/gran` zcylinder primitive), the
+// box periodic along z with the mesh's period. The fluid acts through `fix external
+// pf/callback`, defined after the wall so that the callback sees each step's contact forces and
+// torques (DemFluidForce). Values that must move between ranks with their atom live in
+// `fix property/atom`s (dem_fixes.h).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "cell_locator.h"
+#include "dem_species.h"
+#include "placement.h"
+
+#include <mpi.h>
+#include <scene.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+class LAMMPS;
+class Atom;
+class Fix;
+class FixExternal;
+class FixPropertyAtom;
+}  // namespace LAMMPS_NS
+
+namespace hemo::particles {
+
+// LIGGGHTS's bookkeeping, which changes the cost of a DEM step and, through the order of the
+// force sums, its results at round-off (then chaotically): fixed for runs, varied only by
+// hemocosim-dem-bench to measure what the cost responds to (docs/performance.md §6).
+struct DemBookkeeping {
+  double skin_diameters = 0.25;  // neighbour skin, in largest particle diameters
+  long sort_every_steps = 0;     // LIGGGHTS's spatial sort of the atoms (atom_modify sort); 0: never
+  bool shuffled_tags = false;    // create the particles in random order (a run long after its start)
+};
+
+class LiggghtsSession {
+ public:
+  // What `fix external pf/callback` calls every DEM step: (target, DEM step, this rank's atoms,
+  // their tags and positions, the force to fill for each).
+  using ForceCallback = void (*)(void* target, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
+
+  // Our per-atom fixes (values in dem_fixes.h); null when the scene needs none.
+  struct Fixes {
+    LAMMPS_NS::Fix* impulse = nullptr;
+    LAMMPS_NS::Fix* rotation = nullptr;                  // orientations tracked
+    LAMMPS_NS::Fix* closures = nullptr;                  // closures held between evaluations
+    LAMMPS_NS::FixPropertyAtom* wall_history = nullptr;  // LIGGGHTS's own: the wall contacts' history
+  };
+
+  // Starts LIGGGHTS with the settings that need no particles yet. Its log goes to `log_path`
+  // ("none": no log; appended to with `append_log`); the screen stays quiet.
+  LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
+                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping, MPI_Comm comm);
+  ~LiggghtsSession();
+  LiggghtsSession(const LiggghtsSession&) = delete;
+  LiggghtsSession& operator=(const LiggghtsSession&) = delete;
+
+  // The box, materials, contacts, wall, integrator and our fixes, for the species `used`, with
+  // a rotation fix and a held-closure fix as asked; `callback(target, ...)` is the fluid force.
+  void set_up_box(const std::array<bool, kSpeciesCount>& used, bool rotation, bool held_closures,
+                  ForceCallback callback, void* target);
+  bool box_set_up() const { return fluid_fix_ != nullptr; }
+  // The particles as atoms (the same list on every rank); returns them in the order of their
+  // tags, 1..N.
+  std::vector<const PlacedParticle*> create_particles(const std::vector<PlacedParticle>& particles);
+  // The atoms LIGGGHTS holds now, over all ranks, are the particles (after they were created or
+  // recreated); LIGGGHTS may lose some later (find_lost).
+  long count_particles();
+
+  void command(const std::string& line);
+  void set_timestep(double dt);
+  // `steps` DEM steps; `pre`: set up anew (and evaluate the forces at the set-up), else go on with
+  // the last step's forces.
+  void run(int steps, bool pre);
+  // Restarts the run log every so many coupling steps: bounded size, recent errors kept.
+  void rotate_log(long coupling_step);
+  // A set-up without dynamics (`run 0`): periodic wrap, atoms to their ranks, ghosts, pair and
+  // wall neighbour lists, contact histories onto the new lists. The fluid force is not called and
+  // the forces computed are thrown away: the caller puts back what the next run's first half kick
+  // needs. LIGGGHTS's list-build count is kept.
+  void rebuild_neighbours();
+
+  struct Lost {
+    long count = 0;
+    long first = 0;  // the smallest tag lost
+  };
+  // The particles LIGGGHTS dropped because they left the box (collective).
+  Lost find_lost() const;
+
+  LAMMPS_NS::LAMMPS& lammps() const { return *lmp_; }
+  LAMMPS_NS::Atom& atom() const { return *atom_; }
+  const Fixes& fixes() const { return fixes_; }
+  int type_of(int species) const { return type_of_[species]; }  // 0: none
+  int species_of_type(int type) const { return species_of_type_[type]; }
+  long particles() const { return particles_; }
+  long local_particles() const;
+  std::int64_t dem_step() const;
+  // Neighbour-list builds since the last run that set up anew.
+  long neighbour_builds() const;
+
+  // The input of a bare LIGGGHTS run of these particles, as `write_data` saved them in
+  // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
+  // fixes, `steps` DEM steps of `dt`.
+  std::vector<std::string> bare_input(const std::string& data_file, double dt, long steps) const;
+
+ private:
+  int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
+  void define_box_and_contacts(int n_types);
+  // The neighbour lists, materials, contact model, wall and integrator for n_types atom types
+  // (the wall's material the last).
+  std::vector<std::string> contact_model(int n_types) const;
+  void find_fixes(bool rotation, bool held_closures);
+
+  const Contact contact_;
+  const CellLocator& locator_;
+  const DemSpecies& species_;
+  const std::string log_path_;
+  const DemBookkeeping bookkeeping_;
+  MPI_Comm comm_;
+  LAMMPS_NS::LAMMPS* lmp_ = nullptr;
+  LAMMPS_NS::Atom* atom_ = nullptr;  // LAMMPS keeps one for its lifetime
+  LAMMPS_NS::FixExternal* fluid_fix_ = nullptr;
+  ForceCallback callback_ = nullptr;
+  void* callback_target_ = nullptr;
+  Fixes fixes_;
+  std::array<int, kSpeciesCount> type_of_{};
+  std::array<int, kSpeciesCount + 2> species_of_type_{};
+  long particles_ = 0;
+};
+
+}  // namespace hemo::particles

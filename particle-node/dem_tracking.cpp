@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "dem_tracking.h"
+
+namespace hemo::particles {
+
+void ParticleTracking::start(const std::vector<const PlacedParticle*>& order) {
+  tracked_.assign(order.size() + 1, Tracked{});
+  for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
+}
+
+double ParticleTracking::unwrap_z(int tag, double z) {
+  const double half = 0.5 * locator_->length();
+  Tracked& t = tracked_[tag];
+  const double dz = z - t.last_z;
+  if (dz < -half)
+    t.crossings += 1;
+  else if (dz > half)
+    t.crossings -= 1;
+  t.last_z = z;
+  return z + t.crossings * locator_->length();
+}
+
+int ParticleTracking::cell_of(int tag, const Vec3& x, bool* in_wall_gap) {
+  LocateCache& where = tracked_[tag].where;
+  int cell = locator_->locate(x, where);
+  const bool gap = cell < 0 && (cell = locator_->locate_in_wall_gap(x)) >= 0;
+  if (gap) where.cell = cell;  // a good first guess next time; the cache stays invalid
+  if (in_wall_gap) *in_wall_gap = gap;
+  return cell;
+}
+
+void ParticleTracking::sync(int nlocal, const int* tag, MPI_Comm comm) {
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  if (size == 1) return;
+  // Each rank contributes its own atoms; the sum is everyone's current view.
+  std::vector<double> buf(2 * tracked_.size(), 0.0);
+  for (int i = 0; i < nlocal; ++i) {
+    buf[2 * tag[i]] = tracked_[tag[i]].last_z;
+    buf[2 * tag[i] + 1] = tracked_[tag[i]].crossings;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, buf.data(), static_cast<int>(buf.size()), MPI_DOUBLE, MPI_SUM, comm);
+  for (std::size_t t = 0; t < tracked_.size(); ++t) {
+    tracked_[t].last_z = buf[2 * t];
+    tracked_[t].crossings = buf[2 * t + 1];
+  }
+}
+
+void ParticleTracking::save(EngineState& s) const {
+  s.tracked.reserve(EngineState::kTrackedValues * tracked_.size());
+  for (const Tracked& t : tracked_)
+    s.tracked.insert(s.tracked.end(), {t.where.anchor.x(), t.where.anchor.y(), t.where.anchor.z(), t.where.clearance,
+                                       static_cast<double>(t.where.cell), t.last_z, t.crossings});
+}
+
+void ParticleTracking::restore(const EngineState& s, long particles) {
+  tracked_.assign(static_cast<std::size_t>(particles) + 1, Tracked{});
+  for (std::size_t t = 0; t < tracked_.size(); ++t) {
+    const double* v = &s.tracked[EngineState::kTrackedValues * t];
+    tracked_[t].where.anchor = Vec3(v[0], v[1], v[2]);
+    tracked_[t].where.clearance = v[3];
+    tracked_[t].where.cell = static_cast<int>(v[4]);
+    tracked_[t].last_z = v[5];
+    tracked_[t].crossings = v[6];
+  }
+}
+
+}  // namespace hemo::particles
