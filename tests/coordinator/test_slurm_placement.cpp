@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
 
@@ -45,6 +47,12 @@ Scene slurm_scene(int fluid_ranks, int particle_ranks) {
 }  // namespace
 
 TEST(SlurmPlacement, TheNodesShareTheAllocationSlurmNames) {
+  // `scontrol show hostnames` expands the node list without a cluster but not without a
+  // configuration to parse: a minimal one of the test's own, so that the test does not depend on
+  // whether this machine's Slurm was configured yet (deploy.slurm does it, later in the suite).
+  const auto conf = std::filesystem::temp_directory_path() / "hemocosim-test-slurm.conf";
+  std::ofstream(conf) << "ClusterName=hemotest\nSlurmctldHost=localhost\n";
+  const ScopedEnv config("SLURM_CONF", conf.string());
   const ScopedEnv job("SLURM_JOB_ID", "42"), nodes("SLURM_JOB_NODELIST", "node[07-09]");
   const Scene placed = placed_in_allocation(slurm_scene(1, 4));
   EXPECT_EQ(placed.hosts.fluid, "node07:1");
@@ -54,6 +62,7 @@ TEST(SlurmPlacement, TheNodesShareTheAllocationSlurmNames) {
   given.hosts.particles = "node09:2";
   EXPECT_EQ(placed_in_allocation(given).hosts.particles, "node09:2");
   EXPECT_EQ(placed_in_allocation(given).hosts.fluid, "node07:1");
+  std::filesystem::remove(conf);
 }
 
 TEST(SlurmPlacement, OutsideAnAllocationTheRunIsRefusedInOneLine) {
