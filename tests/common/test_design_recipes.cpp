@@ -22,12 +22,7 @@ namespace {
 
 const fs::path kSource = HEMO_SOURCE_DIR;
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+std::string read_text(const fs::path& path) { return hemo::test::file_text(path.string()); }
 
 // The text of a markdown section, from its heading to the next heading of the same or a higher level.
 std::string section(const std::string& doc, const std::string& heading) {

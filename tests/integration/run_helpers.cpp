@@ -19,10 +19,7 @@ namespace hemo::test {
 std::string scene(const std::string& name) { return std::string(HEMO_TEST_SCENES) + "/" + name; }
 
 std::string small_scene_text(long coupling_steps, const std::string& run_keys, const std::string& more) {
-  std::ifstream in(scene("coupled_small.toml"));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string s = ss.str();
+  std::string s = file_text(scene("coupled_small.toml"));
   const std::string steps = "coupling_steps = 40";
   if (s.find(steps) == std::string::npos || s.find("[run]") == std::string::npos)
     throw std::runtime_error("coupled_small.toml lost its [run] table or its 40 coupling steps");

@@ -630,13 +630,6 @@ std::map<std::string, long> bus_counts(const std::string& text, const std::strin
   return sum;
 }
 
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 // UDP datagrams the kernel dropped for full receive buffers, machine-wide (/proc/net/snmp).
 long udp_receive_buffer_errors() {
   std::ifstream in("/proc/net/snmp");

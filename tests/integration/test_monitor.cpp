@@ -22,13 +22,6 @@ using namespace hemo::test;
 using nlohmann::json;
 
 namespace {
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::vector<json> json_lines(const std::string& text) {
   std::vector<json> rows;
   std::istringstream in(text);

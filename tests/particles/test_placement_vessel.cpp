@@ -6,6 +6,7 @@
 // node's: what the check passes, the node places; what it refuses, the node cannot place, for the
 // same cause.
 #include "cell_locator.h"
+#include "run_command.h"
 
 #include <placement.h>
 #include <scene.h>
@@ -34,13 +35,6 @@ hemo::mesh_t fluid_node_mesh(const hemo::Scene& scene) {
   return message;
 }
 
-std::string read(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::string scratch_file(const std::string& name, const std::string& text) {
   const auto dir = std::filesystem::temp_directory_path() / ("hemo-placement-vessel-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
@@ -57,7 +51,7 @@ TEST(PlacementInTheMesh, TheCheckPlacesInTheNodesVesselBitForBit) {
   std::vector<std::string> scenes = {dir + "/quickstart.toml", dir + "/calibration.toml",
                                      dir + "/calibration-cfdem.toml", dir + "/bench/base.toml"};
   const std::string d200 =
-      std::regex_replace(read(dir + "/calibration.toml"), std::regex("\ndiameter_um = 100\n"), "\ndiameter_um = 200\n");
+      std::regex_replace(hemo::test::file_text(dir + "/calibration.toml"), std::regex("\ndiameter_um = 100\n"), "\ndiameter_um = 200\n");
   ASSERT_NE(d200.find("\ndiameter_um = 200\n"), std::string::npos);
   scenes.push_back(scratch_file("d200.toml", d200));
   for (const auto& path : scenes) {
@@ -82,7 +76,7 @@ TEST(PlacementInTheMesh, TheCheckPlacesInTheNodesVesselBitForBit) {
 // takes it; the check refuses it naming rbc.hematocrit; the node's placement, in its own vessel,
 // fails on the same species with the same message the check quotes.
 TEST(PlacementInTheMesh, WhatTheCheckRefusesTheNodeCannotPlace) {
-  const std::string text = std::regex_replace(read(std::string(HEMO_SCENES_DIR) + "/quickstart.toml"),
+  const std::string text = std::regex_replace(hemo::test::file_text(std::string(HEMO_SCENES_DIR) + "/quickstart.toml"),
                                               std::regex("\nhematocrit = 0.15\n"), "\nhematocrit = 0.58\n");
   ASSERT_NE(text.find("\nhematocrit = 0.58\n"), std::string::npos);
   const std::string path = scratch_file("ht58.toml", text);

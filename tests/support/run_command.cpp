@@ -66,4 +66,11 @@ std::string error_line(const std::string& output) {
   return {};
 }
 
+std::string file_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 }  // namespace hemo::test

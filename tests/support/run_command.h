@@ -20,6 +20,7 @@ CommandResult run(const std::string& command);
 
 std::string bin(const std::string& program);         // a built program
 std::string fresh_run_dir(const std::string& name);  // an unused path under the temp dir
+std::string file_text(const std::string& path);      // a file's whole text ("" if it cannot be read)
 
 // metrics.csv of a run: (node, name) -> step -> value
 using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;
