@@ -16,8 +16,8 @@
 
 namespace hemo {
 
-// At most this many received datagrams wait per channel; more are dropped at receipt (bus.h
-// says why it is large).
+// At most this many received datagrams wait per channel; more are dropped at receipt (the Bus
+// constructor, bus.cpp, says why it is this large).
 inline constexpr int kSubscriptionQueue = 10000;
 
 class Wire {

@@ -1,6 +1,7 @@
 // hemocosim check: validate a scene and say what it will run.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
+#include "placement.h"
 #include "scene.h"
 #include "units.h"
 
@@ -22,9 +23,8 @@ int check_command(const std::string& scene_path) {
   // Throws SceneError listing every problem, a run's too: the particles are placed here as the
   // particle node will place them at step 0 (SceneCheck::placement).
   const Scene s = load_scene(scene_path, SceneCheck::placement);
-  const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
-  const long rbcs = s.rbc.present ? std::lround(s.rbc.hematocrit * volume / s.rbc.volume) : 0;
-  const long platelets = s.platelet.present ? std::lround(s.platelet.number_density * volume) : 0;
+  // The counts the particle node places (common/placement.h).
+  const long rbcs = particles::rbc_count(s), platelets = particles::platelet_count(s);
   fmt::print("{}: ok\n", scene_path);
   fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
              s.vessel.length / units::um, s.mesh.cells());

@@ -138,6 +138,8 @@ std::vector<PlacedParticle> particles_of_run(const std::string& run_dir, double 
   const auto steps = list_snapshots(path);
   if (steps.empty()) throw std::runtime_error(path + " holds no snapshot");
   long step = steps.back();
+  if (at_time >= 0 && scene.time.adaptive_interval())
+    throw std::runtime_error("--at-time needs a run of fixed coupling intervals (this scene adapts them)");
   if (at_time >= 0) {
     double best = INFINITY;
     for (long s : steps)
