@@ -304,12 +304,13 @@ std::string format_monitor_table(const json& row, const std::string& lcm_url) {
                        num(l["mean"], "{:.3f}"), num(l["max"], "{:.3f}"));
   const auto& b = row["balance"];
   if (b["wall_shear_stress_Pa"].is_number())
-    out += fmt::format("momentum balance: wall shear stress {} Pa = {} of the imposed {} Pa ({} on this mesh); "
-                       "wall shear rate {} of {} 1/s; {} step{} in this interval\n",
-                       num(b["wall_shear_stress_Pa"], "{:.4f}"), num(b["ratio"], "{:.3f}"),
-                       num(b["imposed_wall_shear_stress_Pa"], "{:.4f}"), num(b["mesh_ratio"], "{:.3f}"),
-                       num(b["wall_shear_rate_per_s"], "{:.1f}"), num(b["imposed_wall_shear_rate_per_s"], "{:.1f}"),
-                       b["samples"].get<int>(), b["samples"].get<int>() == 1 ? "" : "s");
+    out += fmt::format(
+        "momentum balance: wall shear stress {} Pa = {} of the imposed {} Pa ({} on this mesh); "
+        "wall shear rate {} of {} 1/s; {} step{} in this interval\n",
+        num(b["wall_shear_stress_Pa"], "{:.4f}"), num(b["ratio"], "{:.3f}"),
+        num(b["imposed_wall_shear_stress_Pa"], "{:.4f}"), num(b["mesh_ratio"], "{:.3f}"),
+        num(b["wall_shear_rate_per_s"], "{:.1f}"), num(b["imposed_wall_shear_rate_per_s"], "{:.1f}"),
+        b["samples"].get<int>(), b["samples"].get<int>() == 1 ? "" : "s");
   out += fmt::format("{:<20} {:>10} {:>12} {:>12}\n", "node", "step", "compute s", "wait s");
   for (const auto& [name, n] : row["nodes"].items())
     out += fmt::format("{:<20} {:>10} {:>12} {:>12}{}\n", name, n["step"].get<long>(), num(n["compute_s"], "{:.4g}"),

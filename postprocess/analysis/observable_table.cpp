@@ -50,7 +50,9 @@ std::string wall_shear_stress_detail(const Analysis& a) {
 std::string balance_detail(const Analysis& a) {
   const auto& v = a.balance_verdict;
   return fmt::format("exact balance: {:.3f} on this mesh, 1 on the circle; {}", a.balance.mesh_ratio,
-                     !v.judged ? "not judged" : v.holds ? "holds" : "does not hold");
+                     !v.judged ? "not judged"
+                     : v.holds ? "holds"
+                               : "does not hold");
 }
 
 std::string shear_rate_detail(const Analysis& a) {

@@ -84,9 +84,9 @@ TEST(MomentumBalance, RatioAndShearRateAreTheWindowMeansOverTheImposed) {
     tau.push_back(k < 100 ? 0.5 : k % 2 ? 0.8 : 0.9);
   }
   const auto b = wall_shear_balance(t, tau, 1.0, 2.0, kImposed, 1.2e-3, 0.98);
-  EXPECT_EQ(b.samples, 101);                     // 1.00, 1.01, ..., 2.00 s: both ends are in
+  EXPECT_EQ(b.samples, 101);  // 1.00, 1.01, ..., 2.00 s: both ends are in
   EXPECT_NEAR(b.mean, (51 * 0.9 + 50 * 0.8) / 101, 1e-12);
-  EXPECT_DOUBLE_EQ(b.end, 0.9);                  // step 200 is even
+  EXPECT_DOUBLE_EQ(b.end, 0.9);  // step 200 is even
   EXPECT_NEAR(b.ratio(), b.mean / kImposed, 1e-15);
   EXPECT_NEAR(b.wall_shear_rate(), b.mean / 1.2e-3, 1e-9);
   EXPECT_NEAR(b.imposed_wall_shear_rate(), 799, 1e-9);
@@ -138,7 +138,7 @@ TEST(MomentumBalance, HoldsBetweenTheMeshsBalanceAndTheCirclesWithinTheTolerance
 
 TEST(MomentumBalance, SettlingIsTheSuspensionsTenthOfASecondOrAViscousTimeIfLonger) {
   const double nu = 1.2e-3 / 1025;
-  EXPECT_DOUBLE_EQ(settling_time(100e-6, nu), 0.1);  // d^2/nu = 8.5 ms
+  EXPECT_DOUBLE_EQ(settling_time(100e-6, nu), 0.1);        // d^2/nu = 8.5 ms
   EXPECT_NEAR(settling_time(1e-3, nu), 1e-6 / nu, 1e-12);  // 0.85 s in a 1 mm vessel
 }
 
@@ -157,9 +157,8 @@ TEST(MomentumBalance, ClosingSummarySaysSoForASettledDeficitOnly) {
   EXPECT_NE(line.find("0.981 on this mesh"), std::string::npos) << line;
 
   // The balance an exact form reaches on the paper's mesh, with noise of +-1 %: nothing to say.
-  write_metrics(dir, 400, [](double t) {
-    return kImposed * std::cos(kPi / 16) * (1 + 0.01 * std::sin(2 * kPi * t / 0.013));
-  });
+  write_metrics(dir, 400,
+                [](double t) { return kImposed * std::cos(kPi / 16) * (1 + 0.01 * std::sin(2 * kPi * t / 0.013)); });
   EXPECT_EQ(closing_balance_line(dir, scene), "");
 
   // The same deficit in a run too short to have settled (its second half starts at 0.05 s).
@@ -198,10 +197,11 @@ TEST(MomentumBalance, OneMetricIsReadStraightFromTheFile) {
 TEST(AxisEnrichment, FractionNearTheAxisAtTheEndOverThatAtTheStart) {
   const double R = 50 * kUm;
   // Start: 2 of 10 platelets within 0.2 R (10 um); one exactly at 10 um is not within.
-  const std::vector<double> start = {1 * kUm, 9.9 * kUm, 10 * kUm, 20 * kUm, 30 * kUm,
-                                     40 * kUm, 45 * kUm, 48 * kUm, 49 * kUm, 50 * kUm};
+  const std::vector<double> start = {1 * kUm,  9.9 * kUm, 10 * kUm, 20 * kUm, 30 * kUm,
+                                     40 * kUm, 45 * kUm,  48 * kUm, 49 * kUm, 50 * kUm};
   // End: 5 of 10 within.
-  const std::vector<double> end = {0, 2 * kUm, 4 * kUm, 6 * kUm, 8 * kUm, 12 * kUm, 30 * kUm, 45 * kUm, 49 * kUm, 51 * kUm};
+  const std::vector<double> end = {0,        2 * kUm,  4 * kUm,  6 * kUm,  8 * kUm,
+                                   12 * kUm, 30 * kUm, 45 * kUm, 49 * kUm, 51 * kUm};
   const auto e = axis_enrichment(start, 0, end, 2, R);
   EXPECT_EQ(e.start_near, 2);
   EXPECT_EQ(e.end_near, 5);

@@ -282,7 +282,8 @@ TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
     s.step = 10 * k;
     s.time_s = 0.1 * k;
     const int near = 4 + 2 * k;  // R = 10 um: within 2 um of the axis
-    for (int i = 0; i < 20; ++i) add_particle(s, 100 + i, kPlatelet, (i < near ? 1.5 : 6.0) * kUm, 0.3 * i, 2 * i * kUm);
+    for (int i = 0; i < 20; ++i)
+      add_particle(s, 100 + i, kPlatelet, (i < near ? 1.5 : 6.0) * kUm, 0.3 * i, 2 * i * kUm);
     add_particle(s, 1, kRbc, 5 * kUm, 0, 0);
     snaps.push_back(s);
   }
@@ -317,6 +318,7 @@ TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
   const auto deficit = analyze_run(open_run(dir), opt);
   EXPECT_TRUE(deficit.balance_verdict.judged);
   EXPECT_FALSE(deficit.balance_verdict.holds);
-  const std::string note = "note              momentum balance: wall shear stress 0.768 Pa is 0.800 of the imposed 0.960 Pa";
+  const std::string note =
+      "note              momentum balance: wall shear stress 0.768 Pa is 0.800 of the imposed 0.960 Pa";
   EXPECT_NE(format_table(deficit).find(note), std::string::npos) << format_table(deficit);
 }

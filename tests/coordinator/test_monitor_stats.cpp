@@ -208,7 +208,7 @@ TEST(MonitorStats, WallShearStressIsHeldAgainstTheImposedOne) {
   const std::vector<std::string> names = {"courant_max", "wall_shear_stress_Pa"};
   done(s, "fluid", 1, 0.01, 0, names, {0.1, 0.84});
   done(s, "fluid", 2, 0.01, 0, names, {0.1, 0.85});
-  done(s, "fluid", 2, 0.01, 0, names, {0.1, 5.0});                      // a resend: not counted again
+  done(s, "fluid", 2, 0.01, 0, names, {0.1, 5.0});                    // a resend: not counted again
   done(s, "particles", 2, 0.01, 0, {"wall_shear_stress_Pa"}, {9.0});  // not the fluid's
   const auto row = s.close_interval(1, 1);
   const auto& b = row["balance"];
