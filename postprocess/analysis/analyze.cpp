@@ -21,6 +21,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
 constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
+constexpr int kBalancePoints = 200;  // τ_w / τ_w,imposed over time in analysis.json
 
 // The averaging window: the second half of the run unless asked otherwise (an end alone: the
 // second half of the run up to it, so that a longer run can be read as a shorter one).
@@ -53,6 +54,9 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   a.balance = momentum_balance(tau, run.scene, a.window_start, a.window_end);
   a.settling_time = settling_time(run.scene.vessel.diameter, run.scene.plasma.kinematic_viscosity());
   a.balance_verdict = judge_balance(a.balance, a.settling_time);
+  // The whole run, for `plot`: a point per 1/200 of it (the calibration run: every 0.01 s).
+  for (const auto& p : binned_means(tau.time_s, tau.value, kBalancePoints))
+    a.balance_over_time.push_back({p.time_s, p.value / a.balance.imposed});
   if (tau.empty())
     a.notes.push_back("metrics.csv has no wall_shear_stress_Pa: no momentum balance");
   else if (!a.balance_verdict.judged)
@@ -280,6 +284,12 @@ std::string format_json(const Analysis& a) {
       {"settling_time_s", number(a.settling_time)},
       {"judged", a.balance_verdict.judged},
       {"holds", a.balance_verdict.judged ? nlohmann::ordered_json(a.balance_verdict.holds) : nullptr}};
+  nlohmann::ordered_json times = nlohmann::ordered_json::array(), ratios = nlohmann::ordered_json::array();
+  for (const auto& p : a.balance_over_time) {
+    times.push_back(number(p.time_s));
+    ratios.push_back(number(p.value));
+  }
+  j["momentum_balance"]["over_time"] = {{"time_s", times}, {"ratio", ratios}};
   const auto& e = a.platelet_axis;
   j["platelet_axis"] = {{"region_radius_fraction", kAxisRegion},
                         {"start_time_s", number(e.start_time)},

@@ -60,6 +60,7 @@ struct Analysis {
   WallShearBalance balance;      // τ_w against τ_w,imposed over the window
   BalanceVerdict balance_verdict;
   double settling_time = 0;  // s, before which the balance is not judged
+  std::vector<SeriesPoint> balance_over_time;  // τ_w / τ_w,imposed over the whole run, thinned
 
   AxisEnrichment platelet_axis;  // first snapshot to the last one in the window
 

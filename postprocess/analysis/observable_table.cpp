@@ -131,7 +131,7 @@ const std::vector<Observable>& observable_table() {
       {"wall_shear_stress_ratio", "momentum_balance.ratio", "τ_w/τ_w,imposed", "1",
        "realised over imposed wall shear stress, τ_w / (d ΔP / (4 l)): 1 when the wall takes up the whole driving",
        [](const Analysis& a) { return a.balance.ratio(); }, {Style::fixed, 3, 1, ""}, balance_detail},
-      {"wall_shear_rate_per_s", "momentum_balance.wall_shear_rate_per_s", "γ̇_w realised", "1/s",
+      {"wall_shear_rate_per_s", "momentum_balance.wall_shear_rate_per_s", "wall shear rate", "1/s",
        "realised wall shear rate τ_w / µ, window mean",
        [](const Analysis& a) { return a.balance.wall_shear_rate(); }, {Style::fixed, 1, 1, "1/s"}, shear_rate_detail},
       {"tube_hematocrit", "hematocrit.tube", "H_T", "1", "tube hematocrit N_RBC V_RBC / (π R² L), window mean",

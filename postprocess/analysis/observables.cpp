@@ -400,6 +400,25 @@ BalanceVerdict judge_balance(const WallShearBalance& b, double settling_time_s, 
   return v;
 }
 
+std::vector<SeriesPoint> binned_means(const std::vector<double>& t, const std::vector<double>& value, int bins) {
+  const std::size_t n = std::min(t.size(), value.size());
+  if (n == 0 || bins < 1) return {};
+  const auto [lo, hi] = std::minmax_element(t.begin(), t.begin() + static_cast<long>(n));
+  const double t0 = *lo, span = *hi - *lo;
+  std::vector<double> sum_t(bins, 0.0), sum_v(bins, 0.0);
+  std::vector<long> count(bins, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int b = span > 0 ? std::min(bins - 1, static_cast<int>((t[i] - t0) / span * bins)) : 0;
+    sum_t[b] += t[i];
+    sum_v[b] += value[i];
+    ++count[b];
+  }
+  std::vector<SeriesPoint> out;
+  for (int b = 0; b < bins; ++b)
+    if (count[b] > 0) out.push_back({sum_t[b] / count[b], sum_v[b] / count[b]});
+  return out;
+}
+
 // ---- Platelets on the axis -------------------------------------------------------------------
 
 AxisEnrichment axis_enrichment(const std::vector<double>& start_r, double start_time, const std::vector<double>& end_r,

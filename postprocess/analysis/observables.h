@@ -194,6 +194,14 @@ struct BalanceVerdict {
 };
 BalanceVerdict judge_balance(const WallShearBalance& b, double settling_time_s, double tolerance = kBalanceTolerance);
 
+// Means of a series over `bins` equal spans of its time range (empty spans left out), each at the
+// mean time of its samples: a long series (τ_w every coupling step) thinned for a figure.
+struct SeriesPoint {
+  double time_s = 0;
+  double value = 0;
+};
+std::vector<SeriesPoint> binned_means(const std::vector<double>& t, const std::vector<double>& value, int bins);
+
 // ---- Platelets on the axis -------------------------------------------------------------------
 
 // The fraction of platelets within `region` R of the axis at the end over that at the start:

@@ -214,3 +214,18 @@ TEST(AxisEnrichment, FractionNearTheAxisAtTheEndOverThatAtTheStart) {
   EXPECT_TRUE(std::isnan(axis_enrichment({30 * kUm}, 0, end, 2, R).enrichment));
   EXPECT_TRUE(std::isnan(axis_enrichment({}, 0, {}, 2, R).enrichment));
 }
+
+TEST(MomentumBalance, ALongSeriesIsThinnedToBinMeansForTheFigure) {
+  // 0..9 s, one sample a second, value = t: 3 bins of [0, 9] are [0, 3), [3, 6), [6, 9].
+  std::vector<double> t, v;
+  for (int k = 0; k < 10; ++k) t.push_back(k), v.push_back(k);
+  const auto p = binned_means(t, v, 3);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_DOUBLE_EQ(p[0].time_s, 1);   // 0, 1, 2
+  EXPECT_DOUBLE_EQ(p[1].value, 4);    // 3, 4, 5
+  EXPECT_DOUBLE_EQ(p[2].value, 7.5);  // 6, 7, 8, 9: the end is in the last bin
+  // More bins than samples: the empty ones are left out; one time alone: one point.
+  EXPECT_EQ(binned_means(t, v, 100).size(), 10u);
+  EXPECT_EQ(binned_means({2, 2}, {1, 3}, 5).size(), 1u);
+  EXPECT_TRUE(binned_means({}, {}, 5).empty());
+}

@@ -236,6 +236,12 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   EXPECT_NEAR(json["momentum_balance"]["imposed_wall_shear_stress_Pa"].get<double>(), imposed, 1e-12);
   EXPECT_NEAR(json["momentum_balance"]["wall_shear_rate_per_s"].get<double>(), 720, 1e-9);
   EXPECT_TRUE(json["momentum_balance"]["holds"].is_null());
+  // Over time, for `plot`: 11 samples, 11 points (fewer than 200), 0.5 then 0.9.
+  const auto& over_time = json["momentum_balance"]["over_time"];
+  ASSERT_EQ(over_time["ratio"].size(), 11u) << over_time;
+  EXPECT_NEAR(over_time["ratio"][0].get<double>(), 0.5, 1e-12);
+  EXPECT_NEAR(over_time["ratio"][10].get<double>(), 0.9, 1e-12);
+  EXPECT_NEAR(over_time["time_s"][10].get<double>(), 0.1, 1e-12);
   const std::string csv_out = read_text(dir + "/profiles.csv");
   EXPECT_EQ(std::count(csv_out.begin(), csv_out.end(), '\n'), 1 + 10 * (1 + 3));  // header, window, 3 snapshots
 
