@@ -119,6 +119,12 @@ TEST(Plot, AnalysisIsRedoneOnlyWhenStale) {
   EXPECT_TRUE(ensure_analysis(run));
   EXPECT_TRUE(nlohmann::json::parse(read_text(run + "/analysis.json")).contains("observables"));
   EXPECT_FALSE(ensure_analysis(run));
+  // So is one without the momentum balance over time (the balance figure's data).
+  json = nlohmann::json::parse(read_text(run + "/analysis.json"));
+  json["momentum_balance"].erase("over_time");
+  write_text(run + "/analysis.json", json.dump(2));
+  EXPECT_TRUE(ensure_analysis(run));
+  EXPECT_FALSE(ensure_analysis(run));
 }
 
 TEST(Plot, ErrorsAreOneClearLine) {
