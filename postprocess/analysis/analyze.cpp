@@ -50,8 +50,8 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   for (double t : u.time_s) a.velocity_samples += t >= a.window_start && t <= a.window_end;
   if (u.empty()) a.notes.push_back("metrics.csv has no mean_velocity_m_s: no apparent viscosity");
   a.rheology = apparent_viscosity(mean_u, run.scene.vessel.diameter, run.scene.driving.wall_shear_rate);
-  a.wall_shear_stress = time_mean(tau.time_s, tau.value, a.window_start, a.window_end);
   a.balance = momentum_balance(tau, run.scene, a.window_start, a.window_end);
+  a.wall_shear_stress = a.balance.mean;
   a.settling_time = settling_time(run.scene.vessel.diameter, run.scene.plasma.kinematic_viscosity());
   a.balance_verdict = judge_balance(a.balance, a.settling_time);
   // The whole run, for `plot`: a point per 1/200 of it (the calibration run: every 0.01 s).
