@@ -150,7 +150,9 @@ int main(int argc, char** argv) {
 
   hemo::AnalyzeOptions ana;
   auto* ana_cmd =
-      app.add_subcommand("analyze", "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit");
+      app.add_subcommand("analyze",
+                         "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit, momentum "
+                         "balance, platelets on the axis");
   ana_cmd->add_option("run_dir", ana.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
   ana_cmd->add_flag("--json", ana.json, "Print JSON instead of the table");
   ana_cmd->add_option("--bins", ana.bins, "Radial bins over [0, R]")->capture_default_str()->check(CLI::PositiveNumber);

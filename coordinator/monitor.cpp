@@ -121,6 +121,14 @@ long scene_steps(const std::string& scene_copy) {
     return 0;  // the monitor still shows everything else; the ETA needs --steps then
   }
 }
+// The scene's imposed wall shear stress for the momentum balance; a scene it cannot read leaves
+// the realised stress alone on show.
+void balance_reference(MonitorStats& stats, const std::string& scene_copy) {
+  try {
+    stats.balance_reference(load_scene(scene_copy));
+  } catch (const std::exception&) {
+  }
+}
 }  // namespace
 
 int monitor_command(const MonitorOptions& opt) {
@@ -129,10 +137,12 @@ int monitor_command(const MonitorOptions& opt) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("monitor"));
   RunContext ctx;
   long total = opt.total_steps;
+  std::string scene_copy;
   if (!opt.run_dir.empty()) {
     auto [dir, c] = RunDirectory::open(opt.run_dir);
     ctx = c;
-    if (total <= 0) total = scene_steps(dir.scene_copy());
+    scene_copy = dir.scene_copy();
+    if (total <= 0) total = scene_steps(scene_copy);
   } else if (opt.url.empty() || opt.run_id.empty() || opt.secret_file.empty()) {
     throw std::runtime_error("monitor needs a run directory, or --url, --run-id and --secret-file");
   }
@@ -158,6 +168,7 @@ int monitor_command(const MonitorOptions& opt) {
   }
 
   MonitorStats stats(ctx.run_id, total);
+  if (!scene_copy.empty()) balance_reference(stats, scene_copy);
   const double start = now();
   double window_start = start;
   stats.close_interval(start, unix_now());  // the first interval starts now, not at the first message

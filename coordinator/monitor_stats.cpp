@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "monitor_stats.h"
 
+#include "momentum_balance.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -95,6 +97,20 @@ void MonitorStats::step_done(const std::string& node, std::int64_t step, bool ok
   n.last_wait = wait_s;
   n.diagnostics.clear();
   for (std::size_t i = 0; i < names.size() && i < values.size(); ++i) n.diagnostics.emplace_back(names[i], values[i]);
+  if (node != "fluid") return;
+  const auto tau = std::find(names.begin(), names.end(), "wall_shear_stress_Pa");
+  const std::size_t at = static_cast<std::size_t>(tau - names.begin());
+  if (tau != names.end() && at < values.size() && std::isfinite(values[at])) {
+    wall_shear_.window_sum += values[at];
+    ++wall_shear_.window_samples;
+    wall_shear_.last_Pa = values[at];
+  }
+}
+
+void MonitorStats::balance_reference(const Scene& scene) {
+  wall_shear_.imposed_Pa = imposed_wall_shear_stress(scene);
+  wall_shear_.viscosity_Pa_s = scene.plasma.viscosity;
+  wall_shear_.mesh_ratio = mesh_balance_ratio(scene);
 }
 
 void MonitorStats::heartbeat(const std::string& sender, double uptime_s, const ProcessCounts& counts) {
@@ -205,6 +221,24 @@ json MonitorStats::close_interval(double now_s, double unix_s) {
   row["nodes"] = nodes;
   row["diagnostics"] = diagnostics;
 
+  // The momentum balance: the interval's mean of the fluid's reports (the latest when none came in it).
+  auto& w = wall_shear_;
+  const std::optional<double> tau =
+      w.window_samples > 0 ? std::optional<double>(w.window_sum / w.window_samples) : w.last_Pa;
+  auto over = [](const std::optional<double>& a, const std::optional<double>& b) -> std::optional<double> {
+    if (a && b && *b > 0) return *a / *b;
+    return std::nullopt;
+  };
+  row["balance"] = {{"wall_shear_stress_Pa", or_null(tau)},
+                    {"samples", w.window_samples},
+                    {"imposed_wall_shear_stress_Pa", or_null(w.imposed_Pa)},
+                    {"ratio", or_null(over(tau, w.imposed_Pa))},
+                    {"mesh_ratio", or_null(w.mesh_ratio)},
+                    {"wall_shear_rate_per_s", or_null(over(tau, w.viscosity_Pa_s))},
+                    {"imposed_wall_shear_rate_per_s", or_null(over(w.imposed_Pa, w.viscosity_Pa_s))}};
+  w.window_sum = 0;
+  w.window_samples = 0;
+
   row["resends"] = {{"requests", resend_requests_},
                     {"requests_in_interval", window_resend_requests_},
                     {"repeated_messages", repeats_}};
@@ -268,6 +302,15 @@ std::string format_monitor_table(const json& row, const std::string& lcm_url) {
   for (const auto& [name, l] : row["latency_ms"].items())
     out += fmt::format("{:<20} {:<22} {:>6} {:>9} {:>9}\n", name, l["from_to"].get<std::string>(), l["n"].get<long>(),
                        num(l["mean"], "{:.3f}"), num(l["max"], "{:.3f}"));
+  const auto& b = row["balance"];
+  if (b["wall_shear_stress_Pa"].is_number())
+    out += fmt::format(
+        "momentum balance: wall shear stress {} Pa = {} of the imposed {} Pa ({} on this mesh); "
+        "wall shear rate {} of {} 1/s; {} step{} in this interval\n",
+        num(b["wall_shear_stress_Pa"], "{:.4f}"), num(b["ratio"], "{:.3f}"),
+        num(b["imposed_wall_shear_stress_Pa"], "{:.4f}"), num(b["mesh_ratio"], "{:.3f}"),
+        num(b["wall_shear_rate_per_s"], "{:.1f}"), num(b["imposed_wall_shear_rate_per_s"], "{:.1f}"),
+        b["samples"].get<int>(), b["samples"].get<int>() == 1 ? "" : "s");
   out += fmt::format("{:<20} {:>10} {:>12} {:>12}\n", "node", "step", "compute s", "wait s");
   for (const auto& [name, n] : row["nodes"].items())
     out += fmt::format("{:<20} {:>10} {:>12} {:>12}{}\n", name, n["step"].get<long>(), num(n["compute_s"], "{:.4g}"),

@@ -8,6 +8,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "scene.h"
+
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -51,6 +53,9 @@ class MonitorStats {
                  double wait_s, const std::vector<std::string>& names, const std::vector<double>& values);
   void heartbeat(const std::string& sender, double uptime_s, const ProcessCounts& counts);
   void own_counts(const ProcessCounts& counts) { own_ = counts; }
+  // The imposed wall shear stress (common/momentum_balance.h) and the plasma's viscosity, to hold
+  // the fluid's `wall_shear_stress_Pa` against; without them the row has the realised stress only.
+  void balance_reference(const Scene& scene);
 
   // Ends the interval that began at the previous call (or at construction) and returns its row.
   // now_s: the monitor's monotonic clock; unix_s: the wall clock, for the row's time stamp.
@@ -99,6 +104,12 @@ class MonitorStats {
   double time_s_ = 0;
   std::int64_t interval_start_completed_ = -1;
   std::deque<std::pair<double, std::int64_t>> history_;  // (now_s, completed step) at interval ends
+  struct WallShear {
+    std::optional<double> imposed_Pa, viscosity_Pa_s, mesh_ratio;
+    double window_sum = 0;
+    int window_samples = 0;
+    std::optional<double> last_Pa;
+  } wall_shear_;
 };
 
 // Step rate over a history of (time, completed step) and the ETA to `total` steps: what the

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
 
+#include "momentum_balance.h"
 #include "observable_table.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -19,6 +21,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
 constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
+constexpr int kBalancePoints = 200;  // τ_w / τ_w,imposed over time in analysis.json
 
 // The averaging window: the second half of the run unless asked otherwise (an end alone: the
 // second half of the run up to it, so that a longer run can be read as a shorter one).
@@ -47,7 +50,19 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   for (double t : u.time_s) a.velocity_samples += t >= a.window_start && t <= a.window_end;
   if (u.empty()) a.notes.push_back("metrics.csv has no mean_velocity_m_s: no apparent viscosity");
   a.rheology = apparent_viscosity(mean_u, run.scene.vessel.diameter, run.scene.driving.wall_shear_rate);
-  a.wall_shear_stress = time_mean(tau.time_s, tau.value, a.window_start, a.window_end);
+  a.balance = momentum_balance(tau, run.scene, a.window_start, a.window_end);
+  a.wall_shear_stress = a.balance.mean;
+  a.settling_time = settling_time(run.scene.vessel.diameter, run.scene.plasma.kinematic_viscosity());
+  a.balance_verdict = judge_balance(a.balance, a.settling_time);
+  // The whole run, for `plot`: a point per 1/200 of it (the calibration run: every 0.01 s).
+  for (const auto& p : binned_means(tau.time_s, tau.value, kBalancePoints))
+    a.balance_over_time.push_back({p.time_s, p.value / a.balance.imposed});
+  if (tau.empty())
+    a.notes.push_back("metrics.csv has no wall_shear_stress_Pa: no momentum balance");
+  else if (!a.balance_verdict.judged)
+    a.notes.push_back("momentum balance not judged: " + a.balance_verdict.why_not_judged);
+  else if (!a.balance_verdict.holds)
+    a.notes.push_back(a.balance_verdict.line);
 
   const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, a.window_end);
   if (std::isfinite(mean_sup)) {
@@ -62,6 +77,19 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
 }
 
 }  // namespace
+
+WallShearBalance momentum_balance(const MetricSeries& tau, const Scene& scene, double t_start, double t_end) {
+  return wall_shear_balance(tau.time_s, tau.value, t_start, t_end, imposed_wall_shear_stress(scene),
+                            scene.plasma.viscosity, mesh_balance_ratio(scene));
+}
+
+std::string closing_balance_line(const std::string& run_dir, const Scene& scene) {
+  const auto tau = read_metric_series(run_dir + "/metrics.csv", "wall_shear_stress_Pa");
+  if (tau.empty()) return "";
+  const auto [first, last] = std::minmax_element(tau.time_s.begin(), tau.time_s.end());
+  const auto b = momentum_balance(tau, scene, *first + 0.5 * (*last - *first), *last);
+  return judge_balance(b, settling_time(scene.vessel.diameter, scene.plasma.kinematic_viscosity())).line;
+}
 
 Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   const int bins = opt.bins;
@@ -90,6 +118,8 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   int margination_snapshots = 0;
   std::vector<std::vector<double>> window_platelet_r;
   bool stations_chosen = false;
+  std::vector<double> end_platelet_r;  // of the last snapshot up to the window's end
+  double end_time = first.time_s;
 
   for (std::size_t i = 0; i < run.snapshots.size(); ++i) {
     const Snapshot s = i == 0 ? first : run.load(i);
@@ -97,6 +127,10 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
     a.frames.push_back(
         {s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
     if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, plt, s.time_s));
+    if (s.time_s <= a.window_end) {
+      end_platelet_r = plt.r;
+      end_time = s.time_s;
+    }
     if (s.time_s < a.window_start || s.time_s > a.window_end) continue;
 
     // Stations are sized once, from the first window snapshot (the RBC count of a periodic
@@ -151,6 +185,10 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   if (a.diffusion.points > 0 && a.diffusion.window_end < 0.99 * t_fit)
     a.notes.push_back(
         fmt::format("the run ends before t_fit: D fitted over [0, {:.4g}] s only", a.diffusion.window_end));
+
+  a.platelet_axis = axis_enrichment(reference.r, first.time_s, end_platelet_r, end_time, a.tube.radius);
+  if (a.platelet_axis.start_total > 0 && a.platelet_axis.start_near == 0)
+    a.notes.push_back(fmt::format("no platelet within {} R of the axis at the start: no axis enrichment", kAxisRegion));
 
   a.tube_hematocrit = hematocrit_sum / n;
   a.rbc_volume_flux = rbc_flux_sum / n;
@@ -232,6 +270,36 @@ std::string format_json(const Analysis& a) {
                    {"wall_shear_rate_per_s", number(a.rheology.wall_shear_rate)},
                    {"apparent_wall_shear_rate_per_s", number(a.rheology.apparent_wall_shear_rate)},
                    {"wall_shear_stress_Pa", number(a.wall_shear_stress)}};
+  const auto& b = a.balance;
+  j["momentum_balance"] = {
+      {"relation", "tau_w,imposed = d dP / (4 l); realised gamma_w = tau_w / mu"},
+      {"window_start_s", number(b.window_start)},
+      {"window_end_s", number(b.window_end)},
+      {"samples", b.samples},
+      {"wall_shear_stress_end_Pa", number(b.end)},
+      {"imposed_wall_shear_stress_Pa", number(b.imposed)},
+      {"imposed_wall_shear_rate_per_s", number(b.imposed_wall_shear_rate())},
+      {"mesh_ratio", number(b.mesh_ratio)},
+      {"tolerance", kBalanceTolerance},
+      {"settling_time_s", number(a.settling_time)},
+      {"judged", a.balance_verdict.judged},
+      {"holds", a.balance_verdict.judged ? nlohmann::ordered_json(a.balance_verdict.holds) : nullptr}};
+  nlohmann::ordered_json times = nlohmann::ordered_json::array(), ratios = nlohmann::ordered_json::array();
+  for (const auto& p : a.balance_over_time) {
+    times.push_back(number(p.time_s));
+    ratios.push_back(number(p.value));
+  }
+  j["momentum_balance"]["over_time"] = {{"time_s", times}, {"ratio", ratios}};
+  const auto& e = a.platelet_axis;
+  j["platelet_axis"] = {{"region_radius_fraction", kAxisRegion},
+                        {"start_time_s", number(e.start_time)},
+                        {"end_time_s", number(e.end_time)},
+                        {"start_platelets", e.start_total},
+                        {"end_platelets", e.end_total},
+                        {"start_near_axis", e.start_near},
+                        {"end_near_axis", e.end_near},
+                        {"start_fraction", number(e.start_fraction)},
+                        {"end_fraction", number(e.end_fraction)}};
   j["hematocrit"] = {{"rbc_volume_flux_m3_s", number(a.rbc_volume_flux)},
                      {"total_volume_flux_m3_s", number(a.total_volume_flux)},
                      {"total_flux_source", a.total_flux_source},

@@ -57,6 +57,12 @@ struct Analysis {
   ApparentViscosity rheology;
   long velocity_samples = 0;
   double wall_shear_stress = 0;  // Pa, window mean from the fluid node
+  WallShearBalance balance;      // τ_w against τ_w,imposed over the window
+  BalanceVerdict balance_verdict;
+  double settling_time = 0;  // s, before which the balance is not judged
+  std::vector<SeriesPoint> balance_over_time;  // τ_w / τ_w,imposed over the whole run, thinned
+
+  AxisEnrichment platelet_axis;  // first snapshot to the last one in the window
 
   double tube_hematocrit = 0, discharge_hematocrit = 0;
   double rbc_volume_flux = 0, total_volume_flux = 0;  // m^3/s, window means
@@ -72,6 +78,16 @@ struct Analysis {
 };
 
 Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt);
+
+// τ_w of a run's metrics against the scene's imposed one over [t_start, t_end].
+WallShearBalance momentum_balance(const MetricSeries& wall_shear_stress, const Scene& scene, double t_start,
+                                  double t_end);
+
+// What the run's closing summary says of the momentum balance (coordinator/run.cpp prints it as a
+// run ends): judge_balance over the second half of the run's wall_shear_stress_Pa samples, which
+// is `analyze`'s default window. Empty when the balance holds or is not judged; throws
+// RunDataError (one line) on a missing or malformed metrics.csv.
+std::string closing_balance_line(const std::string& run_dir, const Scene& scene);
 std::string format_table(const Analysis& a);
 std::string format_json(const Analysis& a);
 std::string format_profiles_csv(const Analysis& a);

@@ -40,6 +40,34 @@ std::string viscosity_detail(const Analysis& a) {
                      std::isfinite(a.wall_shear_stress) ? fmt::format("{:.4f}", a.wall_shear_stress) : "n/a");
 }
 
+std::string pa(double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v) : "n/a"; }
+
+std::string wall_shear_stress_detail(const Analysis& a) {
+  return fmt::format("fluid node, {} samples; {} Pa at the window's end; imposed d ΔP / (4 l) = {} Pa",
+                     a.balance.samples, pa(a.balance.end), pa(a.balance.imposed));
+}
+
+std::string balance_detail(const Analysis& a) {
+  const auto& v = a.balance_verdict;
+  return fmt::format("exact balance: {:.3f} on this mesh, 1 on the circle; {}", a.balance.mesh_ratio,
+                     !v.judged ? "not judged"
+                     : v.holds ? "holds"
+                               : "does not hold");
+}
+
+std::string shear_rate_detail(const Analysis& a) {
+  const double imposed = a.balance.imposed_wall_shear_rate();
+  return fmt::format("τ_w / µ; imposed {} 1/s", std::isfinite(imposed) ? fmt::format("{:.1f}", imposed) : "n/a");
+}
+
+std::string axis_detail(const Analysis& a) {
+  const auto& e = a.platelet_axis;
+  auto share = [](double f) { return std::isfinite(f) ? fmt::format("{:.4f}", f) : "n/a"; };
+  return fmt::format("platelets with r < 0.2 R: {} of {} at {:.4g} s ({}), {} of {} at {:.4g} s ({})", e.start_near,
+                     e.start_total, e.start_time, share(e.start_fraction), e.end_near, e.end_total, e.end_time,
+                     share(e.end_fraction));
+}
+
 std::string velocity_detail(const Analysis& a) { return fmt::format("{} samples", a.velocity_samples); }
 
 std::string discharge_detail(const Analysis& a) { return fmt::format("H_D = Q_RBC / Q, Q = {}", a.total_flux_source); }
@@ -97,6 +125,15 @@ const std::vector<Observable>& observable_table() {
        "µ_app / µ", "γ̇ / (8Ū/d)"},
       {"mean_velocity_m_s", "rheology.mean_velocity_m_s", "U", "m/s", "mean plasma velocity, window mean (fluid node)",
        [](const Analysis& a) { return a.rheology.mean_velocity; }, {Style::scientific, 3, 1, "m/s"}, velocity_detail},
+      {"wall_shear_stress_Pa", "momentum_balance.wall_shear_stress_Pa", "τ_w", "Pa",
+       "wall shear stress the fluid node realises, window mean (docs/model.md §5 momentum balance)",
+       [](const Analysis& a) { return a.balance.mean; }, {Style::fixed, 4, 1, "Pa"}, wall_shear_stress_detail},
+      {"wall_shear_stress_ratio", "momentum_balance.ratio", "τ_w/τ_w,imposed", "1",
+       "realised over imposed wall shear stress, τ_w / (d ΔP / (4 l)): 1 when the wall takes up the whole driving",
+       [](const Analysis& a) { return a.balance.ratio(); }, {Style::fixed, 3, 1, ""}, balance_detail},
+      {"wall_shear_rate_per_s", "momentum_balance.wall_shear_rate_per_s", "wall shear rate", "1/s",
+       "realised wall shear rate τ_w / µ, window mean",
+       [](const Analysis& a) { return a.balance.wall_shear_rate(); }, {Style::fixed, 1, 1, "1/s"}, shear_rate_detail},
       {"tube_hematocrit", "hematocrit.tube", "H_T", "1", "tube hematocrit N_RBC V_RBC / (π R² L), window mean",
        [](const Analysis& a) { return a.tube_hematocrit; }, {Style::fixed, 3, 1, ""}},
       {"discharge_hematocrit", "hematocrit.discharge", "H_D", "1",
@@ -105,6 +142,9 @@ const std::vector<Observable>& observable_table() {
       {"margination_index", "margination.index", "margination", "1",
        "fraction of platelets in the cell-free layer, r > R − δ (edge method), window mean",
        [](const Analysis& a) { return a.margination_index; }, {Style::fixed, 3, 1, ""}, margination_detail},
+      {"platelet_axis_enrichment", "platelet_axis.enrichment", "axis enrichment", "1",
+       "fraction of platelets within 0.2 R of the axis at the window's end over that at the first snapshot",
+       [](const Analysis& a) { return a.platelet_axis.enrichment; }, {Style::fixed, 3, 1, ""}, axis_detail},
   };
   // clang-format on
   return table;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "observables.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -341,6 +343,101 @@ double time_mean(const std::vector<double>& t, const std::vector<double>& value,
     ++n;
   }
   return n > 0 ? sum / n : kNaN;
+}
+
+// ---- Momentum balance ------------------------------------------------------------------------
+
+double WallShearBalance::ratio() const { return imposed > 0 ? mean / imposed : kNaN; }
+double WallShearBalance::wall_shear_rate() const { return viscosity > 0 ? mean / viscosity : kNaN; }
+double WallShearBalance::imposed_wall_shear_rate() const { return viscosity > 0 ? imposed / viscosity : kNaN; }
+
+WallShearBalance wall_shear_balance(const std::vector<double>& t, const std::vector<double>& tau, double t_start,
+                                    double t_end, double imposed, double viscosity, double mesh_ratio) {
+  WallShearBalance b;
+  b.imposed = imposed;
+  b.viscosity = viscosity;
+  b.mesh_ratio = mesh_ratio;
+  b.window_start = t_start;
+  b.window_end = t_end;
+  b.mean = time_mean(t, tau, t_start, t_end);
+  b.end = kNaN;
+  double end_time = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < t.size() && i < tau.size(); ++i) {
+    if (t[i] < t_start || t[i] > t_end) continue;
+    ++b.samples;
+    if (t[i] >= end_time) {
+      end_time = t[i];
+      b.end = tau[i];
+    }
+  }
+  return b;
+}
+
+double settling_time(double diameter, double kinematic_viscosity) {
+  return std::max(kSuspensionSettling_s, diameter * diameter / kinematic_viscosity);
+}
+
+BalanceVerdict judge_balance(const WallShearBalance& b, double settling_time_s, double tolerance) {
+  BalanceVerdict v;
+  const double ratio = b.ratio();
+  if (b.samples == 0 || !std::isfinite(ratio)) {
+    v.why_not_judged = "no wall_shear_stress_Pa in the window";
+    return v;
+  }
+  if (b.window_start < settling_time_s) {
+    v.why_not_judged = fmt::format("the window starts at {:.4g} s, before the flow has settled ({:.4g} s)",
+                                   b.window_start, settling_time_s);
+    return v;
+  }
+  v.judged = true;
+  const double low = b.mesh_ratio * (1 - tolerance), high = 1 + tolerance;
+  v.holds = ratio >= low && ratio <= high;
+  if (!v.holds)
+    v.line = fmt::format(
+        "momentum balance: wall shear stress {:.3f} Pa is {:.3f} of the imposed {:.3f} Pa over t = {:.4g} .. {:.4g} s "
+        "(it holds from {:.3f} to {:.3f}: {:.3f} on this mesh, {:g} % tolerance)",
+        b.mean, ratio, b.imposed, b.window_start, b.window_end, low, high, b.mesh_ratio, 100 * tolerance);
+  return v;
+}
+
+std::vector<SeriesPoint> binned_means(const std::vector<double>& t, const std::vector<double>& value, int bins) {
+  const std::size_t n = std::min(t.size(), value.size());
+  if (n == 0 || bins < 1) return {};
+  const auto [lo, hi] = std::minmax_element(t.begin(), t.begin() + static_cast<long>(n));
+  const double t0 = *lo, span = *hi - *lo;
+  std::vector<double> sum_t(bins, 0.0), sum_v(bins, 0.0);
+  std::vector<long> count(bins, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int b = span > 0 ? std::min(bins - 1, static_cast<int>((t[i] - t0) / span * bins)) : 0;
+    sum_t[b] += t[i];
+    sum_v[b] += value[i];
+    ++count[b];
+  }
+  std::vector<SeriesPoint> out;
+  for (int b = 0; b < bins; ++b)
+    if (count[b] > 0) out.push_back({sum_t[b] / count[b], sum_v[b] / count[b]});
+  return out;
+}
+
+// ---- Platelets on the axis -------------------------------------------------------------------
+
+AxisEnrichment axis_enrichment(const std::vector<double>& start_r, double start_time, const std::vector<double>& end_r,
+                               double end_time, double radius, double region) {
+  AxisEnrichment e;
+  const double limit = region * radius;
+  auto near = [limit](const std::vector<double>& r) {
+    return static_cast<long>(std::count_if(r.begin(), r.end(), [limit](double ri) { return ri < limit; }));
+  };
+  e.start_time = start_time;
+  e.end_time = end_time;
+  e.start_total = static_cast<long>(start_r.size());
+  e.end_total = static_cast<long>(end_r.size());
+  e.start_near = near(start_r);
+  e.end_near = near(end_r);
+  e.start_fraction = e.start_total > 0 ? double(e.start_near) / double(e.start_total) : kNaN;
+  e.end_fraction = e.end_total > 0 ? double(e.end_near) / double(e.end_total) : kNaN;
+  e.enrichment = e.start_fraction > 0 ? e.end_fraction / e.start_fraction : kNaN;
+  return e;
 }
 
 // ---- Hematocrit ------------------------------------------------------------------------------

@@ -143,7 +143,10 @@ Snapshot read_snapshot(const std::string& path, long step) {
   return s;
 }
 
-std::vector<MetricSample> read_metrics(const std::string& path) {
+namespace {
+// Calls `row` with every sample of metrics.csv, in file order; refuses the first bad line.
+template <class Row>
+void for_each_metric(const std::string& path, Row&& row) {
   std::ifstream in(path);
   if (!in) fail(path, std::filesystem::exists(path) ? "cannot read" : "missing");
   std::string line;
@@ -151,7 +154,6 @@ std::vector<MetricSample> read_metrics(const std::string& path) {
   if (!line.empty() && line.back() == '\r') line.pop_back();
   if (line != "step,time_s,node,name,value")
     fail(path + ":1", "header is '" + line + "', expected step,time_s,node,name,value");
-  std::vector<MetricSample> out;
   for (long lineno = 2; std::getline(in, line); ++lineno) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
@@ -166,9 +168,25 @@ std::vector<MetricSample> read_metrics(const std::string& path) {
     m.step = static_cast<long>(step);
     m.node = f[2];
     m.name = f[3];
-    out.push_back(std::move(m));
+    row(std::move(m));
   }
+}
+}  // namespace
+
+std::vector<MetricSample> read_metrics(const std::string& path) {
+  std::vector<MetricSample> out;
+  for_each_metric(path, [&out](MetricSample&& m) { out.push_back(std::move(m)); });
   return out;
+}
+
+MetricSeries read_metric_series(const std::string& path, const std::string& name) {
+  MetricSeries s;
+  for_each_metric(path, [&](MetricSample&& m) {
+    if (m.name != name) return;
+    s.time_s.push_back(m.time_s);
+    s.value.push_back(m.value);
+  });
+  return s;
 }
 
 MetricSeries metric_series(const std::vector<MetricSample>& metrics, const std::string& name) {

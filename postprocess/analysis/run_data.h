@@ -46,6 +46,9 @@ struct MetricSeries {
   bool empty() const { return value.empty(); }
 };
 MetricSeries metric_series(const std::vector<MetricSample>& metrics, const std::string& name);
+// The same straight from metrics.csv, keeping only that metric's samples (a long run's file
+// holds millions of rows); the same checks and one-line errors as read_metrics.
+MetricSeries read_metric_series(const std::string& csv_path, const std::string& name);
 
 struct RunData {
   std::string dir;

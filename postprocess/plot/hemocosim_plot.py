@@ -10,6 +10,8 @@
 # Per run:    <run>_profiles.png  radial number density of RBCs and platelets at t = 0, 0.5, 1, 2 s
 #                                 (or at 0, 1/4, 1/2, 1 of a shorter run: the snapshots nearest)
 #             <run>_msd.png       radial MSD of the platelets with the fitted line MSD = 2 D t
+#             <run>_balance.png   the momentum balance: tau_w / tau_w,imposed over time, with the band
+#                                 in which it holds and the averaging window (when the fluid reported tau_w)
 # Several:    sweep.png           the observables analysis.json declares for it (CFL thickness by the
 #                                 edge and profile methods, D, mu_app/mu) against the swept scene
 #                                 key (--key, or the one key whose value differs)
@@ -236,6 +238,39 @@ def plot_msd(run, out):
     plt.close(fig)
 
 
+def balance_points(run):
+    series = run.get("momentum_balance", "over_time") or {}
+    t = np.array([num(v) for v in series.get("time_s", [])])
+    ratio = np.array([num(v) for v in series.get("ratio", [])])
+    ok = np.isfinite(t) & np.isfinite(ratio)
+    return t[ok], ratio[ok]
+
+
+def plot_balance(run, out):
+    t, ratio = balance_points(run)
+    mesh = num(run.get("momentum_balance", "mesh_ratio"))
+    tol = num(run.get("momentum_balance", "tolerance"))
+    fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+    if math.isfinite(mesh) and math.isfinite(tol):
+        ax.axhspan(mesh * (1 - tol), 1 + tol, color="tab:green", alpha=0.12,
+                   label=f"holds: [{mesh * (1 - tol):.3f}, {1 + tol:.3f}]")
+        ax.axhline(mesh, color="tab:green", lw=1, ls="--", label=f"exact balance on this mesh ({mesh:.3f})")
+    ax.axhline(1, color="k", lw=0.8, ls=":")
+    ax.plot(t, ratio, "-", lw=1.2, color="tab:blue", label="τ_w / τ_w,imposed")
+    t0, t1 = num(run.get("momentum_balance", "window_start_s")), num(run.get("momentum_balance", "window_end_s"))
+    mean = num(run.get("momentum_balance", "ratio"))
+    if math.isfinite(mean):
+        ax.plot([t0, t1], [mean, mean], "-", lw=2, color="tab:red", label=f"window mean {mean:.3f}")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("τ_w / τ_w,imposed")
+    ax.set_xlim(left=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"{run.name}: momentum balance, wall shear stress over d ΔP / (4 l)")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
 def flatten(table, prefix=""):
     out = {}
     for k, v in table.items():
@@ -392,7 +427,9 @@ def main():
     stems = [f"{i + 1:02d}-{n}" if names.count(n) > 1 else n for i, n in enumerate(names)]
     written = []
     for run, stem in zip(runs, stems):
-        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd)):
+        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd), ("balance", plot_balance)):
+            if kind == "balance" and not len(balance_points(run)[0]):
+                continue  # the fluid reported no wall shear stress
             path = os.path.join(args.out, f"{stem}_{kind}.png")
             draw(run, path)
             written.append(path)

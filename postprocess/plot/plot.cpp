@@ -38,12 +38,14 @@ bool up_to_date(const fs::path& file, const fs::path& than) {
   return fs::last_write_time(file, ec) >= fs::last_write_time(than, ec);
 }
 
-// An analysis.json that a reader of this version can use: it parses and declares its observables
-// (the plot script draws the sweep figure from that declaration).
+// An analysis.json that a reader of this version can use: it parses, declares its observables
+// (the plot script draws the sweep figure from that declaration) and has the momentum balance
+// over time (the balance figure).
 bool current_analysis(const fs::path& json) {
   std::ifstream in(json);
   try {
-    return nlohmann::json::parse(in).contains("observables");
+    const auto j = nlohmann::json::parse(in);
+    return j.contains("observables") && j.contains("momentum_balance") && j["momentum_balance"].contains("over_time");
   } catch (const nlohmann::json::exception&) {
     return false;
   }

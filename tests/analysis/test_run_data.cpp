@@ -175,7 +175,11 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
              "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
   const double d = 20 * kUm, u = 800 * d / (8 * 1.25);
   std::string csv = "step,time_s,node,name,value\n";
-  for (int k = 0; k <= 10; ++k) csv += fmt::format("{},{},fluid,mean_velocity_m_s,{}\n", k, 0.01 * k, u);
+  // The wall shear stress: 0.5 of the imposed mu gamma before 0.05 s, 0.9 of it after.
+  const double imposed = 1.2e-3 * 800;
+  for (int k = 0; k <= 10; ++k)
+    csv += fmt::format("{},{},fluid,mean_velocity_m_s,{}\n{},{},fluid,wall_shear_stress_Pa,{}\n", k, 0.01 * k, u, k,
+                       0.01 * k, (k < 5 ? 0.5 : 0.9) * imposed);
   write_text(dir + "/metrics.csv", csv);
   std::vector<Snapshot> snaps;
   for (int k = 0; k < 3; ++k) {
@@ -213,11 +217,31 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   EXPECT_NEAR(a.diffusion.diffusivity, (0.05 * 0.125 + 0.1 * 0.5) / (0.0025 + 0.01) / 2 * 1e-12, 1e-24);
   // Plug flow, no superficial velocity reported: total flux pi R^2 U, H_D = H_T.
   EXPECT_NEAR(a.discharge_hematocrit, a.tube_hematocrit, 1e-12);
+  // The momentum balance over the window [0.05, 0.1] s: 0.9 of the imposed stress, at the
+  // rate 0.9 x 800 1/s; its window starts before the flow has settled (0.1 s): not judged.
+  EXPECT_EQ(a.balance.samples, 6);
+  EXPECT_NEAR(a.balance.ratio(), 0.9, 1e-12);
+  EXPECT_NEAR(a.balance.mean, 0.9 * imposed, 1e-12);
+  EXPECT_NEAR(a.balance.end, 0.9 * imposed, 1e-12);
+  EXPECT_NEAR(a.balance.wall_shear_rate(), 720, 1e-9);
+  EXPECT_NEAR(a.balance.mesh_ratio, std::cos(kPi / 8), 1e-15);  // core_cells = 2: an octagon
+  EXPECT_FALSE(a.balance_verdict.judged);
 
   EXPECT_EQ(hemo::analyze_command(opt), 0);
   const auto json = nlohmann::json::parse(read_text(dir + "/analysis.json"));
   EXPECT_NEAR(json["rheology"]["relative_apparent_viscosity"].get<double>(), 1.25, 1e-12) << json;
   EXPECT_EQ(json["cfl"]["edge"]["method"], "edge");
+  EXPECT_NEAR(json["momentum_balance"]["ratio"].get<double>(), 0.9, 1e-12) << json;
+  EXPECT_NEAR(json["momentum_balance"]["wall_shear_stress_Pa"].get<double>(), 0.9 * imposed, 1e-12);
+  EXPECT_NEAR(json["momentum_balance"]["imposed_wall_shear_stress_Pa"].get<double>(), imposed, 1e-12);
+  EXPECT_NEAR(json["momentum_balance"]["wall_shear_rate_per_s"].get<double>(), 720, 1e-9);
+  EXPECT_TRUE(json["momentum_balance"]["holds"].is_null());
+  // Over time, for `plot`: 11 samples, 11 points (fewer than 200), 0.5 then 0.9.
+  const auto& over_time = json["momentum_balance"]["over_time"];
+  ASSERT_EQ(over_time["ratio"].size(), 11u) << over_time;
+  EXPECT_NEAR(over_time["ratio"][0].get<double>(), 0.5, 1e-12);
+  EXPECT_NEAR(over_time["ratio"][10].get<double>(), 0.9, 1e-12);
+  EXPECT_NEAR(over_time["time_s"][10].get<double>(), 0.1, 1e-12);
   const std::string csv_out = read_text(dir + "/profiles.csv");
   EXPECT_EQ(std::count(csv_out.begin(), csv_out.end(), '\n'), 1 + 10 * (1 + 3));  // header, window, 3 snapshots
 
@@ -244,4 +268,63 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   opt.window_start = 0.1;
   opt.window_end = 0.05;
   EXPECT_NE(error_of([&] { analyze_run(run, opt); }).find("is before its start"), std::string::npos);
+}
+
+// The platelets' axis enrichment end to end: 20 platelets, 4 of them within 0.2 R of the axis at
+// the first snapshot, 6 at the second and 8 at the last; the window's end picks the snapshot.
+TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
+  const TempDir tmp("axis");
+  const std::string dir = tmp.str();
+  write_text(dir + "/scene.toml",
+             "[vessel]\ndiameter_um = 20\nlength_um = 40\n[mesh]\ncore_cells = 2\nring_cells = 2\naxial_cells = 2\n"
+             "[driving]\nwall_shear_rate_per_s = 800\n"
+             "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
+  std::string csv = "step,time_s,node,name,value\n";
+  for (int k = 0; k <= 20; ++k) csv += fmt::format("{},{},fluid,wall_shear_stress_Pa,0.96\n", k, 0.01 * k);
+  write_text(dir + "/metrics.csv", csv);
+  std::vector<Snapshot> snaps;
+  for (int k = 0; k < 3; ++k) {
+    Snapshot s;
+    s.step = 10 * k;
+    s.time_s = 0.1 * k;
+    const int near = 4 + 2 * k;  // R = 10 um: within 2 um of the axis
+    for (int i = 0; i < 20; ++i)
+      add_particle(s, 100 + i, kPlatelet, (i < near ? 1.5 : 6.0) * kUm, 0.3 * i, 2 * i * kUm);
+    add_particle(s, 1, kRbc, 5 * kUm, 0, 0);
+    snaps.push_back(s);
+  }
+  write_particles(dir + "/particles.h5", snaps);
+  const auto run = open_run(dir);
+  hemo::AnalyzeOptions opt;
+  opt.run_dir = dir;
+  const auto a = analyze_run(run, opt);
+  EXPECT_EQ(a.platelet_axis.start_near, 4);
+  EXPECT_EQ(a.platelet_axis.end_near, 8);
+  EXPECT_EQ(a.platelet_axis.end_total, 20);
+  EXPECT_DOUBLE_EQ(a.platelet_axis.end_time, 0.2);
+  EXPECT_DOUBLE_EQ(a.platelet_axis.enrichment, 2.0);
+  // The balance: 0.96 Pa of 0.96 imposed over [0.1, 0.2] s, settled: it holds, and no note says otherwise.
+  EXPECT_TRUE(a.balance_verdict.judged);
+  EXPECT_TRUE(a.balance_verdict.holds);
+  for (const auto& n : a.notes) EXPECT_EQ(n.find("momentum balance"), std::string::npos) << n;
+  // Read as a run of 0.1 s, its end is the middle snapshot.
+  opt.window_end = 0.1;
+  const auto shorter = analyze_run(run, opt);
+  EXPECT_DOUBLE_EQ(shorter.platelet_axis.end_time, 0.1);
+  EXPECT_DOUBLE_EQ(shorter.platelet_axis.enrichment, 1.5);
+  const std::string table = format_table(a);
+  EXPECT_NE(table.find("axis enrichment"), std::string::npos) << table;
+  EXPECT_NE(table.find("4 of 20 at 0 s (0.2000), 8 of 20 at 0.2 s (0.4000)"), std::string::npos) << table;
+
+  // 0.8 of the imposed stress in a settled window: the table's note says so in the summary's words.
+  csv = "step,time_s,node,name,value\n";
+  for (int k = 0; k <= 20; ++k) csv += fmt::format("{},{},fluid,wall_shear_stress_Pa,{}\n", k, 0.01 * k, 0.8 * 0.96);
+  write_text(dir + "/metrics.csv", csv);
+  opt.window_end = -1;
+  const auto deficit = analyze_run(open_run(dir), opt);
+  EXPECT_TRUE(deficit.balance_verdict.judged);
+  EXPECT_FALSE(deficit.balance_verdict.holds);
+  const std::string note =
+      "note              momentum balance: wall shear stress 0.768 Pa is 0.800 of the imposed 0.960 Pa";
+  EXPECT_NE(format_table(deficit).find(note), std::string::npos) << format_table(deficit);
 }

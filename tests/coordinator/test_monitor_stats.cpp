@@ -3,6 +3,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <regex>
 
 #include "monitor_stats.h"
@@ -188,7 +189,59 @@ TEST(MonitorStats, EveryDocumentedKeyIsInTheRow) {
   const auto row = json::parse(s.close_interval(1, 1).dump());
   for (const char* key : {"schema", "run_id", "unix_time_s", "elapsed_s", "interval_s", "ordered_step",
                           "completed_step", "total_steps", "time_s", "steps_per_s", "steps_per_s_smoothed", "eta_s",
-                          "latency_ms", "channels", "nodes", "diagnostics", "resends", "processes"})
+                          "latency_ms", "channels", "nodes", "diagnostics", "balance", "resends", "processes"})
     EXPECT_TRUE(row.contains(key)) << key;
   EXPECT_EQ(row["schema"], kMonitorSchema);
+}
+
+// The momentum balance: the fluid's wall shear stress, interval mean, against the imposed
+// d dP / (4 l) of the calibration vessel (0.9588 Pa at 799 1/s), and the wall shear rate it makes.
+TEST(MonitorStats, WallShearStressIsHeldAgainstTheImposedOne) {
+  Scene scene;
+  scene.vessel.diameter = 100e-6;
+  scene.vessel.length = 600e-6;
+  scene.plasma.viscosity = 1.2e-3;
+  scene.driving.pressure_drop = 4 * 1.2e-3 * 600e-6 * 799 / 100e-6;
+  MonitorStats s("run1", 10);
+  s.balance_reference(scene);
+  s.close_interval(0, 0);
+  const std::vector<std::string> names = {"courant_max", "wall_shear_stress_Pa"};
+  done(s, "fluid", 1, 0.01, 0, names, {0.1, 0.84});
+  done(s, "fluid", 2, 0.01, 0, names, {0.1, 0.85});
+  done(s, "fluid", 2, 0.01, 0, names, {0.1, 5.0});                    // a resend: not counted again
+  done(s, "particles", 2, 0.01, 0, {"wall_shear_stress_Pa"}, {9.0});  // not the fluid's
+  const auto row = s.close_interval(1, 1);
+  const auto& b = row["balance"];
+  EXPECT_EQ(b["samples"], 2);
+  EXPECT_NEAR(b["wall_shear_stress_Pa"].get<double>(), 0.845, 1e-12);
+  EXPECT_NEAR(b["imposed_wall_shear_stress_Pa"].get<double>(), 1.2e-3 * 799, 1e-12);
+  EXPECT_NEAR(b["ratio"].get<double>(), 0.845 / (1.2e-3 * 799), 1e-12);
+  EXPECT_NEAR(b["wall_shear_rate_per_s"].get<double>(), 0.845 / 1.2e-3, 1e-9);
+  EXPECT_NEAR(b["imposed_wall_shear_rate_per_s"].get<double>(), 799, 1e-9);
+  EXPECT_NEAR(b["mesh_ratio"].get<double>(), std::cos(3.14159265358979323846 / 16), 1e-12);  // 4 core cells
+  const auto table = format_monitor_table(row, "udpm://x");
+  EXPECT_NE(table.find("momentum balance: wall shear stress 0.8450 Pa = 0.881 of the imposed 0.9588 Pa (0.981 on this "
+                       "mesh); wall shear rate 704.2 of 799.0 1/s; 2 steps in this interval"),
+            std::string::npos)
+      << table;
+
+  // An interval without a report keeps the latest value; a NaN report is left out.
+  done(s, "fluid", 3, 0.01, 0, names, {0.1, std::nan("")});
+  const auto quiet = s.close_interval(2, 2);
+  EXPECT_EQ(quiet["balance"]["samples"], 0);
+  EXPECT_NEAR(quiet["balance"]["wall_shear_stress_Pa"].get<double>(), 0.85, 1e-12);
+}
+
+TEST(MonitorStats, WithoutTheSceneTheBalanceShowsTheRealisedStressOnly) {
+  MonitorStats s("run1");
+  s.close_interval(0, 0);
+  EXPECT_TRUE(s.close_interval(1, 1)["balance"]["wall_shear_stress_Pa"].is_null());
+  EXPECT_EQ(format_monitor_table(s.close_interval(1.5, 1.5), "udpm://x").find("momentum balance"), std::string::npos);
+  done(s, "fluid", 1, 0.01, 0, {"wall_shear_stress_Pa"}, {0.9});
+  const auto row = s.close_interval(2, 2);
+  EXPECT_NEAR(row["balance"]["wall_shear_stress_Pa"].get<double>(), 0.9, 1e-12);
+  EXPECT_TRUE(row["balance"]["ratio"].is_null());
+  EXPECT_TRUE(row["balance"]["wall_shear_rate_per_s"].is_null());
+  EXPECT_NE(format_monitor_table(row, "udpm://x").find("wall shear stress 0.9000 Pa = - of the imposed - Pa"),
+            std::string::npos);
 }

@@ -98,7 +98,12 @@ TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
   ASSERT_GE(rows.size(), 12u) << mon.output;
   const auto metrics = read_metrics(r.dir);
 
-  long previous = -1, checked_diagnostics = 0, checked_compute = 0;
+  long previous = -1, checked_diagnostics = 0, checked_compute = 0, checked_balance = 0;
+  double tau_min = 1e300, tau_max = -1e300;
+  for (const auto& [step, tau] : metrics.at({"fluid", "wall_shear_stress_Pa"})) {
+    tau_min = std::min(tau_min, tau);
+    tau_max = std::max(tau_max, tau);
+  }
   std::map<std::string, long> latencies;
   bool rate_seen = false, eta_seen = false;
   for (const auto& row : rows) {
@@ -117,6 +122,16 @@ TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
     }
     if (row["steps_per_s_smoothed"].is_number() && row["steps_per_s_smoothed"].get<double>() > 0) rate_seen = true;
     if (row["eta_s"].is_number() && row["eta_s"].get<double>() > 0) eta_seen = true;
+    // The momentum balance: an interval's mean of the fluid's wall shear stress, over the imposed one.
+    const auto& b = row["balance"];
+    if (b["samples"].get<long>() > 0) {
+      EXPECT_GE(b["wall_shear_stress_Pa"].get<double>(), tau_min * (1 - 1e-12)) << b;
+      EXPECT_LE(b["wall_shear_stress_Pa"].get<double>(), tau_max * (1 + 1e-12)) << b;
+      EXPECT_GT(b["imposed_wall_shear_stress_Pa"].get<double>(), 0) << b;
+      EXPECT_NEAR(b["ratio"].get<double>(),
+                  b["wall_shear_stress_Pa"].get<double>() / b["imposed_wall_shear_stress_Pa"].get<double>(), 1e-12);
+      ++checked_balance;
+    }
     // The latest diagnostics are those of metrics.csv for that step, to the last bit.
     for (const char* node : {"fluid", "particles"}) {
       if (!row["diagnostics"].contains(node)) continue;
@@ -137,6 +152,7 @@ TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
   EXPECT_LE(previous, last_common_step(metrics));
   EXPECT_GT(checked_diagnostics, 10);
   EXPECT_GT(checked_compute, 10);
+  EXPECT_GT(checked_balance, 10);
   EXPECT_TRUE(rate_seen);
   EXPECT_TRUE(eta_seen);
   for (const char* channel : {"FLUID_STATE", "PARTICLE_FEEDBACK", "STEP", "STEP_DONE"})
@@ -201,9 +217,9 @@ TEST(Monitor, LivePageDrawsTheRunInAHeadlessBrowser) {
   EXPECT_GE(step, seen_step) << live.output;
   EXPECT_LE(step, final_step) << live.output;
   // Every plot drew points, the run's physical diagnostics among them.
-  EXPECT_EQ(attribute(live.output, "<body[^>]* data-plots-with-data=\"([0-9]+)\""), 10) << live.output;
-  for (const char* plot :
-       {"latency", "compute", "rate", "bytes", "rejections", "resends", "courant", "overlap", "velocity", "momentum"})
+  EXPECT_EQ(attribute(live.output, "<body[^>]* data-plots-with-data=\"([0-9]+)\""), 11) << live.output;
+  for (const char* plot : {"latency", "compute", "rate", "bytes", "rejections", "resends", "courant", "overlap",
+                           "velocity", "momentum", "balance"})
     EXPECT_GT(attribute(live.output, std::string("id=\"plot-") + plot + "\" data-points=\"([0-9]+)\""), 0) << plot;
   // The screenshot is a picture (docs/figures/monitor.png is one of these).
   ASSERT_TRUE(std::filesystem::exists(shot)) << png.output;

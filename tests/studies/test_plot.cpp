@@ -55,7 +55,8 @@ TEST(Plot, OneRunGivesProfilesAndMsd) {
   opt.run_dirs = {run};
   opt.quiet = true;
   const auto files = plot_runs(opt);
-  EXPECT_EQ(files, (std::vector<std::string>{run + "/figures/run-a_profiles.png", run + "/figures/run-a_msd.png"}));
+  EXPECT_EQ(files, (std::vector<std::string>{run + "/figures/run-a_profiles.png", run + "/figures/run-a_msd.png",
+                                             run + "/figures/run-a_balance.png"}));
   for (const auto& f : files) expect_png(f);
   EXPECT_TRUE(fs::exists(run + "/analysis.json"));  // analysed first
   EXPECT_TRUE(fs::exists(run + "/profiles.csv"));
@@ -74,13 +75,13 @@ TEST(Plot, SeveralRunsGiveTheSweepAndComparisons) {
   opt.out = dir.str() + "/figures";
   opt.quiet = true;
   const auto files = plot_runs(opt);  // the swept key is found: the one that differs
-  EXPECT_EQ(files.size(), 3u * 2 + 3);
+  EXPECT_EQ(files.size(), 3u * 3 + 3);
   for (const char* f : {"sweep.png", "compare_profiles.png", "compare_msd.png", "g799_profiles.png", "g1650_msd.png"})
     expect_png(opt.out + "/" + f);
   // With an explicit key and labels too.
   opt.key = "driving.wall_shear_rate_per_s";
   opt.labels = {"low", "mid", "high"};
-  EXPECT_EQ(plot_runs(opt).size(), 9u);
+  EXPECT_EQ(plot_runs(opt).size(), 12u);
 }
 
 TEST(Plot, RunsWithTheSameNameDoNotOverwriteEachOther) {
@@ -117,6 +118,12 @@ TEST(Plot, AnalysisIsRedoneOnlyWhenStale) {
   write_text(run + "/analysis.json", json.dump(2));
   EXPECT_TRUE(ensure_analysis(run));
   EXPECT_TRUE(nlohmann::json::parse(read_text(run + "/analysis.json")).contains("observables"));
+  EXPECT_FALSE(ensure_analysis(run));
+  // So is one without the momentum balance over time (the balance figure's data).
+  json = nlohmann::json::parse(read_text(run + "/analysis.json"));
+  json["momentum_balance"].erase("over_time");
+  write_text(run + "/analysis.json", json.dump(2));
+  EXPECT_TRUE(ensure_analysis(run));
   EXPECT_FALSE(ensure_analysis(run));
 }
 

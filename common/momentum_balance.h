@@ -1,0 +1,30 @@
+// The streamwise momentum balance by which the paper fixes the wall shear stress of its periodic
+// vessel: in a steady state the wall takes up the whole driving, τ_w 2πR l = ΔP πR², so
+//   τ_w,imposed = d ΔP / (4 l) = µ γ̇_w      (γ̇_w = d ΔP / (4 µ l), common/scene.cpp)
+// whatever the cells do. `hemocosim analyze`, the monitor and the run's closing summary hold
+// the fluid node's `wall_shear_stress_Pa` against it (docs/model.md §5 "Momentum balance").
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "scene.h"
+#include "units.h"
+
+#include <cmath>
+
+namespace hemo {
+
+// τ_w,imposed of the scene's driving, Pa.
+inline double imposed_wall_shear_stress(const Scene& s) {
+  return s.vessel.diameter * s.driving.pressure_drop / (4 * s.vessel.length);
+}
+
+// The τ_w / τ_w,imposed an exact balance reaches on the scene's mesh: its cross-section is the
+// inscribed polygon of n = 4 core_cells sides, whose area over perimeter is (R/2) cos(π/n), so
+// the wall of the polygonal tube carries (ΔP/l) A_h / P_h = τ_w,imposed cos(π/n): 0.981 on the
+// paper's 16-gon (measured to 1e-11 in a steady single-phase run, docs/fluid-verification.md §2).
+inline double mesh_balance_ratio(const Scene& s) {
+  const int sides = 4 * s.mesh.core_cells;
+  return sides >= 3 ? std::cos(units::pi / sides) : 1.0;
+}
+
+}  // namespace hemo
