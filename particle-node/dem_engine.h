@@ -54,7 +54,7 @@ namespace hemo::particles {
 
 class DemEngine {
  public:
-  // Starts LIGGGHTS for the scene; the box, materials, contact model, wall, integrator and
+  // Starts LIGGGHTS for the scene (its dem.neighbour_rebuild joins `bookkeeping`); the box, materials, contact model, wall, integrator and
   // fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
   // goes to `log_path` ("none": no log; appended to with `append_log`); the screen stays quiet.
   DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
@@ -131,6 +131,8 @@ class DemEngine {
 
   // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.
   void liggghts(const std::string& line) { liggghts_.command(line); }
+  // The LIGGGHTS instance itself (tests that read its neighbour lists).
+  LAMMPS_NS::LAMMPS& lammps() const { return liggghts_.lammps(); }
 
  private:
   // The box and our fixes for the species `used`, the fluid force as LIGGGHTS's callback.

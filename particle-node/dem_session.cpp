@@ -21,6 +21,7 @@
 #include <type_traits>
 
 #include "dem_fixes.h"
+#include "dem_streaming_neighbours.h"
 
 namespace hemo::particles {
 
@@ -100,8 +101,16 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
                                    append_log ? std::string("none") : log_path_};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
+  if (bookkeeping_.streaming_neighbours) {
+    int ranks = 1;
+    MPI_Comm_size(comm_, &ranks);
+    if (ranks != 1)
+      throw std::invalid_argument(fmt::format(
+          "dem.neighbour_rebuild = \"streaming\" runs on one MPI rank, not {} (docs/performance.md)", ranks));
+  }
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
   atom_ = lmp_->atom;
+  register_fix_styles(*lmp_);
 
   if (append_log && log_path_ != "none") command("log " + log_path_ + " append");  // a resumed run keeps the log
   for (const auto& line : base_settings(bookkeeping_)) command(line);
@@ -159,6 +168,9 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
       fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * species_.d_max),
       "neigh_modify delay 0",
   };
+  if (bookkeeping_.streaming_neighbours)
+    for (const auto& line : streaming_neighbour_commands(locator_.radius(), bookkeeping_.streaming_wall_shear_rate))
+      lines.push_back(line);
   const auto materials = material_fixes(contact_, n_types);
   lines.insert(lines.end(), materials.begin(), materials.end());
   lines.insert(lines.end(), {

@@ -42,6 +42,11 @@ struct DemBookkeeping {
   double skin_diameters = 0.25;  // neighbour skin, in largest particle diameters
   long sort_every_steps = 0;     // LIGGGHTS's spatial sort of the atoms (atom_modify sort); 0: never
   bool shuffled_tags = false;    // create the particles in random order (a run long after its start)
+  // When the neighbour lists are rebuilt (scene key dem.neighbour_rebuild): LIGGGHTS's own check,
+  // or ours in the frame streaming with the Poiseuille flow of this wall shear rate (1/s) in the
+  // vessel (dem_streaming_neighbours.h; one MPI rank).
+  bool streaming_neighbours = false;
+  double streaming_wall_shear_rate = 0;
 };
 
 class LiggghtsSession {
