@@ -123,10 +123,12 @@ class DemEngine {
 
   // The input of a bare LIGGGHTS run of this engine's particles, as `write_data` saved them in
   // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
-  // fixes (no fluid force: the particles coast), `steps` DEM steps of `dt`. The floor under the
-  // DEM's cost (hemocosim-dem-bench --floor).
-  std::vector<std::string> bare_liggghts_input(const std::string& data_file, double dt, long steps) const {
-    return liggghts_.bare_input(data_file, dt, steps);
+  // fixes (no fluid force: the particles coast), `steps` DEM steps of `dt`; with
+  // `streaming_neighbours`, our neighbour-rebuild criterion instead of LIGGGHTS's. The floor under
+  // the DEM's cost (hemocosim-dem-bench --floor).
+  std::vector<std::string> bare_liggghts_input(const std::string& data_file, double dt, long steps,
+                                               bool streaming_neighbours = false) const {
+    return liggghts_.bare_input(data_file, dt, steps, streaming_neighbours);
   }
 
   // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.

@@ -157,18 +157,18 @@ void LiggghtsSession::define_box_and_contacts(int n_types) {
   command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
                       half_box, -half_box, half_box, z0, z0 + L));
   command(fmt::format("create_box {} hemo_box", n_types));
-  for (const auto& line : contact_model(n_types)) command(line);
+  for (const auto& line : contact_model(n_types, bookkeeping_.streaming_neighbours)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
   // Defined after the wall: its post_force sees the contact forces and torques of the step.
   command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
 }
 
-std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
+std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool streaming_neighbours) const {
   std::vector<std::string> lines = {
       fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * species_.d_max),
       "neigh_modify delay 0",
   };
-  if (bookkeeping_.streaming_neighbours)
+  if (streaming_neighbours)
     for (const auto& line : streaming_neighbour_commands(locator_.radius(), bookkeeping_.streaming_wall_shear_rate))
       lines.push_back(line);
   const auto materials = material_fixes(contact_, n_types);
@@ -185,10 +185,11 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
   return lines;
 }
 
-std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps) const {
+std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps,
+                                                     bool streaming_neighbours) const {
   std::vector<std::string> lines = base_settings(bookkeeping_);
   lines.push_back("read_data " + data_file);
-  for (const auto& line : contact_model(atom_->ntypes)) lines.push_back(line);
+  for (const auto& line : contact_model(atom_->ntypes, streaming_neighbours)) lines.push_back(line);
   lines.push_back(fmt::format("timestep {:.17g}", dt));
   lines.push_back(fmt::format("run {}", steps));
   return lines;

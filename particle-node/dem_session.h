@@ -116,15 +116,17 @@ class LiggghtsSession {
 
   // The input of a bare LIGGGHTS run of these particles, as `write_data` saved them in
   // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
-  // fixes, `steps` DEM steps of `dt`.
-  std::vector<std::string> bare_input(const std::string& data_file, double dt, long steps) const;
+  // fixes but, with `streaming_neighbours`, the neighbour-rebuild one (its style registered with
+  // dem::register_fix_styles), `steps` DEM steps of `dt`.
+  std::vector<std::string> bare_input(const std::string& data_file, double dt, long steps,
+                                      bool streaming_neighbours) const;
 
  private:
   int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
   void define_box_and_contacts(int n_types);
   // The neighbour lists, materials, contact model, wall and integrator for n_types atom types
   // (the wall's material the last).
-  std::vector<std::string> contact_model(int n_types) const;
+  std::vector<std::string> contact_model(int n_types, bool streaming_neighbours) const;
   void find_fixes(bool rotation, bool held_closures);
 
   const Contact contact_;
