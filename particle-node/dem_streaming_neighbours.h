@@ -30,6 +30,12 @@
 // field be carried through a checkpoint. The scene's profile needs no state: a checkpoint's
 // rebuild starts the same lists on resume.
 //
+// The ghost shell needs no widening however far the cells stream between builds: on one rank the
+// periodic images are ghosts made at each build for every atom within cut-off + skin of an end,
+// and a pair (or image pair) within reach at t was within reach + skin at the build by the bound
+// above, so its image was made then and the pair listed; ghosts then move with their owners
+// (LIGGGHTS's forward communication), and atoms are wrapped back into the box at the next build.
+//
 // One MPI rank only. On more, the lists themselves stay complete (ghosts follow their owners by
 // forward communication, and the argument above is per pair), but between builds a particle
 // drifts up to u_max tau out of its sub-domain, and LIGGGHTS's exchange moves atoms only to the
