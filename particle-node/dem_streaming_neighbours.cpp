@@ -99,8 +99,8 @@ class FixStreamingNeighbours : public LAMMPS_NS::Fix {
   }
 
   double radius_ = 0, shear_ = 0, u_max_ = 0;
-  double reach_ = 0;     // m, the largest c_ij
-  double elapsed_ = 0;   // s since the last build
+  double reach_ = 0;        // m, the largest c_ij
+  double elapsed_ = 0;      // s since the last build
   std::vector<double> x0_;  // positions at the last build, 3 per local atom
   std::vector<double> u0_;  // u_s there (axial), per local atom
 };

@@ -4,9 +4,9 @@
 // profile could bring an unlisted pair into reach, hold every pair within reach at every DEM
 // step, on dense red cells streaming and shearing in the vessel, also in a flow the profile does
 // not match; and the particles move as with lists rebuilt every step.
-#include "synthetic_case.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
+#include "synthetic_case.h"
 
 #include <atom.h>
 #include <force.h>
@@ -65,9 +65,9 @@ struct Case {
 // contact, or clearing the pair's history), found from all positions with a grid and the
 // minimum image along the periodic axis.
 struct PairAudit {
-  long within_reach = 0;  // pairs in reach, this step
-  long touching = 0;      // of them, overlapping
-  long missing = 0;       // in reach but not listed
+  long within_reach = 0;                // pairs in reach, this step
+  long touching = 0;                    // of them, overlapping
+  long missing = 0;                     // in reach but not listed
   double worst_overlap_difference = 0;  // m, listed overlap against the minimum-image one
 };
 
@@ -102,8 +102,8 @@ PairAudit audit_pairs(LAMMPS_NS::LAMMPS& lmp) {
       if (j <= i) return false;
       double dz = x[i][2] - x[j][2];
       dz -= kLength * std::round(dz / kLength);
-      const double d = std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
-                                 dz * dz);
+      const double d =
+          std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) + dz * dz);
       if (d >= factor * (r[i] + r[j])) return false;
       ++audit.within_reach;
       if (d < r[i] + r[j]) ++audit.touching;
@@ -111,7 +111,8 @@ PairAudit audit_pairs(LAMMPS_NS::LAMMPS& lmp) {
       if (it == listed.end())
         ++audit.missing;
       else
-        audit.worst_overlap_difference = std::max(audit.worst_overlap_difference, std::abs(it->second - (r[i] + r[j] - d)));
+        audit.worst_overlap_difference =
+            std::max(audit.worst_overlap_difference, std::abs(it->second - (r[i] + r[j] - d)));
       return false;
     });
   }
@@ -160,10 +161,10 @@ TEST(StreamingNeighbours, ListsHoldEveryPairInReachAtEveryStepOfAStreamingShearF
   Case streaming("streaming", matched()), engine("engine", matched());
   const Totals s = run_and_audit(streaming, kSteps);
   const Totals e = run_and_audit(engine, kSteps);
-  std::printf("[ info ] %ld particles, %ld DEM steps of %.3g s: %ld pair-steps in reach (%ld touching); "
-              "builds streaming %ld, engine %ld\n",
-              streaming.engine.particle_count(), kSteps, streaming.timing.dt, s.within_reach, s.touching, s.builds,
-              e.builds);
+  std::printf(
+      "[ info ] %ld particles, %ld DEM steps of %.3g s: %ld pair-steps in reach (%ld touching); "
+      "builds streaming %ld, engine %ld\n",
+      streaming.engine.particle_count(), kSteps, streaming.timing.dt, s.within_reach, s.touching, s.builds, e.builds);
   EXPECT_EQ(s.missing, 0);
   EXPECT_EQ(e.missing, 0);
   EXPECT_LT(s.worst_overlap_difference, 1e-18) << "m";
@@ -177,9 +178,10 @@ TEST(StreamingNeighbours, ListsHoldEveryPairInReachAtEveryStepOfAStreamingShearF
 TEST(StreamingNeighbours, ListsStayCompleteWhereTheFlowIsNotTheProfile) {
   Case c("streaming", mismatched());
   const Totals t = run_and_audit(c, kSteps);
-  std::printf("[ info ] flow slower than the profile and across it: %ld pair-steps in reach (%ld touching), "
-              "%ld builds\n",
-              t.within_reach, t.touching, t.builds);
+  std::printf(
+      "[ info ] flow slower than the profile and across it: %ld pair-steps in reach (%ld touching), "
+      "%ld builds\n",
+      t.within_reach, t.touching, t.builds);
   EXPECT_EQ(t.missing, 0);
   EXPECT_GT(t.touching, 1000);
 }
