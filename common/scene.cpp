@@ -822,6 +822,10 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.time.coupling_relaxation_times >= 0 && std::isfinite(s.time.coupling_relaxation_times),
           "time.coupling_relaxation_times", "must not be negative (0: fixed coupling intervals)");
 
+  read_name(r, "dem.neighbour_rebuild", s.neighbour_rebuild, {"engine", "streaming"});
+  r.check(s.neighbour_rebuild == "engine" || s.run.particle_ranks == 1, "dem.neighbour_rebuild",
+          "\"streaming\" runs on one particle rank (run.particle_ranks = 1)");
+
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");
   r.read("output.checkpoint_every_steps", s.output.checkpoint_every_steps);

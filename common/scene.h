@@ -263,6 +263,11 @@ struct Scene {
   // calibration scene the cell-centre U converges on the axis while the fluxes diverge
   // (docs/validation.md, "what carries platelets to the axis").
   std::string plasma_velocity = "cell_centre";
+  // When LIGGGHTS rebuilds the DEM's neighbour lists: "engine" (its own check: a particle moved
+  // half the skin) or "streaming" (ours: the particles' motion relative to the Poiseuille flow of
+  // the scene's driving, particle-node/dem_streaming_neighbours.h; one particle rank). The lists
+  // are complete either way; docs/performance.md §1 measures the builds and the cost.
+  std::string neighbour_rebuild = "engine";
 };
 
 // A numerical choice the paper leaves open, as a scene makes it, and whose reading it is

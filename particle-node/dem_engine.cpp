@@ -11,12 +11,23 @@
 
 namespace hemo::particles {
 
+namespace {
+
+// The bookkeeping with the scene's neighbour-rebuild policy (dem.neighbour_rebuild).
+DemBookkeeping with_neighbour_policy(DemBookkeeping bookkeeping, const Scene& scene) {
+  bookkeeping.streaming_neighbours = scene.neighbour_rebuild == "streaming";
+  bookkeeping.streaming_wall_shear_rate = wall_shear_rate(scene);
+  return bookkeeping;
+}
+
+}  // namespace
+
 DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
                      bool append_log, const DemBookkeeping& bookkeeping)
     : scene_(dem_scene(scene)),
       comm_(comm),
       species_(scene_, scene),
-      liggghts_(scene_.contact, locator, species_, log_path, append_log, bookkeeping, comm),
+      liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_), comm),
       tracking_(locator),
       orientation_(liggghts_, problems_),
       fluid_force_(scene_, locator, species_, liggghts_, tracking_, orientation_, problems_, comm),

@@ -54,7 +54,7 @@ namespace hemo::particles {
 
 class DemEngine {
  public:
-  // Starts LIGGGHTS for the scene; the box, materials, contact model, wall, integrator and
+  // Starts LIGGGHTS for the scene (its dem.neighbour_rebuild joins `bookkeeping`); the box, materials, contact model, wall, integrator and
   // fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
   // goes to `log_path` ("none": no log; appended to with `append_log`); the screen stays quiet.
   DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
@@ -123,14 +123,18 @@ class DemEngine {
 
   // The input of a bare LIGGGHTS run of this engine's particles, as `write_data` saved them in
   // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
-  // fixes (no fluid force: the particles coast), `steps` DEM steps of `dt`. The floor under the
-  // DEM's cost (hemocosim-dem-bench --floor).
-  std::vector<std::string> bare_liggghts_input(const std::string& data_file, double dt, long steps) const {
-    return liggghts_.bare_input(data_file, dt, steps);
+  // fixes (no fluid force: the particles coast), `steps` DEM steps of `dt`; with
+  // `streaming_neighbours`, our neighbour-rebuild criterion instead of LIGGGHTS's. The floor under
+  // the DEM's cost (hemocosim-dem-bench --floor).
+  std::vector<std::string> bare_liggghts_input(const std::string& data_file, double dt, long steps,
+                                               bool streaming_neighbours = false) const {
+    return liggghts_.bare_input(data_file, dt, steps, streaming_neighbours);
   }
 
   // One LIGGGHTS input command (tests, diagnostics). A LIGGGHTS error in it ends the process.
   void liggghts(const std::string& line) { liggghts_.command(line); }
+  // The LIGGGHTS instance itself (tests that read its neighbour lists).
+  LAMMPS_NS::LAMMPS& lammps() const { return liggghts_.lammps(); }
 
  private:
   // The box and our fixes for the species `used`, the fluid force as LIGGGHTS's callback.

@@ -53,7 +53,7 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
 
 double DemOutput::local_max_overlap() const {
   // The pairs LIGGGHTS keeps for its contacts: every pair that touches is in the neighbour list
-  // (atoms move less than half the skin between builds) and ghosts carry this step's positions,
+  // (LIGGGHTS's check or ours keeps it so: dem_streaming_neighbours.h) and ghosts carry this step's positions,
   // so one pass over the list finds what measure_overlaps finds with a grid of all particles.
   // Before the first run there is no list; placement leaves no overlaps (test_placement).
   const LAMMPS_NS::LAMMPS& lmp = liggghts_.lammps();

@@ -21,6 +21,7 @@
 #include <type_traits>
 
 #include "dem_fixes.h"
+#include "dem_streaming_neighbours.h"
 
 namespace hemo::particles {
 
@@ -100,8 +101,16 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
                                    append_log ? std::string("none") : log_path_};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
+  if (bookkeeping_.streaming_neighbours) {
+    int ranks = 1;
+    MPI_Comm_size(comm_, &ranks);
+    if (ranks != 1)
+      throw std::invalid_argument(fmt::format(
+          "dem.neighbour_rebuild = \"streaming\" runs on one MPI rank, not {} (docs/performance.md)", ranks));
+  }
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
   atom_ = lmp_->atom;
+  register_fix_styles(*lmp_);
 
   if (append_log && log_path_ != "none") command("log " + log_path_ + " append");  // a resumed run keeps the log
   for (const auto& line : base_settings(bookkeeping_)) command(line);
@@ -148,17 +157,20 @@ void LiggghtsSession::define_box_and_contacts(int n_types) {
   command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
                       half_box, -half_box, half_box, z0, z0 + L));
   command(fmt::format("create_box {} hemo_box", n_types));
-  for (const auto& line : contact_model(n_types)) command(line);
+  for (const auto& line : contact_model(n_types, bookkeeping_.streaming_neighbours)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
   // Defined after the wall: its post_force sees the contact forces and torques of the step.
   command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
 }
 
-std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
+std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool streaming_neighbours) const {
   std::vector<std::string> lines = {
       fmt::format("neighbor {:.17g} bin", bookkeeping_.skin_diameters * species_.d_max),
       "neigh_modify delay 0",
   };
+  if (streaming_neighbours)
+    for (const auto& line : streaming_neighbour_commands(locator_.radius(), bookkeeping_.streaming_wall_shear_rate))
+      lines.push_back(line);
   const auto materials = material_fixes(contact_, n_types);
   lines.insert(lines.end(), materials.begin(), materials.end());
   lines.insert(lines.end(), {
@@ -173,10 +185,11 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types) const {
   return lines;
 }
 
-std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps) const {
+std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps,
+                                                     bool streaming_neighbours) const {
   std::vector<std::string> lines = base_settings(bookkeeping_);
   lines.push_back("read_data " + data_file);
-  for (const auto& line : contact_model(atom_->ntypes)) lines.push_back(line);
+  for (const auto& line : contact_model(atom_->ntypes, streaming_neighbours)) lines.push_back(line);
   lines.push_back(fmt::format("timestep {:.17g}", dt));
   lines.push_back(fmt::format("run {}", steps));
   return lines;

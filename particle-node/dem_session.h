@@ -42,6 +42,11 @@ struct DemBookkeeping {
   double skin_diameters = 0.25;  // neighbour skin, in largest particle diameters
   long sort_every_steps = 0;     // LIGGGHTS's spatial sort of the atoms (atom_modify sort); 0: never
   bool shuffled_tags = false;    // create the particles in random order (a run long after its start)
+  // When the neighbour lists are rebuilt (scene key dem.neighbour_rebuild): LIGGGHTS's own check,
+  // or ours in the frame streaming with the Poiseuille flow of this wall shear rate (1/s) in the
+  // vessel (dem_streaming_neighbours.h; one MPI rank).
+  bool streaming_neighbours = false;
+  double streaming_wall_shear_rate = 0;
 };
 
 class LiggghtsSession {
@@ -111,15 +116,17 @@ class LiggghtsSession {
 
   // The input of a bare LIGGGHTS run of these particles, as `write_data` saved them in
   // `data_file`: the same settings, materials, contact model, wall and integrator, none of our
-  // fixes, `steps` DEM steps of `dt`.
-  std::vector<std::string> bare_input(const std::string& data_file, double dt, long steps) const;
+  // fixes but, with `streaming_neighbours`, the neighbour-rebuild one (its style registered with
+  // dem::register_fix_styles), `steps` DEM steps of `dt`.
+  std::vector<std::string> bare_input(const std::string& data_file, double dt, long steps,
+                                      bool streaming_neighbours) const;
 
  private:
   int assign_atom_types(const std::array<bool, kSpeciesCount>& used);  // returns the number of types
   void define_box_and_contacts(int n_types);
   // The neighbour lists, materials, contact model, wall and integrator for n_types atom types
   // (the wall's material the last).
-  std::vector<std::string> contact_model(int n_types) const;
+  std::vector<std::string> contact_model(int n_types, bool streaming_neighbours) const;
   void find_fixes(bool rotation, bool held_closures);
 
   const Contact contact_;

@@ -10,11 +10,14 @@
 //      would cost);
 //   3. with --floor, the floor: a bare LIGGGHTS instance (the same library, none of our fixes, no
 //      fluid force) given the particles as `write_data` saved them, with the same settings,
-//      contact model, wall, integrator and DEM step, run as many steps.
+//      contact model, wall, integrator and DEM step, run as many steps, with LIGGGHTS's own
+//      neighbour-list policy; and when ours rebuilds in the streaming frame
+//      (dem.neighbour_rebuild = "streaming", or --neighbour-rebuild), once more with that.
 // Printed, and written as JSON with --json: nanoseconds of wall time per particle-step for each,
-// the callback's part and neighbour-list builds; printed, the ratio of our DEM (the node's DEM
-// phase, the deposition timed apart) to the floor.
+// the callback's part and neighbour-list builds (also per 1000 DEM steps); printed, the ratio of
+// our DEM (the node's DEM phase, the deposition timed apart) to the floor.
 #include "dem_engine.h"
+#include "dem_streaming_neighbours.h"
 #include "dem_timing.h"
 #include "h5_output.h"
 #include "mpi_launch.h"
@@ -61,6 +64,7 @@ struct Options {
   // The box mesh holding the flow (cells across, cells along).
   int cells = 8, axial_cells = 24;
   DemBookkeeping bookkeeping;
+  std::string neighbour_rebuild;  // empty: the scene's dem.neighbour_rebuild
 };
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -110,6 +114,7 @@ BareRun run_bare_liggghts(const std::vector<std::string>& input, const std::stri
   const int devnull = open("/dev/null", O_WRONLY);
   dup2(devnull, STDERR_FILENO);
   auto* lmp = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm);
+  hemo::particles::dem::register_fix_styles(*lmp);
   std::cerr.flush();
   std::fflush(stderr);
   dup2(saved_stderr, STDERR_FILENO);
@@ -201,6 +206,9 @@ int main(int argc, char** argv) {
   books->add_option("--sort-every", o.bookkeeping.sort_every_steps, "LIGGGHTS's spatial sort every N DEM steps (0: never)")
       ->capture_default_str()
       ->check(CLI::Range(0L, 1000000000L));
+  books->add_option("--neighbour-rebuild", o.neighbour_rebuild,
+                    "When the neighbour lists are rebuilt (default: the scene's dem.neighbour_rebuild)")
+      ->check(CLI::IsMember({"engine", "streaming"}));
   books->add_flag("--shuffled-tags", o.bookkeeping.shuffled_tags,
                   "Create the particles in random order, as a run's order is long after its start");
   app.add_option("--cells", o.cells, "Box-mesh cells across the vessel")->capture_default_str()->check(CLI::Range(1, 256));
@@ -228,6 +236,8 @@ int main(int argc, char** argv) {
       if (o.closures == "paper") use_paper_closures(scene);
       scene.time.closure_every_dem_steps = o.closure_every;
     }
+    if (!o.neighbour_rebuild.empty()) scene.neighbour_rebuild = o.neighbour_rebuild;
+    const bool streaming = scene.neighbour_rebuild == "streaming";
     const double R = scene.vessel.diameter / 2, l = scene.vessel.length;
     const double interval = from_file ? scene.time.coupling_interval : 1e-5;
     const auto mesh = box_mesh(o.cells, o.cells, o.axial_cells, -R, R, -R, R, l, scene.vessel.diameter);
@@ -249,6 +259,7 @@ int main(int argc, char** argv) {
     const long dem_steps = static_cast<long>(o.steps) * timing.substeps;
     const double particle_steps = static_cast<double>(placed.size()) * dem_steps;
     const auto ns = [&](double seconds) { return 1e9 * seconds / particle_steps; };
+    const auto per_1000 = [&](long builds) { return 1000.0 * static_cast<double>(builds) / dem_steps; };
 
     // The node's DEM phase and its deposition phase, timed apart: the DEM is what bare LIGGGHTS
     // is compared with.
@@ -282,27 +293,37 @@ int main(int argc, char** argv) {
         {"skin_diameters", o.bookkeeping.skin_diameters},
         {"sort_every_steps", o.bookkeeping.sort_every_steps},
         {"shuffled_tags", o.bookkeeping.shuffled_tags},
+        {"neighbour_rebuild", scene.neighbour_rebuild},
         {"setup_s", setup_s},
         {"intervals", {{"ns_per_particle_step", ns(intervals_s)},
                        {"callback_ns", ns(intervals_callback_s)},
                        {"liggghts_ns", ns(intervals_s - intervals_callback_s)},
-                       {"neighbour_builds", intervals_builds}}},
+                       {"neighbour_builds", intervals_builds},
+                       {"neighbour_builds_per_1000_steps", per_1000(intervals_builds)}}},
         {"deposition_ns", ns(deposition_s)},
         {"one_run", {{"ns_per_particle_step", ns(one_run_s)},
                      {"callback_ns", ns(one_run_callback_s)},
                      {"liggghts_ns", ns(one_run_s - one_run_callback_s)},
-                     {"neighbour_builds", one_run_builds}}},
+                     {"neighbour_builds", one_run_builds},
+                     {"neighbour_builds_per_1000_steps", per_1000(one_run_builds)}}},
         {"max_overlap", diag.max_overlap},
         {"two_s_of_physics_min", intervals_s / (o.steps * interval) * 2 / 60},
     };
     if (o.floor) {
       const std::string data = (work / "particles.data").string();
       engine.liggghts("write_data " + data);
-      const BareRun bare = run_bare_liggghts(engine.bare_liggghts_input(data, timing.dt, dem_steps),
-                                             (work / "bare-liggghts.log").string(), comm);
-      out["bare_liggghts"] = {{"ns_per_particle_step", ns(bare.seconds)},
+      const auto bare_json = [&](const BareRun& bare) {
+        return nlohmann::json{{"ns_per_particle_step", ns(bare.seconds)},
                               {"neighbour_builds", bare.builds},
+                              {"neighbour_builds_per_1000_steps", per_1000(bare.builds)},
                               {"particles", bare.particles}};
+      };
+      out["bare_liggghts"] = bare_json(run_bare_liggghts(engine.bare_liggghts_input(data, timing.dt, dem_steps),
+                                                         (work / "bare-liggghts.log").string(), comm));
+      if (streaming)
+        out["bare_liggghts_streaming"] =
+            bare_json(run_bare_liggghts(engine.bare_liggghts_input(data, timing.dt, dem_steps, true),
+                                        (work / "bare-liggghts-streaming.log").string(), comm));
     }
     double peak = peak_rss_mib(), peak_max = 0;
     MPI_Allreduce(&peak, &peak_max, 1, MPI_DOUBLE, MPI_MAX, comm);
@@ -313,23 +334,27 @@ int main(int argc, char** argv) {
       const auto& one = out["one_run"];
       if (!o.from_run.empty()) std::printf("particles of %s at t = %g s\n", o.from_run.c_str(), start_time_s);
       std::printf("%s: %zu particles on %d rank(s), %d coupling steps x %d DEM steps of %.3g s, closures every %d\n"
-                  "  skin %.3g diameters, sort every %ld steps%s\n",
+                  "  skin %.3g diameters, sort every %ld steps%s, neighbour lists rebuilt by the %s criterion\n",
                   out["scene"].get<std::string>().c_str(), placed.size(), size, o.steps, timing.substeps, timing.dt,
                   scene.time.closure_every_dem_steps, o.bookkeeping.skin_diameters, o.bookkeeping.sort_every_steps,
-                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "");
+                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "", scene.neighbour_rebuild.c_str());
       std::printf("  in %d runs of one interval: %.1f ns per particle-step (callback %.1f, LIGGGHTS %.1f); %ld "
-                  "neighbour-list builds\n",
+                  "neighbour-list builds (%.1f per 1000 steps)\n",
                   o.steps, iv["ns_per_particle_step"].get<double>(), iv["callback_ns"].get<double>(),
-                  iv["liggghts_ns"].get<double>(), intervals_builds);
+                  iv["liggghts_ns"].get<double>(), intervals_builds, per_1000(intervals_builds));
       std::printf("  deposition after each interval: %.1f ns per particle-step\n", out["deposition_ns"].get<double>());
       std::printf("  in one run:                %.1f ns per particle-step (callback %.1f, LIGGGHTS %.1f); %ld builds\n",
                   one["ns_per_particle_step"].get<double>(), one["callback_ns"].get<double>(),
                   one["liggghts_ns"].get<double>(), one_run_builds);
-      if (o.floor)
-        std::printf("  bare LIGGGHTS:             %.1f ns per particle-step; %ld builds\n  DEM / bare LIGGGHTS = %.2f\n",
-                    out["bare_liggghts"]["ns_per_particle_step"].get<double>(),
-                    out["bare_liggghts"]["neighbour_builds"].get<long>(),
-                    iv["ns_per_particle_step"].get<double>() / out["bare_liggghts"]["ns_per_particle_step"].get<double>());
+      const auto print_bare = [&](const char* what, const nlohmann::json& bare) {
+        std::printf("  %-26s %.1f ns per particle-step; %ld builds (%.1f per 1000 steps); DEM / this = %.2f\n", what,
+                    bare["ns_per_particle_step"].get<double>(), bare["neighbour_builds"].get<long>(),
+                    bare["neighbour_builds_per_1000_steps"].get<double>(),
+                    iv["ns_per_particle_step"].get<double>() / bare["ns_per_particle_step"].get<double>());
+      };
+      if (o.floor) print_bare("bare LIGGGHTS:", out["bare_liggghts"]);
+      if (out.contains("bare_liggghts_streaming"))
+        print_bare("bare, streaming criterion:", out["bare_liggghts_streaming"]);
       std::printf("  2 s of physics: %.1f min of DEM; peak memory %.1f MiB per rank; deepest overlap %.3g\n",
                   out["two_s_of_physics_min"].get<double>(), peak_max, diag.max_overlap);
       if (!o.json.empty()) std::ofstream(o.json) << out.dump(2) << "\n";

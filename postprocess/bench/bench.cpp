@@ -352,17 +352,26 @@ std::string bench_md(const BenchOptions& opt, const std::vector<BenchSuite>& sui
            "--floor`), wall time per particle-step: our DEM as the node runs it (one LIGGGHTS run per coupling "
            "interval; the callback is our fluid force), the same steps in one run, and bare LIGGGHTS on the same "
            "particles (none of our fixes, no fluid force).\n\n";
-      m += "| value | particles | ranks | DEM ns (callback) | one run ns | bare LIGGGHTS ns | DEM / bare | peak MiB "
-           "per rank | wall (s) | status |\n|---|---|---|---|---|---|---|---|---|---|\n";
+      m += "Neighbour-list builds per 1000 DEM steps in brackets: ours with its `dem.neighbour_rebuild`, bare "
+           "LIGGGHTS with its own policy and, where ours rebuilds in the streaming frame, with that criterion.\n\n";
+      m += "| value | particles | ranks | lists | DEM ns (callback) [builds] | one run ns | bare LIGGGHTS ns [builds] | "
+           "DEM / bare | bare, streaming ns [builds] | peak MiB per rank | wall (s) | status |\n"
+           "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
       for (const auto& r : rows) {
         if (r.suite != s.name) continue;
         const auto& f = r.floor;
         const bool fl = r.has_floor;
-        m += fmt::format("| {} | {} | {} | {} ({}) | {} | {} | {} | {} | {:.1f} | {} |\n", r.value,
+        m += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1f} | {} |\n", r.value,
                          fl ? std::to_string(f.particles) : "", fl ? std::to_string(f.ranks) : "",
-                         fl ? g3(f.dem_ns) : "", fl ? g3(f.callback_ns) : "", fl ? g3(f.one_run_ns) : "",
-                         fl ? g3(f.bare_ns) : "", fl ? g3(f.over_bare()) : "", fl ? g3(f.peak_mib) : "", r.wall_s,
-                         r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
+                         fl ? f.neighbour_rebuild : "",
+                         fl ? fmt::format("{} ({}) [{}]", g3(f.dem_ns), g3(f.callback_ns), g3(f.builds_per_1000)) : "",
+                         fl ? g3(f.one_run_ns) : "",
+                         fl ? fmt::format("{} [{}]", g3(f.bare_ns), g3(f.bare_builds_per_1000)) : "",
+                         fl ? g3(f.over_bare()) : "",
+                         fl && f.has_bare_streaming
+                             ? fmt::format("{} [{}]", g3(f.bare_streaming_ns), g3(f.bare_streaming_builds_per_1000))
+                             : "",
+                         fl ? g3(f.peak_mib) : "", r.wall_s, r.status + (r.message.empty() ? "" : ": " + md_cell(r.message)));
       }
       continue;
     }

@@ -114,6 +114,15 @@ DemFloor read_dem_floor(const std::string& run_dir) {
     f.bare_ns = j.at("bare_liggghts").at("ns_per_particle_step").get<double>();
     f.bare_particles = j.at("bare_liggghts").at("particles").get<long>();
     f.peak_mib = j.at("peak_memory_MiB_per_rank").get<double>();
+    f.neighbour_rebuild = j.at("neighbour_rebuild").get<std::string>();
+    f.builds_per_1000 = j.at("intervals").at("neighbour_builds_per_1000_steps").get<double>();
+    f.bare_builds_per_1000 = j.at("bare_liggghts").at("neighbour_builds_per_1000_steps").get<double>();
+    if (j.contains("bare_liggghts_streaming")) {
+      f.has_bare_streaming = true;
+      f.bare_streaming_ns = j.at("bare_liggghts_streaming").at("ns_per_particle_step").get<double>();
+      f.bare_streaming_builds_per_1000 =
+          j.at("bare_liggghts_streaming").at("neighbour_builds_per_1000_steps").get<double>();
+    }
     return f;
   } catch (const nlohmann::json::exception& e) {
     throw std::runtime_error(file + ": " + e.what());

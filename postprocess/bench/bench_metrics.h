@@ -76,6 +76,12 @@ struct DemFloor {
   double bare_ns = 0;      // bare LIGGGHTS on the same particles (the floor)
   long bare_particles = 0;  // the particles the bare run read
   double peak_mib = 0;      // per rank
+  // Neighbour-list builds per 1000 DEM steps: ours (its dem.neighbour_rebuild), bare LIGGGHTS's
+  // own policy, and bare LIGGGHTS with our streaming criterion (when ours used it).
+  std::string neighbour_rebuild = "engine";
+  double builds_per_1000 = 0, bare_builds_per_1000 = 0;
+  bool has_bare_streaming = false;
+  double bare_streaming_ns = 0, bare_streaming_builds_per_1000 = 0;
   double over_bare() const { return dem_ns / bare_ns; }
 };
 // Reads RUN_DIR/dem-bench.json; throws naming the file when it is missing or incomplete.

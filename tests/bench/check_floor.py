@@ -3,7 +3,8 @@
 # the base scene's particles in two vessel sizes, fresh output directory) and checks bench.csv:
 # both runs finished; our DEM, its callback and bare LIGGGHTS have positive finite costs per
 # particle-step; the bare run read every particle and built its lists; the larger vessel has more
-# particles;
+# particles; ours rebuilt its lists in the streaming frame, bare LIGGGHTS ran once with its own
+# policy and once with ours, and ours built fewer lists per 1000 DEM steps than bare LIGGGHTS's own;
 # bench.md has the floor table. Then that a floor suite with a reference is refused in one line.
 # Usage: check_floor.py HEMOCOSIM SUITE OUT_DIR
 # SPDX-License-Identifier: GPL-3.0-or-later
@@ -47,13 +48,21 @@ def main(hemocosim, suite, out):
                                                                        j["particles"]))
         if j["bare_liggghts"]["neighbour_builds"] < 1:
             fail("run %s: bare LIGGGHTS built no neighbour list" % row["value"])
+        if j["neighbour_rebuild"] != "streaming" or "bare_liggghts_streaming" not in j:
+            fail("run %s: lists rebuilt by %s, bare LIGGGHTS with the streaming criterion %s" %
+                 (row["value"], j["neighbour_rebuild"], "run" if "bare_liggghts_streaming" in j else "not run"))
+        ours = j["intervals"]["neighbour_builds_per_1000_steps"]
+        bare = j["bare_liggghts"]["neighbour_builds_per_1000_steps"]
+        if not 0 < ours < bare:
+            fail("run %s: %g neighbour builds per 1000 steps in the streaming frame, %g by LIGGGHTS's check" %
+                 (row["value"], ours, bare))
         if j["dem_substeps"] < 1 or j["coupling_steps"] != 20:
             fail("run %s: %d coupling steps of %d DEM steps, expected 20" % (row["value"], j["coupling_steps"],
                                                                              j["dem_substeps"]))
     if not 0 < particles[0] < particles[1]:
         fail("particles %s: the 70-um vessel should hold more than the 50-um one" % particles)
     md = open(os.path.join(out, "bench.md")).read()
-    if "## floor" not in md or "bare LIGGGHTS ns" not in md:
+    if "## floor" not in md or "bare LIGGGHTS ns" not in md or "bare, streaming ns" not in md:
         fail("bench.md lacks the floor table")
 
     bad = os.path.join(out, "floor-with-reference.toml")

@@ -185,6 +185,17 @@ implicit_drag = "explicit"
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
 }
 
+// dem.neighbour_rebuild = "streaming" is proven and tested on one particle rank only
+// (particle-node/dem_streaming_neighbours.h): a scene asking it of more is refused, naming why.
+TEST(Scene, StreamingNeighbourListsRunOnOneParticleRank) {
+  const std::string streaming = std::string(test::kMinimalScene) + "[dem]\nneighbour_rebuild = \"streaming\"\n";
+  EXPECT_TRUE(problems_of(streaming).empty());
+  const auto ps = problems_of(streaming + "[run]\nparticle_ranks = 2\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "dem.neighbour_rebuild");
+  EXPECT_NE(ps[0].message.find("one particle rank"), std::string::npos) << ps[0].message;
+}
+
 // Every committed scene (scenes/*.toml and the bench suites' base) passes what `hemocosim check`
 // and `run` check, its particles' placement included (the studies' and suites' scenes: ctest
 // study_check.*, bench_check.*).

@@ -27,13 +27,22 @@ using namespace hemo::particles::testing::checkpoint_case;
 namespace fs = std::filesystem;
 
 // Also with coupling.implicit_drag = "co_relaxed", whose cells' plasma masses come from the
-// last deposition (the checkpoint's, on resume).
-class NodeCheckpointDrag : public ::testing::TestWithParam<const char*> {};
-INSTANTIATE_TEST_SUITE_P(ImplicitDrag, NodeCheckpointDrag, ::testing::Values("interval_response", "co_relaxed"));
+// last deposition (the checkpoint's, on resume), and with dem.neighbour_rebuild = "streaming",
+// whose lists start from the checkpoint's rebuild on both sides.
+struct CheckpointSettings {
+  const char* implicit_drag;
+  const char* neighbour_rebuild;
+};
+class NodeCheckpointDrag : public ::testing::TestWithParam<CheckpointSettings> {};
+INSTANTIATE_TEST_SUITE_P(ImplicitDrag, NodeCheckpointDrag,
+                         ::testing::Values(CheckpointSettings{"interval_response", "engine"},
+                                           CheckpointSettings{"co_relaxed", "engine"},
+                                           CheckpointSettings{"interval_response", "streaming"}));
 
 TEST_P(NodeCheckpointDrag, ResumedNodeGoesOnBitForBitAsTheNodeThatWroteIt) {
   auto scene = contact_scene();
-  scene.implicit_drag = GetParam();
+  scene.implicit_drag = GetParam().implicit_drag;
+  scene.neighbour_rebuild = GetParam().neighbour_rebuild;
   const auto mesh = wedge_mesh(16, 8, kR, kL, "wedge16");
   const auto fluid = fluid_state(mesh, pressing_flow());
   const long K = 4, N = 4;
