@@ -259,7 +259,7 @@ std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state,
 Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
     : ctx_(ctx), sender_(std::move(sender)) {
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
-  wire_ = Wire::open(ctx.lcm_url);
+  wire_ = Wire::open(ctx.lcm_url, ctx.secret);
   opened_us_ = wall_clock_us();
   // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
   // receipt: a burst of junk while a node computes a step would push genuine messages out
@@ -516,7 +516,7 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   // publishes nothing and stops with its owner.
   std::unique_ptr<Wire> wire;
   try {
-    wire = Wire::open(ctx.lcm_url);
+    wire = Wire::open(ctx.lcm_url, ctx.secret);
   } catch (const std::exception&) {
   }
   const std::string channel = ctx.run_id + "/" + channel::heartbeat;
@@ -560,9 +560,7 @@ bool Heartbeat::Impl::listen(Wire& wire, const std::string& channel, const RunCo
 void Heartbeat::Impl::wait(Wire* listening, double period_s) const {
   const auto next = Clock::now() + std::chrono::duration<double>(period_s);
   while (!stop.load() && Clock::now() < next) {
-    if (listening)
-      listening->handle(50);
-    else
+    if (!listening || listening->handle(50) < 0)  // < 0: the connection ended, the owner's bus says so
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }
