@@ -127,11 +127,10 @@ Bytes seal(const Bytes& key, const std::uint8_t* plain, std::size_t len, std::si
 }
 
 std::optional<Bytes> unseal(const Bytes& key, const std::uint8_t* sealed, std::size_t len, std::size_t body_offset) {
-  if (!is_sealed(sealed, len) || body_offset < kMark + kTag || len < body_offset + kSealOverhead + kMark)
-    return std::nullopt;
+  if (!is_sealed(sealed, len) || body_offset < kMark + kTag || len < body_offset + kSealOverhead) return std::nullopt;
   const std::uint8_t* nonce = sealed + body_offset;
   const std::uint8_t* ct = nonce + kGcmNonce;
-  const std::size_t ct_len = len - body_offset - kSealOverhead;  // fingerprint + payload
+  const std::size_t ct_len = len - body_offset - kGcmNonce - kGcmTag;  // fingerprint + payload
   Bytes fingerprint(kMark);
   Bytes out(len - kSealOverhead);
   std::copy(sealed + kMark, sealed + body_offset, out.begin() + kMark);

@@ -50,7 +50,7 @@ std::optional<Bytes> check_handshake_answer(const Bytes& key, const Bytes& relay
 // The HMAC tag is computed over the sealed bytes as over any message, so the checks of bus.h run
 // unchanged; the GCM nonce is random (2^-32 collision odds after 2^32 messages of one run).
 inline constexpr std::array<std::uint8_t, 8> kSealedMark = {'H', 'C', 'S', 'E', 'A', 'L', 'v', '1'};
-inline constexpr std::size_t kSealOverhead = 12 + 16;
+inline constexpr std::size_t kSealOverhead = 8 + 12 + 16;  // the mark (the fingerprint moves inside), nonce, GCM tag
 Bytes seal_key(const Bytes& secret);
 bool is_sealed(const std::uint8_t* buf, std::size_t len);
 // `plain` is an encoded message with its envelope ending at `body_offset` (after the tag).
