@@ -116,12 +116,13 @@ Bytes seal(const Bytes& key, const std::uint8_t* plain, std::size_t len, std::si
   std::uint8_t* ct = nonce + kGcmNonce;
   CipherCtx c;
   int n = 0, m = 0;
-  const bool ok = c.p && EVP_EncryptInit_ex(c.p, EVP_aes_256_gcm(), nullptr, key.data(), nonce) == 1 &&
-                  EVP_EncryptUpdate(c.p, nullptr, &n, plain + kMark, static_cast<int>(body_offset - kMark - kTag)) == 1 &&
-                  EVP_EncryptUpdate(c.p, ct, &n, plain, static_cast<int>(kMark)) == 1 &&
-                  EVP_EncryptUpdate(c.p, ct + n, &m, plain + body_offset, static_cast<int>(len - body_offset)) == 1 &&
-                  EVP_EncryptFinal_ex(c.p, ct + n + m, &n) == 1 &&
-                  EVP_CIPHER_CTX_ctrl(c.p, EVP_CTRL_GCM_GET_TAG, kGcmTag, out.data() + out.size() - kGcmTag) == 1;
+  const bool ok =
+      c.p && EVP_EncryptInit_ex(c.p, EVP_aes_256_gcm(), nullptr, key.data(), nonce) == 1 &&
+      EVP_EncryptUpdate(c.p, nullptr, &n, plain + kMark, static_cast<int>(body_offset - kMark - kTag)) == 1 &&
+      EVP_EncryptUpdate(c.p, ct, &n, plain, static_cast<int>(kMark)) == 1 &&
+      EVP_EncryptUpdate(c.p, ct + n, &m, plain + body_offset, static_cast<int>(len - body_offset)) == 1 &&
+      EVP_EncryptFinal_ex(c.p, ct + n + m, &n) == 1 &&
+      EVP_CIPHER_CTX_ctrl(c.p, EVP_CTRL_GCM_GET_TAG, kGcmTag, out.data() + out.size() - kGcmTag) == 1;
   if (!ok) throw std::runtime_error("AES-256-GCM unavailable from OpenSSL");
   return out;
 }
@@ -138,12 +139,13 @@ std::optional<Bytes> unseal(const Bytes& key, const std::uint8_t* sealed, std::s
   int n = 0;
   std::uint8_t tag[kGcmTag];
   std::memcpy(tag, sealed + len - kGcmTag, kGcmTag);
-  const bool ok = c.p && EVP_DecryptInit_ex(c.p, EVP_aes_256_gcm(), nullptr, key.data(), nonce) == 1 &&
-                  EVP_DecryptUpdate(c.p, nullptr, &n, sealed + kMark, static_cast<int>(body_offset - kMark - kTag)) == 1 &&
-                  EVP_DecryptUpdate(c.p, fingerprint.data(), &n, ct, static_cast<int>(kMark)) == 1 &&
-                  EVP_DecryptUpdate(c.p, out.data() + body_offset, &n, ct + kMark, static_cast<int>(ct_len - kMark)) == 1 &&
-                  EVP_CIPHER_CTX_ctrl(c.p, EVP_CTRL_GCM_SET_TAG, kGcmTag, tag) == 1 &&
-                  EVP_DecryptFinal_ex(c.p, out.data() + out.size(), &n) == 1;
+  const bool ok =
+      c.p && EVP_DecryptInit_ex(c.p, EVP_aes_256_gcm(), nullptr, key.data(), nonce) == 1 &&
+      EVP_DecryptUpdate(c.p, nullptr, &n, sealed + kMark, static_cast<int>(body_offset - kMark - kTag)) == 1 &&
+      EVP_DecryptUpdate(c.p, fingerprint.data(), &n, ct, static_cast<int>(kMark)) == 1 &&
+      EVP_DecryptUpdate(c.p, out.data() + body_offset, &n, ct + kMark, static_cast<int>(ct_len - kMark)) == 1 &&
+      EVP_CIPHER_CTX_ctrl(c.p, EVP_CTRL_GCM_SET_TAG, kGcmTag, tag) == 1 &&
+      EVP_DecryptFinal_ex(c.p, out.data() + out.size(), &n) == 1;
   if (!ok) return std::nullopt;
   std::copy(fingerprint.begin(), fingerprint.end(), out.begin());
   return out;

@@ -8,7 +8,11 @@
 #include "bus_crypto.h"
 #include "relay.h"
 #include "run_directory.h"
+#include "scene.h"
+#include "vessel_mesh.h"
 
+#include <hemo/fluid_state_t.hpp>
+#include <hemo/mesh_t.hpp>
 #include <hemo/step_order_t.hpp>
 
 #include <gtest/gtest.h>
@@ -689,6 +693,37 @@ TEST(RelayLimits, MonitorAndRestartedNodeJoinWhileStrangersHoldEveryHandshakePla
   }));
   EXPECT_EQ(got[0].envelope.sender, "particles");
   EXPECT_GE(relay.stats().evicted_pending, 30u) << relay.stats().str();
+}
+
+// The frame bound follows the run: largest_bus_message is no smaller than the fluid node's real
+// mesh message and fluid state (with the pressure gradient) for the scene's mesh, and not much
+// larger, from the paper's 1,536 cells to 100,000.
+TEST(RelayLimits, LargestMessageIsTheRunsRealLargestWithLittleMargin) {
+  for (const MeshSpec spec : {MeshSpec{4, 3, 24}, MeshSpec{10, 6, 100}, MeshSpec{20, 10, 125}}) {
+    Scene scene;
+    scene.vessel.diameter = 100e-6;
+    scene.vessel.length = 600e-6;
+    scene.mesh = spec;
+    const auto poly = make_vessel_mesh(scene.vessel, spec);
+    mesh_t mesh{};
+    fill_mesh_message(poly, compute_geometry(poly), scene.vessel, mesh);
+    mesh.envelope.run_id = "hc0123456789";
+    mesh.envelope.sender = "fluid";
+    fluid_state_t state{};
+    state.mesh_hash = mesh.mesh_hash;
+    state.n_cells = spec.cells();
+    state.n_velocity_values = state.n_pressure_gradient_values = 3 * spec.cells();
+    state.n_gradient_values = 9 * spec.cells();
+    state.envelope = mesh.envelope;
+    const auto real = static_cast<std::size_t>(std::max(mesh.getEncodedSize(), state.getEncodedSize()));
+    const auto bound = largest_bus_message(scene);
+    SCOPED_TRACE(std::to_string(spec.cells()) + " cells, real " + std::to_string(real));
+    EXPECT_GE(bound, real + kSealOverhead);
+    EXPECT_LE(bound, real + real / 4 + 1024);
+    RelayOptions o;
+    o.sized_for(bound);
+    EXPECT_GE(o.max_frame_bytes, 2 * bound);
+  }
 }
 
 TEST(RelayLimits, HandshakeNotMadeInTimeEndsTheConnection) {
