@@ -2,7 +2,8 @@
 // `tcpq://host:port` provider connects every process to one server that hands each published
 // message to every client subscribed to its channel. LCM ships that server only in Java; this is
 // ours. The coordinator runs it in a thread for the length of a run; nodes, the monitor and
-// `hemocosim restart` connect to it as plain LCM clients.
+// `hemocosim restart` connect to it as LCM clients that make the relay's handshake first
+// (common/wire.h, authenticate_to_relay).
 //
 // The relay serves only clients that prove they hold the run's secret (common/bus_crypto.h, the
 // handshake), so a stranger on the network can neither read the run through it nor fill it; it
