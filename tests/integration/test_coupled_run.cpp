@@ -166,6 +166,8 @@ TEST(CoupledRun, EncryptedBusEndsBitForBitAsPlain) {
   const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --transport tcp");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("hemocosim: bus messages encrypted"), std::string::npos) << r.output;
+  for (const char* node : {"fluid", "particles"})
+    EXPECT_NE(file_text(dir + "/" + node + ".log").find("the bus's messages are sealed"), std::string::npos) << node;
   const auto names = snapshot_names(small_run() + "/particles.h5");
   ASSERT_EQ(names, snapshot_names(dir + "/particles.h5"));
   for (const auto& name : names) {
