@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "bus.h"
 
+#include "bus_crypto.h"
+
 #include <hemo/control_t.hpp>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
@@ -94,6 +96,8 @@ void RunContext::add_options(CLI::App& app) {
       ->check(CLI::IsMember({"mpirun", "srun"}));
   app.add_option("--drop-every", drop_every, "Fault injection: drop every n-th received message")
       ->capture_default_str();
+  app.add_flag("--encrypt-bus", encrypt,
+               "Encrypt the payload of every message this process publishes (the scene's bus.encrypt)");
   app.add_option("--resume-step", resume_step,
                  "Start from the run's checkpoint of this coupling step (RUN_DIR/checkpoints) instead of from scratch")
       ->capture_default_str()
@@ -174,10 +178,29 @@ void sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secre
 
 // The send time is written into the encoded bytes rather than set before encoding: a large
 // message takes a while to encode, and that is the sender's work, not the exchange's latency.
-void stamp_and_sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+static void stamp(std::vector<std::uint8_t>& buf) {
   const auto off = tag_offset(buf.data(), buf.size());
   write_be64(buf.data() + off - 8, wall_clock_ns());
+}
+
+void stamp_and_sign(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret) {
+  stamp(buf);
   sign(buf, secret);
+}
+
+// What goes on the wire: stamped, sealed when asked, then signed (the tag covers the sealed
+// bytes, so receivers check it before opening anything). `buf` stays as encoded, unsigned when
+// sealed: a tag of the plaintext would let an observer confirm a guess of it.
+static std::vector<std::uint8_t> wire_bytes(std::vector<std::uint8_t>& buf, const std::vector<std::uint8_t>& secret,
+                                            const std::vector<std::uint8_t>* seal_with) {
+  if (!seal_with) {
+    stamp_and_sign(buf, secret);
+    return {};
+  }
+  stamp(buf);
+  auto sealed = seal(*seal_with, buf.data(), buf.size(), tag_offset(buf.data(), buf.size()) + kTagBytes);
+  sign(sealed, secret);
+  return sealed;
 }
 
 // The tag at `off` (an envelope's, parsed) against the one computed with `secret`.
@@ -259,7 +282,8 @@ std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state,
 Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
     : ctx_(ctx), sender_(std::move(sender)) {
   if (ctx_.secret.empty()) throw std::runtime_error("bus opened without the run secret");
-  wire_ = Wire::open(ctx.lcm_url);
+  wire_ = Wire::open(ctx.lcm_url, ctx.secret);
+  seal_key_ = seal_key(ctx_.secret);
   opened_us_ = wall_clock_us();
   // LCM keeps at most 30 unhandled messages per subscription and silently discards the rest at
   // receipt: a burst of junk while a node computes a step would push genuine messages out
@@ -297,10 +321,11 @@ void Bus::log_counters(bool even_if_clean) {
 }
 
 void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
-  stamp_and_sign(buf, ctx_.secret);
+  const auto sealed = wire_bytes(buf, ctx_.secret, ctx_.encrypt ? &seal_key_ : nullptr);
+  const auto& out = ctx_.encrypt ? sealed : buf;
   {
     std::lock_guard<std::mutex> lock(publish_mutex_);
-    wire_->publish(topic(kind), buf.data(), buf.size());
+    wire_->publish(topic(kind), out.data(), out.size());
   }
   if (keep) kept_[kind][step] = std::move(buf);
 }
@@ -359,7 +384,14 @@ void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::strin
       ++received_for_drop_ % static_cast<std::uint64_t>(ctx_.drop_every) == 0)
     return count(&BusCounters::injected_drops);
   const auto slash = chan.rfind('/');
-  Received msg{chan.substr(slash + 1), env, std::vector<std::uint8_t>(data, data + len)};
+  Received msg{chan.substr(slash + 1), env, {}};
+  if (is_sealed(data, len)) {
+    auto plain = unseal(seal_key_, data, len, raw->tag_offset + kTagBytes);
+    if (!plain) return count(&BusCounters::rejected_corrupt);
+    msg.bytes = std::move(*plain);
+  } else {
+    msg.bytes.assign(data, data + len);
+  }
   auto [decoded, type] = decode_kind(msg.kind, msg.bytes);
   if (!decoded) return count(&BusCounters::rejected_corrupt);
   msg.decoded = std::move(decoded);
@@ -474,7 +506,8 @@ void write_heard_report(const std::string& file, const std::set<std::string>& he
 }
 // A heartbeat of `sender`, encoded and signed.
 std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::string& sender, double uptime_s,
-                                           const std::function<BusCounters()>& counters) {
+                                           const std::function<BusCounters()>& counters,
+                                           const std::vector<std::uint8_t>& seal_key) {
   heartbeat_t hb;
   hb.envelope.run_id = ctx.run_id;
   hb.envelope.sender = sender;
@@ -498,8 +531,8 @@ std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::str
   }
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
   hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  stamp_and_sign(buf, ctx.secret);
-  return buf;
+  auto sealed = wire_bytes(buf, ctx.secret, ctx.encrypt ? &seal_key : nullptr);
+  return ctx.encrypt ? sealed : buf;
 }
 }  // namespace
 
@@ -516,17 +549,18 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   // publishes nothing and stops with its owner.
   std::unique_ptr<Wire> wire;
   try {
-    wire = Wire::open(ctx.lcm_url);
+    wire = Wire::open(ctx.lcm_url, ctx.secret);
   } catch (const std::exception&) {
   }
   const std::string channel = ctx.run_id + "/" + channel::heartbeat;
   const bool listening = report.listen && wire && listen(*wire, channel, ctx, sender);
+  const auto key = seal_key(ctx.secret);
   std::size_t reported = 0;  // heard senders in the file so far
   bool written = false;
   const auto start = Clock::now();
   while (!stop.load()) {
     const auto buf =
-        signed_heartbeat(ctx, sender, std::chrono::duration<double>(Clock::now() - start).count(), counters);
+        signed_heartbeat(ctx, sender, std::chrono::duration<double>(Clock::now() - start).count(), counters, key);
     if (wire) wire->publish(channel, buf.data(), buf.size());
     if (!report.file.empty()) {
       const auto now_heard = heard_senders();
@@ -560,9 +594,7 @@ bool Heartbeat::Impl::listen(Wire& wire, const std::string& channel, const RunCo
 void Heartbeat::Impl::wait(Wire* listening, double period_s) const {
   const auto next = Clock::now() + std::chrono::duration<double>(period_s);
   while (!stop.load() && Clock::now() < next) {
-    if (listening)
-      listening->handle(50);
-    else
+    if (!listening || listening->handle(50) < 0)  // < 0: the connection ended, the owner's bus says so
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }

@@ -43,9 +43,10 @@ struct RunContext {
   std::string mpi_hosts;               // where Open MPI places them ("b:2,c:2"; empty: here)
   std::string mpi_starter = "mpirun";  // or "srun": the ranks as a Slurm job step (common/mpi_job.h)
   long resume_step = 0;                // > 0: start from the run's checkpoint of this step
+  bool encrypt = false;                // seal what this process publishes (bus.encrypt; bus_crypto.h)
 
   void add_options(CLI::App& app);  // --run-id --lcm-url --secret-file --timeout --ranks --mpi-hosts --mpi-starter
-                                    // --drop-every --resume-step
+                                    // --drop-every --resume-step --encrypt-bus
   void load_secret();               // reads secret_file; throws with a one-line reason
 };
 
@@ -86,7 +87,7 @@ std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, he
 //   replay       sequence number already seen from that sender
 //   (injected)   dropped on purpose by run.drop_every (fault injection, not a rejection): every
 //                n-th of the others' authentic, fresh messages but heartbeats
-//   undecodable  authentic, but does not decode as its channel's type
+//   undecodable  authentic, but does not decode as its channel's type (or, sealed, does not open)
 struct BusCounters {
   std::uint64_t received = 0;  // datagrams handed to the bus by LCM
   std::uint64_t accepted = 0;
@@ -195,6 +196,7 @@ class Bus {
   RunContext ctx_;
   std::string sender_;
   std::unique_ptr<Wire> wire_;
+  std::vector<std::uint8_t> seal_key_;  // opens sealed messages, whether this process seals or not
   std::mutex publish_mutex_;
   mutable std::mutex counters_mutex_;
   BusCounters counters_;

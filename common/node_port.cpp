@@ -5,6 +5,7 @@
 #include <hemo/step_done_t.hpp>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -35,6 +36,7 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
   hello.hostname = host;
   hello.pid = static_cast<int32_t>(getpid());
   hello.ranks = ranks;
+  if (ctx.encrypt) spdlog::info("{}: the bus's messages are sealed (bus.encrypt: AES-256-GCM)", role_);
   bus_->publish(channel::hello, hello, 0, /*keep=*/true);
 }
 

@@ -741,6 +741,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("run.bus_check_s", s.run.bus_check_s);
   r.check(s.run.bus_check_s > 0, "run.bus_check_s", "must be positive");
   read_hosts(r, s);
+  r.read("bus.encrypt", s.bus.encrypt);
   r.check(s.run.node_timeout > 0, "run.node_timeout_s", "must be positive");
   r.check(s.run.startup_timeout > 0, "run.startup_timeout_s", "must be positive");
   r.check(s.run.step_timeout > 0, "run.step_timeout_s", "must be positive");

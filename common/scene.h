@@ -188,10 +188,18 @@ struct HostPlacement {
   bool across_hosts() const { return any() || launcher == "slurm"; }
 };
 
+// The bus beyond its transport (docs/hosts.md, "What an observer of the network learns"):
+// messages are always signed with the run's secret; with `encrypt`, their payloads are also
+// encrypted (AES-256-GCM with a key derived from the secret), for networks one does not trust.
+struct BusSettings {
+  bool encrypt = false;
+};
+
 struct Scene {
   std::string source_path;
   RunSettings run;
   HostPlacement hosts;
+  BusSettings bus;
   Vessel vessel;
   MeshSpec mesh;
   Plasma plasma;

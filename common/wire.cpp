@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "wire.h"
 
+#include "bus_crypto.h"
+
 #include <fmt/format.h>
 #include <lcm/lcm-cpp.hpp>
 #include <spdlog/spdlog.h>
@@ -92,9 +94,62 @@ const std::string& reachable(const std::string& url) {
   return url;
 }
 
+}  // namespace
+
+void authenticate_to_relay(lcm::LCM& lcm, const std::vector<std::uint8_t>& secret, const std::string& url) {
+  const std::string where = url.substr(url.find("://") + 3);
+  if (secret.empty()) throw std::runtime_error("the bus relay at " + where + " lets in only holders of the run's secret");
+  std::vector<std::vector<std::uint8_t>> said;  // what the relay published on the handshake channel
+  lcm::Subscription* sub = lcm.subscribeFunction(
+      kRelayAuthChannel,
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, std::vector<std::vector<std::uint8_t>>* out) {
+        const auto* d = static_cast<const std::uint8_t*>(rbuf->data);
+        out->emplace_back(d, d + rbuf->data_size);
+      },
+      &said);
+  // The relay answers at once; the bound is for a relay that is not ours, or a stalled network.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  auto next = [&](std::uint8_t kind, const char* what) {
+    while (said.empty()) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+      const int n = left > 0 ? lcm.handleTimeout(static_cast<int>(left)) : 0;
+      if (n < 0)
+        throw std::runtime_error(fmt::format(
+            "the bus relay at {} closed the connection in the handshake (it refuses a process without the run's "
+            "secret: RUN_DIR/secret)",
+            where));
+      if (n == 0 && left <= 0)
+        throw std::runtime_error(fmt::format("the bus relay at {} sent no {} within 10 s", where, what));
+    }
+    auto m = std::move(said.front());
+    said.erase(said.begin());
+    if (m.empty() || m[0] != kind)
+      throw std::runtime_error(fmt::format("the bus relay at {} sent something else than its {}", where, what));
+    return m;
+  };
+  const auto challenge = next(kAuthChallenge, "challenge");
+  if (challenge.size() != 1 + kNonceBytes)
+    throw std::runtime_error(fmt::format("the bus relay at {} sent a malformed challenge", where));
+  const Bytes relay_nonce(challenge.begin() + 1, challenge.end());
+  const Bytes key = handshake_key(secret);
+  const Bytes client_nonce = random_bytes(kNonceBytes);
+  const Bytes answer = handshake_answer(key, relay_nonce, client_nonce);
+  if (lcm.publish(kRelayAuthChannel, answer.data(), static_cast<unsigned>(answer.size())) != 0)
+    throw std::runtime_error(fmt::format("lost the connection to the bus relay at {} in its handshake", where));
+  const auto proof = next(kAuthAccepted, "acceptance");
+  const Bytes expected = handshake_proof(key, relay_nonce, client_nonce);
+  if (proof.size() != expected.size() || !same_digest(proof.data() + 1, expected.data() + 1))
+    throw std::runtime_error(fmt::format(
+        "the bus relay at {} does not hold this run's secret: it is not this run's relay", where));
+  lcm.unsubscribe(sub);
+}
+
+namespace {
+
 class LcmWire final : public Wire {
  public:
-  explicit LcmWire(const std::string& url) : url_(url), lcm_(reachable(url)) {
+  LcmWire(const std::string& url, const std::vector<std::uint8_t>& secret) : url_(url), lcm_(reachable(url)) {
     if (!lcm_.good() || (is_tcpq(url) && lcm_.getFileno() < 0))
       throw std::runtime_error("cannot open the LCM bus at " + url);
     // LCM's tcpq client writes a message as five small sends; Nagle's algorithm holds each later
@@ -103,6 +158,7 @@ class LcmWire final : public Wire {
     if (is_tcpq(url) && lcm_.getFileno() >= 0) {
       const int one = 1;
       ::setsockopt(lcm_.getFileno(), IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+      authenticate_to_relay(lcm_, secret, url);
     }
     warn_if_small_receive_buffer(url);
     // LCM's UDP provider joins the group at the first subscription and checks that a datagram
@@ -120,8 +176,13 @@ class LcmWire final : public Wire {
     lcm_unsubscribe(lcm_.getUnderlyingLCM(), probe);
   }
 
+  // Once the relay has ended the connection, LCM's client would connect again by itself, without
+  // the handshake (so to no avail), and select() on a socket of -1 (an abort): the connection
+  // stays lost, as the relay meant, and handle() says so.
+  bool lost() const { return is_tcpq(url_) && lcm_.getFileno() < 0; }
+
   void publish(const std::string& channel, const std::uint8_t* data, std::size_t len) override {
-    lcm_.publish(channel, data, static_cast<unsigned>(len));
+    if (!lost()) lcm_.publish(channel, data, static_cast<unsigned>(len));
   }
 
   void subscribe(const std::string& channel, Handler handler) override {
@@ -136,11 +197,17 @@ class LcmWire final : public Wire {
     s->setQueueCapacity(kSubscriptionQueue);
   }
 
-  int handle(int timeout_ms) override { return lcm_.handleTimeout(timeout_ms); }
+  int handle(int timeout_ms) override {
+    if (lost()) {
+      errno = ECONNRESET;
+      return -1;
+    }
+    return lcm_.handleTimeout(timeout_ms);
+  }
 
  private:
   std::string url_;
-  lcm::LCM lcm_;
+  mutable lcm::LCM lcm_;
   std::vector<std::unique_ptr<Handler>> handlers_;  // stable addresses: LCM keeps them
 };
 
@@ -229,12 +296,12 @@ class InProcessWire final : public Wire {
 
 }  // namespace
 
-std::unique_ptr<Wire> Wire::open(const std::string& url) {
+std::unique_ptr<Wire> Wire::open(const std::string& url, const std::vector<std::uint8_t>& secret) {
   if (is_inproc(url)) {
     if (url.size() <= 9) throw std::runtime_error("bus URL " + url + ": inproc:// needs a name");
     return std::make_unique<InProcessWire>(url);
   }
-  return std::make_unique<LcmWire>(url);
+  return std::make_unique<LcmWire>(url, secret);
 }
 
 }  // namespace hemo

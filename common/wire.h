@@ -13,6 +13,11 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
+
+namespace lcm {
+class LCM;
+}
 
 namespace hemo {
 
@@ -26,7 +31,9 @@ class Wire {
   using Handler = std::function<void(const std::uint8_t*, std::size_t, const std::string&, std::int64_t)>;
 
   // Opens the transport of `url`; throws std::runtime_error with one line saying why it cannot.
-  static std::unique_ptr<Wire> open(const std::string& url);
+  // Over TCP the relay lets only holders of the run's secret in (bus_crypto.h, the handshake):
+  // `secret` is required there, unused otherwise.
+  static std::unique_ptr<Wire> open(const std::string& url, const std::vector<std::uint8_t>& secret = {});
   virtual ~Wire() = default;
 
   virtual void publish(const std::string& channel, const std::uint8_t* data, std::size_t len) = 0;
@@ -37,6 +44,10 @@ class Wire {
 };
 
 bool is_tcpq(const std::string& url);
+// The relay's handshake on an LCM tcpq client just connected to `url`, before it subscribes to
+// anything: proves that it holds `secret` and checks that the relay does. Throws one line when
+// the relay refuses, does not answer, or does not hold the secret.
+void authenticate_to_relay(lcm::LCM& lcm, const std::vector<std::uint8_t>& secret, const std::string& url);
 bool is_inproc(const std::string& url);
 
 }  // namespace hemo

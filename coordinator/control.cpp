@@ -3,6 +3,7 @@
 #include "commands.h"
 #include "control_desk.h"
 #include "run_directory.h"
+#include "scene.h"
 
 #include <fmt/format.h>
 
@@ -12,6 +13,8 @@ namespace hemo {
 
 int control_command(const std::string& action, const ControlOptions& opt) {
   auto [dir, ctx] = RunDirectory::open(opt.run_dir);
+  // Sealed as the run's own messages are (bus.encrypt): a swap's request names its command.
+  ctx.encrypt = load_scene(dir.scene_copy()).bus.encrypt;
   std::random_device rd;
   const ControlRequest request{static_cast<std::int64_t>((std::uint64_t(rd()) << 31) ^ rd()), action, opt.node,
                                opt.with};

@@ -81,6 +81,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back("--mpi-starter");
     argv.push_back("srun");
   }
+  if (ctx_.encrypt) argv.push_back("--encrypt-bus");
   if (first_step > 0) {
     argv.push_back("--resume-step");
     argv.push_back(fmt::format("{}", first_step));

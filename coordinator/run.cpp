@@ -56,6 +56,8 @@ std::unique_ptr<Relay> start_relay(const Scene& scene, const RunContext& ctx) {
   }
   opt.port = scene.hosts.relay_port;
   opt.channel_prefix = ctx.run_id + "/";
+  opt.secret = ctx.secret;
+  opt.sized_for(largest_bus_message(scene));
   return std::make_unique<Relay>(opt);
 }
 
@@ -91,7 +93,7 @@ int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunCo
     ~RelayReport() {
       if (!relay) return;
       const auto s = relay->stats();
-      if (s.dropped_slow + s.malformed + s.refused_patterns + s.refused_clients + s.dropped_foreign > 0)
+      if (s.turned_away() + s.refused_patterns + s.dropped_foreign > 0)
         fmt::print(stderr, "hemocosim: bus relay: {}\n", s.str());
     }
   } relay_report{relay};

@@ -109,9 +109,12 @@ void use_swapped_programs(const RunDirectory& dir, Scene& scene) {
 // The whole span, restarting both nodes from their last common checkpoint when one dies or
 // stops answering (at most run.max_restarts times), or when asked to (`hemocosim restart`,
 // `hemocosim swap`; docs/design.md "Checkpoint, restart, swap").
-Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& ctx, Span span, NodeLauncher& launcher,
-              const std::function<bool()>& interrupted) {
+Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& given_ctx, Span span,
+              NodeLauncher& launcher, const std::function<bool()>& interrupted) {
   Scene scene = scene_as_given;  // a swap changes a node's command
+  RunContext ctx = given_ctx;
+  ctx.encrypt = scene.bus.encrypt;  // the coordinator's messages; the nodes are told (Lockstep::launch)
+  if (ctx.encrypt) fmt::print(stderr, "hemocosim: bus messages encrypted (bus.encrypt: AES-256-GCM)\n");
   ControlDesk desk(ctx);
   std::optional<ControlRequest> restarted;  // to answer once the nodes run again
   // Fixed intervals: the ETA is to the step the run stops after (--stop-after-step), not the end.

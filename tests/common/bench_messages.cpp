@@ -1,9 +1,11 @@
 // Cost of the coupling messages at the paper's mesh (1,536 cells): encode, sign, verify, decode,
-// and one exchange over real LCM on loopback (publish a fluid state, the peer receives and
-// verifies it, answers with a feedback message, the first receives that).
+// the same sealed (bus.encrypt: AES-256-GCM besides the HMAC), and one exchange over real LCM on
+// loopback, in the clear and sealed (publish a fluid state, the peer receives and verifies it,
+// answers with a feedback message, the first receives that).
 // Run: build/bin/bench_messages   (Google Benchmark; figures in docs/performance.md)
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "bus.h"
+#include "bus_crypto.h"
 #include "test_helpers.h"
 
 #include "cell_fields.h"
@@ -70,6 +72,45 @@ void BM_VerifyDecodeFluidState(benchmark::State& st) {
 }
 BENCHMARK(BM_VerifyDecodeFluidState)->Arg(kPaperCells)->Arg(10000)->Arg(100000);
 
+// The same work sealed, as a sealing bus publishes: encode, seal (AES-256-GCM), sign the sealed bytes.
+void BM_EncodeSealSignFluidState(benchmark::State& st) {
+  auto ctx = test::make_context("bench");
+  const auto key = seal_key(ctx.secret);
+  auto s = make_state(static_cast<int>(st.range(0)));
+  std::vector<std::uint8_t> buf, sealed;
+  for (auto _ : st) {
+    buf.resize(static_cast<std::size_t>(s.getEncodedSize()));
+    s.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    sealed = seal(key, buf.data(), buf.size(), tag_offset(buf.data(), buf.size()) + 32);
+    sign(sealed, ctx.secret);
+    benchmark::DoNotOptimize(sealed.data());
+  }
+  st.SetBytesProcessed(static_cast<int64_t>(st.iterations() * buf.size()));
+}
+BENCHMARK(BM_EncodeSealSignFluidState)->Arg(kPaperCells)->Arg(10000)->Arg(100000);
+
+// And as a receiver opens it: verify the tag, open, decode.
+void BM_VerifyOpenDecodeFluidState(benchmark::State& st) {
+  auto ctx = test::make_context("bench");
+  const auto key = seal_key(ctx.secret);
+  auto s = make_state(static_cast<int>(st.range(0)));
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(s.getEncodedSize()));
+  s.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  const std::size_t body = tag_offset(buf.data(), buf.size()) + 32;
+  auto sealed = seal(key, buf.data(), buf.size(), body);
+  sign(sealed, ctx.secret);
+  for (auto _ : st) {
+    if (!verify(sealed, ctx.secret)) st.SkipWithError("tag did not verify");
+    const auto plain = unseal(key, sealed.data(), sealed.size(), body);
+    if (!plain) st.SkipWithError("did not open");
+    fluid_state_t out;
+    out.decode(plain->data(), 0, static_cast<int>(plain->size()));
+    benchmark::DoNotOptimize(out.velocity.data());
+  }
+  st.SetBytesProcessed(static_cast<int64_t>(st.iterations() * buf.size()));
+}
+BENCHMARK(BM_VerifyOpenDecodeFluidState)->Arg(kPaperCells)->Arg(10000)->Arg(100000);
+
 // What the bus pays for each of its own echoes since it verifies their tag first (issue #21): in
 // a run a process hears of its own only its heartbeats (two a second) and its resend requests,
 // messages of this size.
@@ -88,10 +129,11 @@ void BM_VerifyHeartbeat(benchmark::State& st) {
 BENCHMARK(BM_VerifyHeartbeat);
 
 // One coupling exchange over LCM on loopback: fluid state one way, feedback the other, each
-// process listening to its node's channels, as in a run.
+// process listening to its node's channels, as in a run; the second argument 1: sealed.
 void BM_LoopbackExchange(benchmark::State& st) {
   const int cells = static_cast<int>(st.range(0));
   auto ctx = test::make_context("xchg");
+  ctx.encrypt = st.range(1) != 0;
   std::atomic<bool> done{false};
   std::thread peer([&] {
     Bus bus(ctx, "particles", channel::heard_by_particles());
@@ -128,7 +170,10 @@ void BM_LoopbackExchange(benchmark::State& st) {
   done = true;
   peer.join();
 }
-BENCHMARK(BM_LoopbackExchange)->Arg(kPaperCells)->Arg(10000)->Unit(benchmark::kMicrosecond)->UseRealTime();
+BENCHMARK(BM_LoopbackExchange)
+    ->ArgsProduct({{kPaperCells, 10000}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -158,6 +158,28 @@ TEST(CoupledRun, TcpTransportEndsBitForBitAsMulticast) {
   EXPECT_EQ(ma.at({"fluid", "mean_velocity_m_s"}), mb.at({"fluid", "mean_velocity_m_s"}));
 }
 
+// The bus encrypted (bus.encrypt) over the relay: every process seals what it publishes and opens
+// what it receives, and the run ends bit for bit as the plain one on multicast.
+TEST(CoupledRun, EncryptedBusEndsBitForBitAsPlain) {
+  const std::string dir = fresh_run_dir("coupled-small-sealed");
+  std::ofstream(dir + ".toml") << small_scene_text(40, "", "[bus]\nencrypt = true\n");
+  const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --transport tcp");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("hemocosim: bus messages encrypted"), std::string::npos) << r.output;
+  for (const char* node : {"fluid", "particles"})
+    EXPECT_NE(file_text(dir + "/" + node + ".log").find("the bus's messages are sealed"), std::string::npos) << node;
+  const auto names = snapshot_names(small_run() + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(dir + "/particles.h5"));
+  for (const auto& name : names) {
+    const auto a = read_snapshot(small_run() + "/particles.h5", name), b = read_snapshot(dir + "/particles.h5", name);
+    ASSERT_EQ(a.id, b.id) << name;
+    EXPECT_EQ(a.position, b.position) << name;
+    EXPECT_EQ(a.velocity, b.velocity) << name;
+  }
+  const auto ma = read_metrics(small_run()), mb = read_metrics(dir);
+  EXPECT_EQ(ma.at({"fluid", "mean_velocity_m_s"}), mb.at({"fluid", "mean_velocity_m_s"}));
+}
+
 namespace {
 std::string run_scene_text(const std::string& name, const std::string& text) {
   const std::string dir = fresh_run_dir(name);
