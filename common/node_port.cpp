@@ -83,8 +83,8 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
     const auto why = coordinator_silence(silent);
     if (!why) {
       if (!said_waiting)
-        spdlog::warn("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}); {}", role_,
-                     silent, what, step, coordinator_whereabouts());
+        spdlog::warn("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}); {}: waiting for it",
+                     role_, silent, what, step, coordinator_whereabouts());
       said_waiting = true;
       continue;
     }
@@ -123,11 +123,11 @@ std::optional<std::string> NodePort::coordinator_silence(double silent) const {
 std::string NodePort::coordinator_whereabouts() const {
   switch (coordinator_state(run_dir_)) {
     case ProcessState::stopped:
-      return "its process is stopped (SIGSTOP or a suspended shell?): waiting for it";
+      return "its process is stopped (SIGSTOP or a suspended shell?)";
     case ProcessState::running:
-      return "its process runs: waiting for it";
+      return "its process runs";
     case ProcessState::elsewhere:
-      return "its process is on another host: waiting for it";
+      return "its process is on another host";
     case ProcessState::gone:
       return "its process is gone";
     case ProcessState::unknown:
