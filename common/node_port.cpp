@@ -9,8 +9,8 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <filesystem>
 #include <cstdint>
+#include <filesystem>
 
 namespace hemo {
 
@@ -83,14 +83,16 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
     const auto why = coordinator_silence(silent);
     if (!why) {
       if (!said_waiting)
-        spdlog::warn("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}); {}: waiting for it",
-                     role_, silent, what, step, coordinator_whereabouts());
+        spdlog::warn(
+            "{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}); {}: waiting for it",
+            role_, silent, what, step, coordinator_whereabouts());
       said_waiting = true;
       continue;
     }
     gave_up_after_s_ = silent;
-    throw std::runtime_error(fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}){}",
-                                         role_, silent, what, step, *why));
+    throw std::runtime_error(
+        fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}){}", role_,
+                    silent, what, step, *why));
   }
 }
 

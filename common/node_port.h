@@ -113,7 +113,7 @@ class NodePort {
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::string role_;
-  std::string run_dir_;  // where the coordinator says where it runs (liveness.h)
+  std::string run_dir_;         // where the coordinator says where it runs (liveness.h)
   double gave_up_after_s_ = 0;  // the coordinator's silence the node gave up after (0: it did not)
   std::int64_t step_ = 0;
   StepTimes times_;

@@ -25,23 +25,26 @@ namespace {
 bool print_resource_estimate(const Scene& s, long particles, const std::string& out_dir) {
   const ResourceEstimate e = estimate_resources(s, particles);
   const MachineRoom room = machine_room(out_dir);
-  fmt::print("  disk        ~{} in the run directory{}: particles.h5 {} ({} snapshots), fluid output {}, "
-             "checkpoints {}, metrics.csv {}\n",
-             bytes_text(e.disk_bytes()), s.time.adaptive_interval() ? " at least" : "", bytes_text(e.snapshots_bytes),
-             e.outputs, bytes_text(e.fluid_output_bytes), e.checkpoint_bytes > 0 ? "2 x " + bytes_text(e.checkpoint_bytes) : "none",
-             bytes_text(e.metrics_bytes));
+  fmt::print(
+      "  disk        ~{} in the run directory{}: particles.h5 {} ({} snapshots), fluid output {}, "
+      "checkpoints {}, metrics.csv {}\n",
+      bytes_text(e.disk_bytes()), s.time.adaptive_interval() ? " at least" : "", bytes_text(e.snapshots_bytes),
+      e.outputs, bytes_text(e.fluid_output_bytes),
+      e.checkpoint_bytes > 0 ? "2 x " + bytes_text(e.checkpoint_bytes) : "none", bytes_text(e.metrics_bytes));
   fmt::print("  memory      ~{} at peak: fluid {} x {}, particles {} x {} (per rank)\n", bytes_text(e.memory_bytes(s)),
-             s.run.fluid_ranks, bytes_text(e.fluid_rank_bytes), s.run.particle_ranks, bytes_text(e.particle_rank_bytes));
+             s.run.fluid_ranks, bytes_text(e.fluid_rank_bytes), s.run.particle_ranks,
+             bytes_text(e.particle_rank_bytes));
   bool fits = true;
   auto judge = [&](const char* what, double needed, double has, const std::string& where) {
     if (has < 0 || needed <= has) return;
     const bool absurd = needed > kAbsurdFactor * has;
     fits &= !absurd;
-    fmt::print("  {}     {} needs ~{} of {}, {} has {}{}\n", absurd ? "REFUSED" : "warning", s.run.name, bytes_text(needed),
-               what, where, bytes_text(has),
-               absurd ? fmt::format(" (over {:g} times as much: fewer steps or particles, or output.every_steps larger)",
-                                    kAbsurdFactor)
-                      : "");
+    fmt::print("  {}     {} needs ~{} of {}, {} has {}{}\n", absurd ? "REFUSED" : "warning", s.run.name,
+               bytes_text(needed), what, where, bytes_text(has),
+               absurd
+                   ? fmt::format(" (over {:g} times as much: fewer steps or particles, or output.every_steps larger)",
+                                 kAbsurdFactor)
+                   : "");
   };
   judge("disk", e.disk_bytes(), room.free_disk_bytes, room.disk_path);
   // Nodes on other hosts ([hosts]) take their memory there.

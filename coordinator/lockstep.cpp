@@ -131,10 +131,9 @@ void Lockstep::record(const Received& msg) {
     // A node that gave up on this coordinator's silence is healthy: restart it (liveness.h).
     const auto& names = done.names;
     if (std::find(names.begin(), names.end(), kCoordinatorSilentDiagnostic) != names.end())
-      throw NodeLost(fmt::format("{} node gave up waiting for the coordinator at step {}{}: {}", done.node,
-                                 msg.envelope.step,
-                                 paused_s_ > 0 ? ", because the coordinator was " + pause_words(paused_s_) : "",
-                                 done.error));
+      throw NodeLost(
+          fmt::format("{} node gave up waiting for the coordinator at step {}{}: {}", done.node, msg.envelope.step,
+                      paused_s_ > 0 ? ", because the coordinator was " + pause_words(paused_s_) : "", done.error));
     throw std::runtime_error(fmt::format("{} node failed at step {}: {}", done.node, msg.envelope.step, done.error));
   }
   if (msg.envelope.step <= node.done_step) return;  // a repeat

@@ -72,13 +72,20 @@ std::set<std::string> hosts_for(const std::string& bind, int port) {
 
 const char* reason(int status) {
   switch (status) {
-    case 200: return "OK";
-    case 400: return "Bad Request";
-    case 404: return "Not Found";
-    case 405: return "Method Not Allowed";
-    case 421: return "Misdirected Request";
-    case 431: return "Request Header Fields Too Large";
-    default: return "Error";
+    case 200:
+      return "OK";
+    case 400:
+      return "Bad Request";
+    case 404:
+      return "Not Found";
+    case 405:
+      return "Method Not Allowed";
+    case 421:
+      return "Misdirected Request";
+    case 431:
+      return "Request Header Fields Too Large";
+    default:
+      return "Error";
   }
 }
 
@@ -145,8 +152,8 @@ std::string answer(const std::string& head, const std::set<std::string>& hosts, 
   }
   std::string out = fmt::format(
       "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nX-Content-Type-Options: nosniff\r\n{}{}\r\n",
-      res.status, reason(res.status), res.content_type, res.body.size(), res.no_store ? "Cache-Control: no-store\r\n" : "",
-      keep ? "" : "Connection: close\r\n");
+      res.status, reason(res.status), res.content_type, res.body.size(),
+      res.no_store ? "Cache-Control: no-store\r\n" : "", keep ? "" : "Connection: close\r\n");
   return out + res.body;
 }
 }  // namespace

@@ -13,12 +13,12 @@
 namespace hemo {
 
 struct ResourceEstimate {
-  long steps = 0;              // coupling steps (adaptive intervals: at least this many)
-  long outputs = 0;            // particle snapshots and fluid time directories written
-  double snapshots_bytes = 0;  // particles.h5
-  double fluid_output_bytes = 0;  // the fluid's time directories (fluid/<time>/)
-  double checkpoint_bytes = 0;    // one checkpoint (checkpoints/ keeps the last; the next is written beside it)
-  double metrics_bytes = 0;       // metrics.csv
+  long steps = 0;                  // coupling steps (adaptive intervals: at least this many)
+  long outputs = 0;                // particle snapshots and fluid time directories written
+  double snapshots_bytes = 0;      // particles.h5
+  double fluid_output_bytes = 0;   // the fluid's time directories (fluid/<time>/)
+  double checkpoint_bytes = 0;     // one checkpoint (checkpoints/ keeps the last; the next is written beside it)
+  double metrics_bytes = 0;        // metrics.csv
   double fluid_rank_bytes = 0;     // peak resident memory of one fluid rank
   double particle_rank_bytes = 0;  // of one particle rank
   // The most the run directory holds: at its end, while its last checkpoint is written beside the one before.

@@ -8,8 +8,8 @@
 #include <hemo/step_done_t.hpp>
 
 #include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 #include <sys/wait.h>
+#include <lcm/lcm-cpp.hpp>
 
 #include <csignal>
 #include <fstream>

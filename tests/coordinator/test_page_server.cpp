@@ -159,8 +159,8 @@ TEST(PageServer, AnswersSeveralRequestsOnOneConnection) {
   const std::string host = "127.0.0.1:" + std::to_string(server.port());
   const int fd = connect_to(server.port());
   ASSERT_GE(fd, 0);
-  const std::string two = "GET /rows?since=1 HTTP/1.1\r\nHost: " + host + "\r\n\r\nGET /rows?since=2 HTTP/1.1\r\nHost: " +
-                          host + "\r\nConnection: close\r\n\r\n";
+  const std::string two = "GET /rows?since=1 HTTP/1.1\r\nHost: " + host +
+                          "\r\n\r\nGET /rows?since=2 HTTP/1.1\r\nHost: " + host + "\r\nConnection: close\r\n\r\n";
   ASSERT_EQ(::send(fd, two.data(), two.size(), MSG_NOSIGNAL), static_cast<ssize_t>(two.size()));
   const std::string res = read_all(fd, 5);
   ::close(fd);

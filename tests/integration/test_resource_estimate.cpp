@@ -63,11 +63,12 @@ TEST(ResourceEstimate, ASmallRunWritesAndUsesWhatCheckSaid) {
   EXPECT_EQ(e.outputs, 10);  // step 0 and every 4th of 36
   const double snapshots = bytes_under(dir + "/particles.h5"), fluid = bytes_under(dir + "/fluid"),
                checkpoint = bytes_under(dir + "/checkpoints"), metrics = bytes_under(dir + "/metrics.csv");
-  std::printf("estimated / written: particles.h5 %.0f / %.0f, fluid %.0f / %.0f, checkpoint %.0f / %.0f, "
-              "metrics %.0f / %.0f B; memory fluid %.1f / %.1f, particles %.1f / %.1f MiB\n",
-              e.snapshots_bytes, snapshots, e.fluid_output_bytes, fluid, e.checkpoint_bytes, checkpoint,
-              e.metrics_bytes, metrics, e.fluid_rank_bytes / 1048576, peak_memory(dir, "fluid") / 1048576,
-              e.particle_rank_bytes / 1048576, peak_memory(dir, "particles") / 1048576);
+  std::printf(
+      "estimated / written: particles.h5 %.0f / %.0f, fluid %.0f / %.0f, checkpoint %.0f / %.0f, "
+      "metrics %.0f / %.0f B; memory fluid %.1f / %.1f, particles %.1f / %.1f MiB\n",
+      e.snapshots_bytes, snapshots, e.fluid_output_bytes, fluid, e.checkpoint_bytes, checkpoint, e.metrics_bytes,
+      metrics, e.fluid_rank_bytes / 1048576, peak_memory(dir, "fluid") / 1048576, e.particle_rank_bytes / 1048576,
+      peak_memory(dir, "particles") / 1048576);
   expect_within(e.snapshots_bytes, snapshots, 1.5, "particles.h5");
   expect_within(e.fluid_output_bytes, fluid, 1.5, "fluid output");
   expect_within(e.checkpoint_bytes, checkpoint, 1.5, "the checkpoint kept");
