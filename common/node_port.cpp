@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -71,8 +72,8 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
     });
     // While this node was paused nobody could be heard: that silence is not the coordinator's.
     if (const double away = pauses.turn(); away > 0) {
-      last_heard += away;
-      spdlog::warn("{}: this node was {}", role_, pause_words(away));
+      last_heard = std::min(now(), last_heard + away);
+      if (away > std::min(5.0, ctx.timeout_s / 2)) spdlog::warn("{}: this node was {}", role_, pause_words(away));
     }
     if (now() - last_asked > ctx.retry_s && !pending_.count({kind, step})) {
       bus_->request_resend(kind, step);
