@@ -210,8 +210,11 @@ void PageServer::serve() {
   for (;;) {
     std::vector<pollfd> fds{{wake_fd_, POLLIN, 0}, {listen_fd_, POLLIN, 0}};
     for (const auto& c : conns) fds.push_back({c.fd, static_cast<short>(c.out.empty() ? POLLIN : POLLOUT), 0});
-    if (::poll(fds.data(), fds.size(), 250) < 0 && errno != EINTR) return;
-    if (fds[0].revents) return;
+    const bool failed = ::poll(fds.data(), fds.size(), 250) < 0 && errno != EINTR;
+    if (failed || fds[0].revents) {  // stopped
+      for (const auto& c : conns) ::close(c.fd);
+      return;
+    }
     const double t = now();
     // Who is due first: the connections as they were polled (those accepted below wait a turn).
     std::vector<bool> gone(conns.size(), false);
