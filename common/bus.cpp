@@ -320,6 +320,13 @@ void Bus::log_counters(bool even_if_clean) {
   }
 }
 
+std::optional<double> Bus::prestart_lag_s(const std::string& sender) const {
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  const auto it = prestart_lag_s_.find(sender);
+  if (it == prestart_lag_s_.end()) return std::nullopt;
+  return it->second;
+}
+
 void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
   const auto sealed = wire_bytes(buf, ctx_.secret, ctx_.encrypt ? &seal_key_ : nullptr);
   const auto& out = ctx_.encrypt ? sealed : buf;
@@ -376,7 +383,12 @@ void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::strin
   // our echo only when it is authentic.
   if (!tag_verifies(data, len, raw->tag_offset, ctx_.secret)) return count(&BusCounters::rejected_auth);
   if (env.sender == sender_) return count(&BusCounters::own);  // multicast loops our own messages back to us
-  if (env.seq < opened_us_ - kClockSkewAllowanceUs) return count(&BusCounters::rejected_prestart);
+  if (env.seq < opened_us_ - kClockSkewAllowanceUs) {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    prestart_lag_s_[env.sender] = 1e-6 * static_cast<double>(recv_utime - env.sent_unix_ns / 1000);
+    ++counters_.rejected_prestart;
+    return;
+  }
   if (!accept_seq(env.sender, env.seq)) return count(&BusCounters::rejected_replay);
   // Fault injection: as if UDP had lost it. Only others' authentic, fresh messages count towards
   // every n-th, so that hostile datagrams in between do not change which genuine ones are lost.

@@ -183,6 +183,9 @@ class Bus {
   // Writes the counters to the log, once. A bus destroyed without it logs them only when it
   // dropped something (a command-line tool's answer stays one line).
   void log_counters(bool even_if_clean = true);
+  // How far `sender`'s clock was behind this host's in its last message refused as pre-start
+  // (receipt minus its send time, s; nothing: none refused): what names a clock skew in errors.
+  std::optional<double> prestart_lag_s(const std::string& sender) const;
   ~Bus();
 
  private:
@@ -202,6 +205,7 @@ class Bus {
   BusCounters counters_;
   bool counters_logged_ = false;
   std::int64_t opened_us_ = 0;  // wall clock when the bus subscribed; older sequence numbers are pre-start
+  std::map<std::string, double> prestart_lag_s_;  // sender -> its last pre-start message's lag (counters_mutex_)
   std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;

@@ -8,8 +8,10 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 
 namespace hemo {
 
@@ -26,6 +28,7 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
           ctx, role, 0.5, [bus = bus_.get()] { return bus->counters(); },
           HeardReport{true, heard_report_file(ctx, role)})),
       role_(std::move(role)),
+      run_dir_(std::filesystem::path(heard_report_file(ctx, role_)).parent_path().parent_path().string()),
       step_(ctx.resume_step),
       step_started_(now()) {
   hello_t hello;
@@ -45,6 +48,8 @@ NodePort::~NodePort() = default;
 Received NodePort::wait_for(const std::string& kind, std::int64_t step, const char* what) {
   const auto& ctx = bus_->context();
   double last_heard = now(), last_asked = now();
+  PauseWatch pauses;
+  bool said_waiting = false;
   for (;;) {
     auto it = pending_.find({kind, step});
     if (it != pending_.end()) {
@@ -56,20 +61,83 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
     bus_->poll(0.05, [&](const Received& msg) {
       // Only the coordinator keeps a node waiting: two nodes whose coordinator is gone would
       // otherwise keep each other alive with their heartbeats, for ever.
-      if (msg.envelope.sender == "coordinator") last_heard = now();
+      if (msg.envelope.sender == "coordinator") {
+        if (said_waiting)
+          spdlog::info("{}: the coordinator is heard again after {:.0f} s of silence", role_, now() - last_heard);
+        last_heard = now();
+        said_waiting = false;
+      }
       if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
           msg.kind == channel::particle_feedback)
         pending_[{msg.kind, msg.envelope.step}] = msg;
     });
+    // While this node was paused nobody could be heard: that silence is not the coordinator's.
+    if (const double away = pauses.turn(); away > 0) {
+      last_heard = std::min(now(), last_heard + away);
+      if (away > std::min(5.0, ctx.timeout_s / 2)) spdlog::warn("{}: this node was {}", role_, pause_words(away));
+    }
     if (now() - last_asked > ctx.retry_s && !pending_.count({kind, step})) {
       bus_->request_resend(kind, step);
       last_asked = now();
     }
-    if (now() - last_heard > ctx.timeout_s)
-      throw std::runtime_error(
-          fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {})", role_,
-                      ctx.timeout_s, what, step));
+    const double silent = now() - last_heard;
+    if (silent <= ctx.timeout_s) continue;
+    const auto why = coordinator_silence(silent);
+    if (!why) {
+      if (!said_waiting)
+        spdlog::warn(
+            "{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}); {}: waiting for it",
+            role_, silent, what, step, coordinator_whereabouts());
+      said_waiting = true;
+      continue;
+    }
+    gave_up_after_s_ = silent;
+    throw std::runtime_error(
+        fmt::format("{}: nothing heard from the coordinator for {:.0f} s while waiting for {} (step {}){}", role_,
+                    silent, what, step, *why));
   }
+}
+
+// Whether a silence of `silent` seconds ends the wait, and why (docs/architecture.md "Liveness"):
+// nothing while the coordinator may come back.
+std::optional<std::string> NodePort::coordinator_silence(double silent) const {
+  const auto& ctx = bus_->context();
+  // Its messages arrive but are refused as older than this node: waiting does not help.
+  if (const auto lag = bus_->prestart_lag_s("coordinator"))
+    return fmt::format(
+        "; its messages are refused as sent before this node started: its clock is {:.1f} s behind this host's "
+        "(clock skew: the hosts' clocks must agree within {:g} s; NTP?)",
+        *lag, 1e-6 * static_cast<double>(kClockSkewAllowanceUs));
+  switch (coordinator_state(run_dir_)) {
+    case ProcessState::stopped:
+      return std::nullopt;  // it decides once it runs again
+    case ProcessState::running:
+    case ProcessState::elsewhere:
+      if (silent <= kCoordinatorPatience * ctx.timeout_s) return std::nullopt;
+      return fmt::format("; {}, and this node gave up after {:g} times run.node_timeout_s", coordinator_whereabouts(),
+                         kCoordinatorPatience);
+    case ProcessState::gone:
+      return std::string("; its process is gone");
+    case ProcessState::unknown:
+      break;
+  }
+  return std::string("");
+}
+
+std::string NodePort::coordinator_whereabouts() const {
+  switch (coordinator_state(run_dir_)) {
+    case ProcessState::stopped:
+      return "its process is stopped (SIGSTOP or a suspended shell?)";
+    case ProcessState::running:
+      return "its process runs";
+    case ProcessState::elsewhere:
+      return "its process is on another host";
+    case ProcessState::gone:
+      return "its process is gone";
+    case ProcessState::unknown:
+      break;
+  }
+  return "where it runs is not known";
 }
 
 void NodePort::report_done(bool ok, const std::string& error, const Diagnostics& diag) {
@@ -95,8 +163,12 @@ void NodePort::finalize() {
 
 void NodePort::fail(const std::string& error) {
   times_.compute_s = now() - step_started_;
+  // Gave up on a silent coordinator: it tells that coordinator, if it runs again, that the nodes
+  // are to be restarted, not the run ended (docs/architecture.md "Liveness").
+  Diagnostics diag;
+  if (gave_up_after_s_ > 0) diag.emplace_back(kCoordinatorSilentDiagnostic, gave_up_after_s_);
   // Several copies: the coordinator must learn why, even if UDP drops one.
-  for (int i = 0; i < 3; ++i) report_done(false, error, {});
+  for (int i = 0; i < 3; ++i) report_done(false, error, diag);
   heartbeat_.reset();
   bus_->log_counters();
 }

@@ -11,6 +11,7 @@
 #pragma once
 
 #include "bus.h"
+#include "liveness.h"
 
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/mesh_t.hpp>
@@ -34,6 +35,9 @@ using Diagnostics = std::vector<std::pair<std::string, double>>;
 // rest), and the physical time it is at (a resumed run's, from its checkpoint).
 inline constexpr const char* kRelaxationDiagnostic = "min_relaxation_time_s";
 inline constexpr const char* kTimeDiagnostic = "time_s";
+// Reported with a failure when the node gave up waiting for a silent coordinator (the seconds
+// of silence): a coordinator that reads it was paused, and restarts the nodes.
+inline constexpr const char* kCoordinatorSilentDiagnostic = "coordinator_silent_s";
 
 struct StepTimes {
   double compute_s = 0;
@@ -95,8 +99,12 @@ class NodePort {
     step_started_ = now();
     return std::make_pair(order, std::move(input));
   }
-  // Waits for (kind, step), asking again every retry interval; throws when the run is silent.
+  // Waits for (kind, step), asking again every retry interval; throws when the coordinator is
+  // silent for longer than it may be (liveness.h), naming why.
   Received wait_for(const std::string& kind, std::int64_t step, const char* what);
+  // Why a silence of the coordinator this long ends the wait (nothing: wait on).
+  std::optional<std::string> coordinator_silence(double silent) const;
+  std::string coordinator_whereabouts() const;  // for the log: whether its process is seen, and how
   void report_done(bool ok, const std::string& error, const Diagnostics& diag);
   static double now();
 
@@ -105,6 +113,8 @@ class NodePort {
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::string role_;
+  std::string run_dir_;         // where the coordinator says where it runs (liveness.h)
+  double gave_up_after_s_ = 0;  // the coordinator's silence the node gave up after (0: it did not)
   std::int64_t step_ = 0;
   StepTimes times_;
   double step_started_ = 0;

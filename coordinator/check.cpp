@@ -2,6 +2,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
 #include "placement.h"
+#include "resource_estimate.h"
 #include "scene.h"
 #include "units.h"
 
@@ -18,7 +19,41 @@ int list_keys_command() {
   return 0;
 }
 
-int check_command(const std::string& scene_path) {
+namespace {
+// The disk and memory the scene will take (resource_estimate.h) against what this machine has:
+// a warning above it, a refusal (false) above kAbsurdFactor times it.
+bool print_resource_estimate(const Scene& s, long particles, const std::string& out_dir) {
+  const ResourceEstimate e = estimate_resources(s, particles);
+  const MachineRoom room = machine_room(out_dir);
+  fmt::print(
+      "  disk        ~{} in the run directory{}: particles.h5 {} ({} snapshots), fluid output {}, "
+      "checkpoints {}, metrics.csv {}\n",
+      bytes_text(e.disk_bytes()), s.time.adaptive_interval() ? " at least" : "", bytes_text(e.snapshots_bytes),
+      e.outputs, bytes_text(e.fluid_output_bytes),
+      e.checkpoint_bytes > 0 ? "2 x " + bytes_text(e.checkpoint_bytes) : "none", bytes_text(e.metrics_bytes));
+  fmt::print("  memory      ~{} at peak: fluid {} x {}, particles {} x {} (per rank)\n", bytes_text(e.memory_bytes(s)),
+             s.run.fluid_ranks, bytes_text(e.fluid_rank_bytes), s.run.particle_ranks,
+             bytes_text(e.particle_rank_bytes));
+  bool fits = true;
+  auto judge = [&](const char* what, double needed, double has, const std::string& where) {
+    if (has < 0 || needed <= has) return;
+    const bool absurd = needed > kAbsurdFactor * has;
+    fits &= !absurd;
+    fmt::print("  {}     {} needs ~{} of {}, {} has {}{}\n", absurd ? "REFUSED" : "warning", s.run.name,
+               bytes_text(needed), what, where, bytes_text(has),
+               absurd
+                   ? fmt::format(" (over {:g} times as much: fewer steps or particles, or output.every_steps larger)",
+                                 kAbsurdFactor)
+                   : "");
+  };
+  judge("disk", e.disk_bytes(), room.free_disk_bytes, room.disk_path);
+  // Nodes on other hosts ([hosts]) take their memory there.
+  if (!s.hosts.any()) judge("memory", e.memory_bytes(s), room.available_memory_bytes, "this host (MemAvailable)");
+  return fits;
+}
+}  // namespace
+
+int check_command(const std::string& scene_path, const std::string& out_dir) {
   if (scene_path.empty()) throw std::runtime_error("check needs a scene file (or --keys)");
   // Throws SceneError listing every problem, a run's too: the particles are placed here as the
   // particle node will place them at step 0 (SceneCheck::placement).
@@ -64,6 +99,8 @@ int check_command(const std::string& scene_path) {
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)
                  : std::string("no checkpoints (output.checkpoint_every_steps = 0)"));
+  if (!print_resource_estimate(s, rbcs + platelets, out_dir))
+    throw std::runtime_error(fmt::format("{}: the run would not fit this machine by far (see above)", scene_path));
   return 0;
 }
 

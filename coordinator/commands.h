@@ -41,7 +41,7 @@ struct ControlOptions {
 };
 int control_command(const std::string& action, const ControlOptions& opt);
 
-int check_command(const std::string& scene_path);
+int check_command(const std::string& scene_path, const std::string& out_dir = "");
 int list_keys_command();  // every scene key with its default, as a Markdown table
 
 // A live view of a run's bus (docs/design.md "Monitoring"): from the run directory, or, on a

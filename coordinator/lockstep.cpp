@@ -3,6 +3,8 @@
 
 #include "checkpoint.h"
 #include "hosts.h"
+#include "liveness.h"
+#include "node_port.h"
 #include "stability_guard.h"
 
 #include <hemo/heartbeat_t.hpp>
@@ -45,6 +47,7 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
   // Reports of nodes from before (a restart) would pass the bus check for the new ones.
   std::error_code ec;
   std::filesystem::remove_all(std::filesystem::path(heard_report_file(ctx_, "coordinator")).parent_path(), ec);
+  write_coordinator_process(dir_.path);  // the nodes on this host watch it while it is silent
   if (first_step > 0) {
     metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
   } else {
@@ -125,8 +128,15 @@ void Lockstep::record(const Received& msg) {
   auto it = nodes_.find(done.node);
   if (it == nodes_.end() || done.node != msg.envelope.sender) return;
   auto& node = it->second;
-  if (!done.ok)
+  if (!done.ok) {
+    // A node that gave up on this coordinator's silence is healthy: restart it (liveness.h).
+    const auto& names = done.names;
+    if (std::find(names.begin(), names.end(), kCoordinatorSilentDiagnostic) != names.end())
+      throw NodeLost(
+          fmt::format("{} node gave up waiting for the coordinator at step {}{}: {}", done.node, msg.envelope.step,
+                      paused_s_ > 0 ? ", because the coordinator was " + pause_words(paused_s_) : "", done.error));
     throw std::runtime_error(fmt::format("{} node failed at step {}: {}", done.node, msg.envelope.step, done.error));
+  }
   if (msg.envelope.step <= node.done_step) return;  // a repeat
   node.done_step = msg.envelope.step;
   node.compute = done.compute_s;
@@ -182,10 +192,35 @@ void Lockstep::check_health(long step) {
     const double allowance =
         node.heard ? scene_.run.node_timeout : std::max(scene_.run.node_timeout, scene_.run.startup_timeout);
     if (now() - node.last_heard > allowance)
-      throw NodeLost(fmt::format("{} node {} at step {}: no heartbeat for {:.0f} s (log: {})", name,
+      throw NodeLost(fmt::format("{} node {} at step {}: no heartbeat for {:.0f} s{} (log: {})", name,
                                  node.heard ? "stopped answering" : "did not start", step, allowance,
-                                 node.process->log_path()));
+                                 why_silent(name, node), node.process->log_path()));
   }
+}
+
+// What the coordinator can tell about a node it does not hear: its process stopped (on this
+// host), or its messages refused for its clock.
+std::string Lockstep::why_silent(const std::string& name, NodeState& node) const {
+  if (const auto lag = bus_->prestart_lag_s(name))
+    return fmt::format(
+        "; its messages are refused as sent before the coordinator started: its clock is {:.1f} s behind this "
+        "host's (clock skew: the hosts' clocks must agree within {:g} s; NTP?)",
+        *lag, 1e-6 * static_cast<double>(kClockSkewAllowanceUs));
+  if (node.process->running() && process_state(node.process->pid()) == ProcessState::stopped)
+    return "; its process is stopped (SIGSTOP or a suspended shell?)";
+  return "";
+}
+
+// A pause of the coordinator (SIGSTOP, a suspended host) is not the nodes' silence: the time it
+// was away is taken off every node's silence and the step's time, and said once.
+void Lockstep::forgive_own_pause(long step, double* step_started) {
+  const double away = pauses_.turn();
+  if (away <= 0) return;
+  for (auto& [name, node] : nodes_) node.last_heard = std::min(now(), node.last_heard + away);
+  if (step_started) *step_started += away;
+  paused_s_ = away;
+  if (away > std::min(5.0, scene_.run.node_timeout / 2))
+    fmt::print(stderr, "hemocosim: the coordinator was {} at step {}; going on\n", pause_words(away), step);
 }
 
 void Lockstep::check_bus() {
@@ -229,7 +264,7 @@ void Lockstep::check_bus() {
 }
 
 void Lockstep::await(long step, double timeout_s) {
-  const double start = now();
+  double start = now();
   double last_asked = start;
   auto all_done = [&] {
     for (auto& [name, node] : nodes_)
@@ -245,6 +280,7 @@ void Lockstep::await(long step, double timeout_s) {
       }
       if (msg.kind == channel::step_done) record(msg);
     });
+    forgive_own_pause(step, &start);
     if (!unstable_.empty()) throw UnstableRun(unstable_);
     check_bus();
     check_health(step);
@@ -283,8 +319,9 @@ void Lockstep::stop(long step) {
   o.stop = true;
   bus_->publish(channel::step, o, step, /*keep=*/true);
   // Nodes that missed the order ask for it again; keep answering while they finish.
-  const double deadline = now() + scene_.run.node_timeout;
+  double deadline = now() + scene_.run.node_timeout;
   for (;;) {
+    forgive_own_pause(step, &deadline);
     bool all_exited = true;
     for (auto& [name, node] : nodes_) all_exited &= !node.process->running();
     if (all_exited) break;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "bus.h"
+#include "liveness.h"
 #include "node_launcher.h"
 #include "run_directory.h"
 #include "scene.h"
@@ -72,6 +73,8 @@ class Lockstep {
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
               long first_step);
   void check_health(long step);
+  std::string why_silent(const std::string& name, NodeState& node) const;
+  void forgive_own_pause(long step, double* step_started);
   // The bus check at start-up (docs/hosts.md): once both nodes reported whose heartbeats they
   // hear, every process must hear every other within run.bus_check_s, or the run stops with one
   // line naming who does not hear whom.
@@ -107,6 +110,8 @@ class Lockstep {
   bool bus_checked_ = false;                   // every process heard every other
   double bus_checked_at_ = 0;                  // when check_bus last looked
   std::map<std::string, double> reported_at_;  // when a node's heard report first appeared
+  PauseWatch pauses_;                          // the coordinator's own pauses (liveness.h)
+  double paused_s_ = 0;                        // the last of them (s; 0: none)
 };
 
 }  // namespace hemo

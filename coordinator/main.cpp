@@ -112,6 +112,10 @@ int main(int argc, char** argv) {
   bool list_keys = false;
   check_cmd->add_option("scene", check_scene, "Scene file (TOML)")->check(CLI::ExistingFile);
   check_cmd->add_flag("--keys", list_keys, "List every scene key with its default and the values it allows instead");
+  std::string check_out;
+  check_cmd->add_option("--out", check_out,
+                        "Where the run directory will be (its filesystem's free space is compared with the estimate; "
+                        "default: the current directory)");
 
   hemo::MonitorOptions mon;
   auto* mon_cmd = app.add_subcommand(
@@ -210,7 +214,7 @@ int main(int argc, char** argv) {
     if (*resume_cmd) return hemo::resume_command(resume);
     if (*restart_cmd) return hemo::control_command("restart", restart);
     if (*swap_cmd) return hemo::control_command("swap", swap);
-    if (*check_cmd) return list_keys ? hemo::list_keys_command() : hemo::check_command(check_scene);
+    if (*check_cmd) return list_keys ? hemo::list_keys_command() : hemo::check_command(check_scene, check_out);
     if (*mon_cmd) return hemo::monitor_command(mon);
     if (*ana_cmd) return hemo::analyze_command(ana);
     if (*plot_cmd) return hemo::plot_command(plot);

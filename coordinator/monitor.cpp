@@ -2,7 +2,6 @@
 // with time plots (issue #23). What it shows is computed in monitor_stats.h.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <fmt/format.h>
-#include <httplib.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -21,6 +20,7 @@
 #include "commands.h"
 #include "monitor_page.h"
 #include "monitor_stats.h"
+#include "page_server.h"
 #include "run_directory.h"
 #include "scene.h"
 
@@ -72,47 +72,23 @@ class RowLog {
   std::size_t first_ = 0;
 };
 
-// The page and its data, on a thread of their own; read-only, and bound to loopback unless told.
-class PageServer {
- public:
-  PageServer(const RowLog& log, const std::string& bind, int port) {
-    server_.new_task_queue = [] { return new httplib::ThreadPool(2); };
-    server_.Get("/", [](const httplib::Request&, httplib::Response& res) {
-      res.set_content(monitor_page_html(), "text/html; charset=utf-8");
-    });
-    server_.Get("/rows", [&log](const httplib::Request& req, httplib::Response& res) {
-      std::size_t since = 0;
-      if (req.has_param("since")) {
-        try {
-          since = std::stoul(req.get_param_value("since"));
-        } catch (const std::exception&) {
-          res.status = 400;
-          return;
-        }
+// The page and its data (page_server.h: bounded connections, Host checked); read-only, and
+// bound to loopback unless told.
+std::unique_ptr<PageServer> serve_page(const RowLog& log, const std::string& bind, int port) {
+  return std::make_unique<PageServer>(bind, port, [&log](const PageRequest& req) {
+    if (req.path == "/") return PageResponse{200, "text/html; charset=utf-8", monitor_page_html()};
+    if (req.path != "/rows") return PageResponse{404, "text/plain; charset=utf-8", "not found\n"};
+    std::size_t since = 0;
+    if (const auto it = req.query.find("since"); it != req.query.end()) {
+      try {
+        since = std::stoul(it->second);
+      } catch (const std::exception&) {
+        return PageResponse{400, "text/plain; charset=utf-8", "since: not a row number\n"};
       }
-      res.set_header("Cache-Control", "no-store");
-      res.set_content(log.since(since), "application/json");
-    });
-    port_ = port == 0 ? server_.bind_to_any_port(bind) : (server_.bind_to_port(bind, port) ? port : -1);
-    if (port_ <= 0)
-      throw std::runtime_error(
-          fmt::format("cannot serve the monitor's page on {}:{} (address in use or not ours?)", bind, port));
-    thread_ = std::thread([this] { server_.listen_after_bind(); });
-    // stop() does nothing to a server that is not listening yet, and the join would then wait for
-    // ever: a monitor told to stop at once must find it listening.
-    for (int i = 0; i < 2000 && !server_.is_running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  ~PageServer() {
-    server_.stop();
-    if (thread_.joinable()) thread_.join();
-  }
-  int port() const { return port_; }
-
- private:
-  httplib::Server server_;
-  std::thread thread_;
-  int port_ = -1;
-};
+    }
+    return PageResponse{200, "application/json", log.since(since), /*no_store=*/true};
+  });
+}
 
 long scene_steps(const std::string& scene_copy) {
   try {
@@ -161,7 +137,7 @@ int monitor_command(const MonitorOptions& opt) {
   RowLog rows;
   std::unique_ptr<PageServer> page;
   if (opt.http_port >= 0) {
-    page = std::make_unique<PageServer>(rows, opt.bind, opt.http_port);
+    page = serve_page(rows, opt.bind, opt.http_port);
     // On stderr: stdout may be JSON lines for a script.
     fmt::print(stderr, "monitor: live page at http://{}:{}/\n", opt.bind, page->port());
     std::fflush(stderr);

@@ -26,7 +26,7 @@ PACKAGES=(
   libopenmpi-dev openmpi-bin
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   libssl-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libcpp-httplib-dev chromium fonts-dejavu-core
+  chromium fonts-dejavu-core
   python3 python3-numpy python3-h5py python3-matplotlib
   procps iproute2
   slurm-wlm munge  # deploy/slurm and its test (tests/deploy)

@@ -4,9 +4,15 @@
 #include "node_port.h"
 #include "test_helpers.h"
 
+#include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include <csignal>
+#include <fstream>
 
 #include <atomic>
 #include <condition_variable>
@@ -212,4 +218,100 @@ TEST(NodePort, APeersHeartbeatDoesNotKeepANodeWaitingWithoutItsCoordinator) {
   peer.reset();  // (so that a node that ignored its timeout ends now)
   EXPECT_TRUE(gave_up) << "still waiting 5 s after a timeout of 1 s";
   EXPECT_NE(waiting.get().find("nothing heard from the coordinator"), std::string::npos);
+}
+
+namespace {
+// A run directory with the secret file in it, as the coordinator makes one; `coordinator_pid`
+// written as the coordinator's process on this host (docs/architecture.md "Liveness").
+std::string run_dir_with_coordinator(RunContext& ctx, pid_t coordinator_pid) {
+  char name[] = "/tmp/hemo_liveness_XXXXXX";
+  const std::string dir = mkdtemp(name);
+  ctx.secret_file = dir + "/secret";
+  char host[256] = {0};
+  gethostname(host, sizeof host - 1);
+  std::ofstream(coordinator_process_file(dir)) << "host=" << host << " pid=" << coordinator_pid << "\n";
+  return dir;
+}
+
+// What ParticlePort::initialize ended with (it waits for a mesh that never comes), and when.
+struct Outcome {
+  std::string what;
+  double after_s = 0;
+};
+std::future<Outcome> wait_for_a_mesh(const RunContext& ctx) {
+  return std::async(std::launch::async, [ctx] {
+    const auto start = std::chrono::steady_clock::now();
+    ParticlePort port(ctx, "particles", "test particles");
+    Outcome o{"initialized"};
+    try {
+      port.initialize();
+    } catch (const std::exception& e) {
+      o.what = e.what();
+    }
+    o.after_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return o;
+  });
+}
+}  // namespace
+
+// A node keeps waiting for a coordinator whose process is stopped (SIGSTOP, a suspended shell),
+// however long past its timeout: the coordinator decides once it runs again. A coordinator whose
+// process is gone is not waited for beyond the timeout.
+TEST(NodePort, ANodeWaitsForAStoppedCoordinatorAndGivesUpOnAGoneOne) {
+  auto ctx = test::make_context("stopped-coordinator");
+  ctx.timeout_s = 0.5;
+  const pid_t coordinator = fork();
+  ASSERT_GE(coordinator, 0);
+  if (coordinator == 0) {
+    pause();
+    _exit(0);
+  }
+  ASSERT_EQ(kill(coordinator, SIGSTOP), 0);
+  run_dir_with_coordinator(ctx, coordinator);
+  auto waiting = wait_for_a_mesh(ctx);
+  // 3 s: six timeouts, fewer than the patience for a running coordinator (10 timeouts).
+  EXPECT_EQ(waiting.wait_for(std::chrono::seconds(3)), std::future_status::timeout)
+      << "gave up on a stopped coordinator: " << waiting.get().what;
+  kill(coordinator, SIGKILL);
+  waitpid(coordinator, nullptr, 0);
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(3)), std::future_status::ready)
+      << "still waiting for a coordinator that is gone";
+  const Outcome o = waiting.get();
+  EXPECT_NE(o.what.find("nothing heard from the coordinator"), std::string::npos) << o.what;
+  EXPECT_NE(o.what.find("its process is gone"), std::string::npos) << o.what;
+  EXPECT_GE(o.after_s, 3.0) << o.what;
+}
+
+// A coordinator whose clock is behind the node's by more than the bus allows: its messages are
+// refused as from before the node started, and the node's error names the clock skew and by how much.
+TEST(NodePort, AClockSkewThatRefusesTheCoordinatorsMessagesIsNamed) {
+  auto ctx = test::make_context("skew");
+  ctx.timeout_s = 1;
+  run_dir_with_coordinator(ctx, getpid());  // it runs: the node would wait on, but for the skew
+  auto waiting = wait_for_a_mesh(ctx);
+  lcm::LCM lcm(ctx.lcm_url);
+  ASSERT_TRUE(lcm.good());
+  const auto behind_us = std::int64_t{5'000'000};
+  for (int i = 0; i < 40 && waiting.wait_for(std::chrono::milliseconds(100)) == std::future_status::timeout; ++i) {
+    // A heartbeat of the coordinator stamped by a clock 5 s behind: sequence number and send time.
+    heartbeat_t h{};
+    h.envelope.run_id = ctx.run_id;
+    h.envelope.sender = "coordinator";
+    const std::int64_t its_clock_us =
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+            .count() -
+        behind_us;
+    h.envelope.seq = its_clock_us;
+    h.envelope.sent_unix_ns = its_clock_us * 1000;
+    std::vector<std::uint8_t> buf(static_cast<std::size_t>(h.getEncodedSize()));
+    h.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    sign(buf, ctx.secret);
+    lcm.publish(ctx.run_id + "/" + channel::heartbeat, buf.data(), static_cast<unsigned>(buf.size()));
+  }
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+  const Outcome o = waiting.get();
+  EXPECT_NE(o.what.find("clock skew"), std::string::npos) << o.what;
+  const auto at = o.what.find("its clock is ");
+  ASSERT_NE(at, std::string::npos) << o.what;
+  EXPECT_NEAR(std::stod(o.what.substr(at + 13)), 5.0, 0.5) << o.what;
 }

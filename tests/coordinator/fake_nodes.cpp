@@ -2,6 +2,7 @@
 #include "fake_nodes.h"
 
 #include "checkpoint.h"
+#include "node_port.h"
 
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
@@ -89,7 +90,7 @@ class FakeNode : public NodeHandle {
     return !stop_;
   }
 
-  void report(Bus& bus, bool ok, const std::string& error, double compute_s, bool checkpointed) {
+  void report(Bus& bus, bool ok, const std::string& error, double compute_s, bool checkpointed, bool gave_up = false) {
     step_done_t done;
     done.node = node_;
     done.ok = ok;
@@ -99,6 +100,10 @@ class FakeNode : public NodeHandle {
     if (checkpointed) {
       done.names.push_back(kCheckpointDiagnostic);
       done.values.push_back(static_cast<double>(step_));
+    }
+    if (gave_up) {  // as NodePort::fail after a wait for the coordinator ran out
+      done.names.push_back(kCoordinatorSilentDiagnostic);
+      done.values.push_back(20.0);
     }
     done.n_diagnostics = static_cast<std::int32_t>(done.names.size());
     // In the ledger before it is on the bus: an order that answers it comes after it there.
@@ -145,6 +150,12 @@ class FakeNode : public NodeHandle {
         case Act::fail: {
           const std::string error = fmt::format("fake {} diverged at step {}", node_, step_);
           for (int i = 0; i < 3; ++i) report(bus, false, error, compute_s, false);
+          heartbeat.reset();
+          return end("exited with status 1", error);
+        }
+        case Act::give_up: {
+          const std::string error = fmt::format("{}: nothing heard from the coordinator for 20 s", node_);
+          for (int i = 0; i < 3; ++i) report(bus, false, error, compute_s, false, /*gave_up=*/true);
           heartbeat.reset();
           return end("exited with status 1", error);
         }

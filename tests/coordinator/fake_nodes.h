@@ -22,6 +22,7 @@ enum class Act {
   die,                     // end without a word, as if killed
   die_writing_checkpoint,  // begin the step's checkpoint, then end without a word
   freeze,                  // stop heartbeats and answers, but keep running
+  give_up,                 // fail the step as a node that gave up on a silent coordinator, then exit 1
 };
 
 // One thing a fake node saw or did, in the order it happened across all fake nodes.

@@ -223,3 +223,20 @@ TEST_F(RuntimeTest, InterruptStopsAfterTheStepWithACheckpoint) {
     }
   }
 }
+
+// A node that gave up waiting for a silent coordinator (a coordinator paused for longer than the
+// nodes wait, docs/architecture.md "Liveness") is healthy: both nodes are restarted from the last
+// checkpoint, unlike after a failed step, and the cause is named.
+TEST_F(RuntimeTest, NodeThatGaveUpOnTheCoordinatorIsRestartedFromTheLastCheckpoint) {
+  scene_.output.checkpoint_every_steps = 2;
+  scene_.run.max_restarts = 1;
+  launcher_.script = [](const std::string& node, int launch, long step) {
+    return node == "fluid" && launch == 0 && step == 5 ? Act::give_up : Act::ok;
+  };
+  const Reached reached = drive_run();
+  EXPECT_TRUE(reached.end);
+  EXPECT_EQ(reached.restarts, 1);
+  const auto launches = launcher_.launches();
+  ASSERT_EQ(launches.size(), 4u);
+  for (std::size_t i = 2; i < 4; ++i) EXPECT_EQ(launches[i].resume_step, 4) << launches[i].node;
+}

@@ -208,7 +208,7 @@ void signal_node_after_a_checkpoint(const std::string& dir, const std::string& b
 // completes, and ends bit for bit as the same scene run without the death.
 // `node_timeout`: the scene's node_timeout_s (s) instead of its own.
 void expect_restart_after(const std::string& name, const std::string& node, int signal, const std::string& cause,
-                          const std::string& node_timeout = "") {
+                          const std::string& node_timeout = "", const std::string& also_said = "") {
   const std::string whole = fresh_run_dir(name + "-whole"), hurt = fresh_run_dir(name + "-hurt");
   std::string text = scene_with_checkpoints(300, 8);
   const std::string own_timeout = "node_timeout_s = 10";
@@ -225,6 +225,7 @@ void expect_restart_after(const std::string& name, const std::string& node, int 
   const auto r = result.get();
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find(node + " node " + cause), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(also_said), std::string::npos) << r.output;
   const long from = step_after(r.output, "restarting both nodes from the checkpoint of step ");
   EXPECT_GE(from, 8) << r.output;
   EXPECT_EQ(from % 8, 0) << r.output;
@@ -248,7 +249,42 @@ TEST(Checkpoint, KilledNodeIsRestartedAndTheRunEndsAsIfUninterrupted) {
 // A frozen node (SIGSTOP) stops answering: after run.node_timeout_s it is declared lost, both
 // nodes are stopped and restarted the same way.
 TEST(Checkpoint, FrozenNodeIsRestartedAndTheRunEndsAsIfUninterrupted) {
-  expect_restart_after("restart-frozen", "fluid", SIGSTOP, "stopped answering", "3");
+  expect_restart_after("restart-frozen", "fluid", SIGSTOP, "stopped answering", "3",
+                       "its process is stopped (SIGSTOP or a suspended shell?)");
+}
+
+// A coordinator paused (SIGSTOP, a suspended shell) for twice the nodes' timeout and continued:
+// the nodes on its host waited for it, seeing its process stopped, and it does not count its own
+// absence as their silence. It says it was paused, restarts nothing, and the run ends bit for
+// bit as the same scene run without the pause (docs/architecture.md "Liveness").
+TEST(Checkpoint, PausedCoordinatorGoesOnAndTheRunEndsAsIfUninterrupted) {
+  const std::string whole = fresh_run_dir("paused-coordinator-whole"), paused = fresh_run_dir("paused-coordinator");
+  std::string text = scene_with_checkpoints(300, 8);
+  const std::string own_timeout = "node_timeout_s = 10";
+  ASSERT_NE(text.find(own_timeout), std::string::npos) << "coupled_small.toml lost its node_timeout_s";
+  text.replace(text.find(own_timeout), own_timeout.size(), "node_timeout_s = 2");
+  std::ofstream(whole + ".toml") << text;
+  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+
+  auto result =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + whole + ".toml --out " + paused); });
+  ASSERT_TRUE(wait_until_stepping(paused));
+  long coordinator = 0;
+  std::ifstream(paused + "/coordinator.pid") >> coordinator;
+  ASSERT_GT(coordinator, 0);
+  ASSERT_EQ(kill(static_cast<pid_t>(coordinator), SIGSTOP), 0);
+  std::this_thread::sleep_for(std::chrono::seconds(5));  // 2.5 node timeouts
+  ASSERT_EQ(kill(static_cast<pid_t>(coordinator), SIGCONT), 0);
+  const auto r = result.get();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const double paused_for = number_after(r.output, "the coordinator was paused for ");
+  EXPECT_GE(paused_for, 4) << r.output;
+  EXPECT_LE(paused_for, 7) << r.output;
+  EXPECT_NE(r.output.find("(SIGSTOP or a suspended host?)"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("restart"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("done in"), std::string::npos) << r.output;
+  expect_same_run(whole, paused, 0.0);
 }
 
 namespace {
