@@ -12,6 +12,9 @@ namespace hemo {
 
 int control_command(const std::string& action, const ControlOptions& opt) {
   auto [dir, ctx] = RunDirectory::open(opt.run_dir);
+  if (!RunLock::held(dir.path))
+    throw std::runtime_error(
+        fmt::format("no coordinator is running {} (`hemocosim resume {}` goes on with it)", dir.path, dir.path));
   std::random_device rd;
   const ControlRequest request{static_cast<std::int64_t>((std::uint64_t(rd()) << 31) ^ rd()), action, opt.node,
                                opt.with};
