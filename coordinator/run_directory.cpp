@@ -50,7 +50,7 @@ std::string commands_text(const RunContext& ctx, const Scene& scene) {
                      scene.run.fluid_command, scene.run.particle_command);
 }
 
-constexpr const char* kManifest = "SHA256SUMS";
+constexpr const char* kManifest = kCheckpointManifest;
 
 // The checkpoint's files (fluid/..., particles/...) by path relative to its step folder.
 std::map<std::string, fs::path> checkpoint_files(const std::string& folder) {
@@ -206,16 +206,7 @@ bool RunDirectory::commands_signed(const RunContext& ctx, const Scene& scene) co
   return !recorded.empty() && recorded == hmac_hex(ctx.secret, commands_text(ctx, scene));
 }
 
-std::optional<long> RunDirectory::last_checkpoint() const {
-  std::optional<long> last;
-  for (const long k : checkpoint_steps(path)) {
-    const std::string folder = checkpoint_folder(path, k);
-    if ((!last || k > *last) && fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") &&
-        fs::exists(folder + "/" + kManifest))
-      last = k;
-  }
-  return last;
-}
+std::optional<long> RunDirectory::last_checkpoint() const { return last_complete_checkpoint(path); }
 
 void RunDirectory::seal_checkpoint(long step) const {
   const std::string folder = checkpoint_folder(path, step);
