@@ -27,8 +27,8 @@ namespace hemo {
 namespace {
 // run.toml is rewritten as a run starts (ranks, placement, transport, the relay's URL) while
 // others may read it (the monitor, `hemocosim restart`, lcm-logger's user): written aside and
-// renamed, so that a reader sees the old file or the new one, never a truncated one.
-// A full disk or a crash leaves the old file, never an empty one (write_file_atomically).
+// renamed, so that a reader sees the old file or the new one, never a truncated one, and a full
+// disk or a crash leaves the old one (write_file_atomically).
 void write_info(const std::string& file, const toml::table& info) {
   std::ostringstream text;
   text << info << "\n";
@@ -50,8 +50,6 @@ std::string commands_text(const RunContext& ctx, const Scene& scene) {
                      scene.run.fluid_command, scene.run.particle_command);
 }
 
-constexpr const char* kManifest = kCheckpointManifest;
-
 // The checkpoint's files (fluid/..., particles/...) by path relative to its step folder.
 std::map<std::string, fs::path> checkpoint_files(const std::string& folder) {
   std::map<std::string, fs::path> files;
@@ -64,8 +62,8 @@ std::map<std::string, fs::path> checkpoint_files(const std::string& folder) {
   return files;
 }
 
-// Runs of `path` are created under umask 077: the directory, the secret, logs and results are
-// the user's only.
+// A run directory is created under umask 077: it, its secret and what the coordinator writes
+// into it are the user's only.
 struct PrivateUmask {
   mode_t before = ::umask(077);
   ~PrivateUmask() { ::umask(before); }
@@ -212,21 +210,21 @@ void RunDirectory::seal_checkpoint(long step) const {
   const std::string folder = checkpoint_folder(path, step);
   std::string sums;
   for (const auto& [name, file] : checkpoint_files(folder)) sums += sha256_file(file.string()) + "  " + name + "\n";
-  write_file_atomically(folder + "/" + kManifest, sums);
+  write_file_atomically(folder + "/" + kCheckpointManifest, sums);
 }
 
 void RunDirectory::verify_checkpoint(long step) const {
   const std::string folder = checkpoint_folder(path, step);
-  std::ifstream in(folder + "/" + kManifest);
+  std::ifstream in(folder + "/" + kCheckpointManifest);
   std::map<std::string, std::string> sealed;
   for (std::string line; std::getline(in, line);)
     if (line.size() > 66) sealed[line.substr(66)] = line.substr(0, 64);
   auto refuse = [&](const std::string& name, const char* how) {
     return std::runtime_error(fmt::format(
         "the checkpoint of step {} in {} does not match its {}: {} {}; refusing to resume from it", step, path,
-        kManifest, name, how));
+        kCheckpointManifest, name, how));
   };
-  if (sealed.empty()) throw refuse(kManifest, "is empty or unreadable");
+  if (sealed.empty()) throw refuse(kCheckpointManifest, "is empty or unreadable");
   const auto files = checkpoint_files(folder);
   for (const auto& [name, file] : files) {
     const auto it = sealed.find(name);
