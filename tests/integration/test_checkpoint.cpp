@@ -556,8 +556,8 @@ TEST(RunState, ASecondResumeOfARunThatIsGoingIsRefusedAndTheRunEndsAsIfAlone) {
 }
 
 // A full disk mid-run (a small tmpfs): the run stops naming it; a resume while it is still full
-// is refused before it touches anything (particles.h5's snapshots readable, run.toml whole); once
-// there is space, the resumed run ends as the uninterrupted one, bit for bit.
+// is refused before it touches anything (particles.h5, its snapshots readable, run.toml and metrics.csv
+// as they were); once there is space, the resumed run ends as the uninterrupted one, bit for bit.
 TEST(RunState, AFullDiskStopsTheRunNamingItAndAResumeLosesNothing) {
   if (::geteuid() != 0) GTEST_SKIP() << "mounting a small tmpfs needs root (CI runs as root)";
   const long steps = 80;  // about 0.1 s a step: seconds to fill the disk after the checkpoint of step 16
@@ -583,7 +583,7 @@ TEST(RunState, AFullDiskStopsTheRunNamingItAndAResumeLosesNothing) {
     EXPECT_NE(error_line(file_text(going.err)).find("no space left on device"), std::string::npos)
         << file_text(going.err);
   }
-  const std::string info = file_text(dir + "/run.toml");
+  const std::string info = file_text(dir + "/run.toml"), metrics = file_text(dir + "/metrics.csv");
   const auto names = snapshot_names(dir + "/particles.h5");
   ASSERT_GE(names.size(), 2u);
   for (const auto& n : names) read_snapshot(dir + "/particles.h5", n);
@@ -593,6 +593,7 @@ TEST(RunState, AFullDiskStopsTheRunNamingItAndAResumeLosesNothing) {
   EXPECT_EQ(std::count(full.output.begin(), full.output.end(), '\n'), 1) << full.output;
   EXPECT_NE(full.output.find("no space left on device"), std::string::npos) << full.output;
   EXPECT_EQ(file_text(dir + "/run.toml"), info);
+  EXPECT_EQ(file_text(dir + "/metrics.csv"), metrics);
   EXPECT_EQ(snapshot_names(dir + "/particles.h5"), names);
   for (const auto& n : names) read_snapshot(dir + "/particles.h5", n);
 
