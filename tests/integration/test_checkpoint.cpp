@@ -529,6 +529,19 @@ TEST(RunState, ATamperedCheckpointOrAnAddedCommandIsRefused) {
   EXPECT_TRUE(fs::exists(mark)) << "it ran when allowed";
 }
 
+// Commands a scene makes the nodes run are code: `hemocosim check` says so before any run.
+TEST(RunState, CheckPrintsTheCommandsAScenesNodesRun) {
+  const std::string scene = fresh_run_dir("check-commands") + ".toml";
+  std::ofstream(scene) << small_scene_text(4, "particle_command = \"/opt/other-particle-node --fast\"\n");
+  const auto r = run(bin("hemocosim") + " check " + scene);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("run.particle_command = `/opt/other-particle-node --fast` runs as you"), std::string::npos)
+      << r.output;
+  std::ofstream(scene) << small_scene_text(4);
+  EXPECT_NE(run(bin("hemocosim") + " check " + scene).output.find("commands    the built-in nodes"),
+            std::string::npos);
+}
+
 // A second coordinator on a run that is going is refused in one line, and the first run ends
 // as the uninterrupted run does, bit for bit.
 TEST(RunState, ASecondResumeOfARunThatIsGoingIsRefusedAndTheRunEndsAsIfAlone) {
