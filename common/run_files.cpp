@@ -62,12 +62,13 @@ std::vector<std::uint8_t> read_private_file(const std::string& path, const std::
     if (errno == ELOOP) throw std::runtime_error(fmt::format("{} {} is a symbolic link: refusing it", what, path));
     throw std::runtime_error(io_error("read the " + what, path, errno));
   }
-  struct stat st{};
+  struct stat st {};
   if (::fstat(f.fd, &st) != 0) throw std::runtime_error(io_error("read the " + what, path, errno));
-  if (!S_ISREG(st.st_mode)) throw std::runtime_error(fmt::format("{} {} is not a regular file: refusing it", what, path));
+  if (!S_ISREG(st.st_mode))
+    throw std::runtime_error(fmt::format("{} {} is not a regular file: refusing it", what, path));
   if (st.st_uid != ::geteuid())
-    throw std::runtime_error(
-        fmt::format("{} {} belongs to uid {}, not to this user (uid {}): refusing it", what, path, st.st_uid, ::geteuid()));
+    throw std::runtime_error(fmt::format("{} {} belongs to uid {}, not to this user (uid {}): refusing it", what, path,
+                                         st.st_uid, ::geteuid()));
   if ((st.st_mode & 077) != 0)
     throw std::runtime_error(fmt::format("{} {} has mode {}, open to others: refusing it (it must be 0600)", what, path,
                                          mode_text(st.st_mode)));
@@ -93,17 +94,16 @@ void create_private_file(const std::string& path, const std::vector<std::uint8_t
 }
 
 void check_own_directory(const std::string& path, const std::string& what) {
-  struct stat st{};
+  struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) throw std::runtime_error(io_error("use the " + what, path, errno));
-  if (S_ISLNK(st.st_mode))
-    throw std::runtime_error(fmt::format("{} {} is a symbolic link: refusing it", what, path));
+  if (S_ISLNK(st.st_mode)) throw std::runtime_error(fmt::format("{} {} is a symbolic link: refusing it", what, path));
   if (!S_ISDIR(st.st_mode)) throw std::runtime_error(fmt::format("{} {} is not a directory", what, path));
   if (st.st_uid != ::geteuid())
-    throw std::runtime_error(fmt::format("{} {} belongs to uid {}, not to this user (uid {}): refusing it", what,
-                                         path, st.st_uid, ::geteuid()));
+    throw std::runtime_error(fmt::format("{} {} belongs to uid {}, not to this user (uid {}): refusing it", what, path,
+                                         st.st_uid, ::geteuid()));
   if ((st.st_mode & 022) != 0)
-    throw std::runtime_error(fmt::format("{} {} has mode {}, writable by others: refusing it", what, path,
-                                         mode_text(st.st_mode)));
+    throw std::runtime_error(
+        fmt::format("{} {} has mode {}, writable by others: refusing it", what, path, mode_text(st.st_mode)));
 }
 
 void write_file_atomically(const std::string& path, const std::string& text) {
@@ -130,7 +130,7 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 }
 
 std::uintmax_t free_bytes(const std::string& path) {
-  struct statvfs s{};
+  struct statvfs s {};
   if (::statvfs(path.c_str(), &s) != 0) throw std::runtime_error(io_error("look at", path, errno));
   return static_cast<std::uintmax_t>(s.f_bavail) * s.f_frsize;
 }

@@ -63,8 +63,8 @@ int check_command(const std::string& scene_path) {
   // Commands are code the run executes as this user: said here, before it does.
   if (s.run.fluid_command.empty() && s.run.particle_command.empty())
     fmt::print("  commands    the built-in nodes (hemocosim-fluid, hemocosim-particles)\n");
-  for (const auto& [key, command] : {std::pair{"run.fluid_command", s.run.fluid_command},
-                                     std::pair{"run.particle_command", s.run.particle_command}})
+  for (const auto& [key, command] :
+       {std::pair{"run.fluid_command", s.run.fluid_command}, std::pair{"run.particle_command", s.run.particle_command}})
     if (!command.empty()) fmt::print("  commands    {} = `{}` runs as you\n", key, command);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0

@@ -3,8 +3,8 @@
 #include "commands.h"
 #include "hosts.h"
 #include "relay.h"
-#include "run_files.h"
 #include "run_driver.h"
+#include "run_files.h"
 #include "scene.h"
 #include "xdmf.h"
 
@@ -115,8 +115,8 @@ int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunCo
 // The commands a resumed run executes, said; one this run's coordinator did not record and sign
 // (an edited scene.toml or run.toml) only with --allow-commands.
 void refuse_unsigned_commands(const RunDirectory& dir, const RunContext& ctx, const Scene& scene, bool allowed) {
-  for (const auto& [node, command] : {std::pair{"fluid", scene.run.fluid_command},
-                                      std::pair{"particles", scene.run.particle_command}})
+  for (const auto& [node, command] :
+       {std::pair{"fluid", scene.run.fluid_command}, std::pair{"particles", scene.run.particle_command}})
     if (!command.empty()) fmt::print(stderr, "hemocosim: the {} node runs `{}`\n", node, command);
   if (dir.commands_signed(ctx, scene)) return;
   if (!allowed)

@@ -220,9 +220,9 @@ void RunDirectory::verify_checkpoint(long step) const {
   for (std::string line; std::getline(in, line);)
     if (line.size() > 66) sealed[line.substr(66)] = line.substr(0, 64);
   auto refuse = [&](const std::string& name, const char* how) {
-    return std::runtime_error(fmt::format(
-        "the checkpoint of step {} in {} does not match its {}: {} {}; refusing to resume from it", step, path,
-        kCheckpointManifest, name, how));
+    return std::runtime_error(
+        fmt::format("the checkpoint of step {} in {} does not match its {}: {} {}; refusing to resume from it", step,
+                    path, kCheckpointManifest, name, how));
   };
   if (sealed.empty()) throw refuse(kCheckpointManifest, "is empty or unreadable");
   const auto files = checkpoint_files(folder);
@@ -266,8 +266,7 @@ void RunDirectory::drop_metrics_after(long step) const {
   while (std::getline(in, line)) {
     // A row: its step, then four more fields. Anything else (a crash's or full disk's remains).
     const auto comma = line.find(',');
-    const bool row = comma > 0 && comma != std::string::npos &&
-                     line.find_first_not_of("0123456789") == comma &&
+    const bool row = comma > 0 && comma != std::string::npos && line.find_first_not_of("0123456789") == comma &&
                      std::count(line.begin(), line.end(), ',') == 4 && comma <= 18;
     if (!row) {
       skipped += !line.empty();
@@ -291,8 +290,8 @@ RunLock::RunLock(const std::string& run_dir) {
     ::close(fd_);
     fd_ = -1;
     if (err == EWOULDBLOCK)
-      throw std::runtime_error(fmt::format("{} is in use: another hemocosim coordinator runs it (its lock {})", run_dir,
-                                           file));
+      throw std::runtime_error(
+          fmt::format("{} is in use: another hemocosim coordinator runs it (its lock {})", run_dir, file));
     throw std::runtime_error(io_error("lock", file, err));
   }
 }

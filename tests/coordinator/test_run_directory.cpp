@@ -53,7 +53,7 @@ std::string error_of(const std::function<void()>& f) {
 }
 
 mode_t mode_of(const std::string& path) {
-  struct stat st{};
+  struct stat st {};
   ::lstat(path.c_str(), &st);
   return st.st_mode & 07777;
 }
@@ -98,8 +98,7 @@ TEST_F(RunDirectoryTest, ARunDirectoryOthersMayWriteIsRefused) {
   const std::string shared = root_ + "/shared";
   fs::create_directory(shared);
   fs::permissions(shared, fs::perms::owner_all | fs::perms::group_all, fs::perm_options::replace);
-  EXPECT_NE(error_of([&] { RunDirectory::create(shared, scene_file_); }).find("writable by others"),
-            std::string::npos);
+  EXPECT_NE(error_of([&] { RunDirectory::create(shared, scene_file_); }).find("writable by others"), std::string::npos);
   EXPECT_TRUE(fs::is_empty(shared)) << "nothing written into it";
 
   auto [dir, ctx] = RunDirectory::create(root_ + "/run", scene_file_);
@@ -170,7 +169,8 @@ TEST_F(RunDirectoryTest, MalformedMetricsLinesAreSkipped) {
   auto [dir, ctx] = RunDirectory::create(root_ + "/run", scene_file_);
   {
     std::ofstream out(dir.metrics_file(), std::ios::binary);
-    out << "step,time_s,node,name,value\n1,0.1,fluid,u,2\n" << std::string(4096, '\0') << "\n2,0.2,fl\n"
+    out << "step,time_s,node,name,value\n1,0.1,fluid,u,2\n"
+        << std::string(4096, '\0') << "\n2,0.2,fl\n"
         << "3,0.3,fluid,u,4\n99999999999999999999999,0,fluid,u,1\n4,0.4,fluid,u,5\n";
   }
   testing::internal::CaptureStderr();

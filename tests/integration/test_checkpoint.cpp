@@ -538,8 +538,7 @@ TEST(RunState, CheckPrintsTheCommandsAScenesNodesRun) {
   EXPECT_NE(r.output.find("run.particle_command = `/opt/other-particle-node --fast` runs as you"), std::string::npos)
       << r.output;
   std::ofstream(scene) << small_scene_text(4);
-  EXPECT_NE(run(bin("hemocosim") + " check " + scene).output.find("commands    the built-in nodes"),
-            std::string::npos);
+  EXPECT_NE(run(bin("hemocosim") + " check " + scene).output.find("commands    the built-in nodes"), std::string::npos);
 }
 
 // A second coordinator on a run that is going is refused in one line, and the first run ends
