@@ -2,6 +2,7 @@
 #include "bus.h"
 
 #include "bus_crypto.h"
+#include "run_files.h"
 
 #include <hemo/control_t.hpp>
 #include <hemo/fluid_state_t.hpp>
@@ -105,9 +106,7 @@ void RunContext::add_options(CLI::App& app) {
 }
 
 void RunContext::load_secret() {
-  std::ifstream in(secret_file, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read the run secret " + secret_file);
-  secret.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  secret = read_private_file(secret_file, "run secret");  // the user's own, readable by no one else
   if (secret.size() < 16) throw std::runtime_error("run secret " + secret_file + " is shorter than 16 bytes");
 }
 

@@ -5,7 +5,8 @@
 //
 // A node writes into <role>.partial and renames it to <role> when everything is on disk; only
 // then does it tell the coordinator (diagnostic "checkpoint_step" = k in its step-done report).
-// The coordinator keeps the newest step both nodes have acknowledged and removes older ones.
+// Once both have, the coordinator seals the step (RUN_DIR/checkpoints/step-<k>/SHA256SUMS, the
+// SHA-256 of each file; coordinator/run_directory.h), keeps it and removes older ones.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -21,6 +22,8 @@ namespace hemo {
 
 // The diagnostic with which a node acknowledges checkpoint k.
 inline constexpr const char* kCheckpointDiagnostic = "checkpoint_step";
+// The coordinator's seal of a step both nodes acknowledged (sha256sum's format).
+inline constexpr const char* kCheckpointManifest = "SHA256SUMS";
 
 inline std::string checkpoint_folder(const std::string& run_dir, long step) {
   return fmt::format("{}/checkpoints/step-{}", run_dir, step);
@@ -49,13 +52,15 @@ inline std::vector<long> checkpoint_steps(const std::string& run_dir) {
   return steps;
 }
 
-// The newest step of which both nodes wrote a complete checkpoint: where a run can resume.
+// The newest step of which both nodes wrote a complete checkpoint, sealed by the coordinator:
+// where a run can resume.
 inline std::optional<long> last_complete_checkpoint(const std::string& run_dir) {
   namespace fs = std::filesystem;
   std::optional<long> last;
   for (const long k : checkpoint_steps(run_dir)) {
     const std::string folder = checkpoint_folder(run_dir, k);
-    if (fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") && (!last || k > *last))
+    if (fs::is_directory(folder + "/fluid") && fs::is_directory(folder + "/particles") &&
+        fs::exists(folder + "/" + kCheckpointManifest) && (!last || k > *last))
       last = k;
   }
   return last;

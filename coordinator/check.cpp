@@ -95,6 +95,12 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   else if (s.hosts.any())
     fmt::print("  bus         UDP multicast across hosts{}\n",
                s.run.bus_ttl >= 0 ? fmt::format(", TTL {}", s.run.bus_ttl) : std::string(", TTL 1"));
+  // Commands are code the run executes as this user: said here, before it does.
+  if (s.run.fluid_command.empty() && s.run.particle_command.empty())
+    fmt::print("  commands    the built-in nodes (hemocosim-fluid, hemocosim-particles)\n");
+  for (const auto& [key, command] :
+       {std::pair{"run.fluid_command", s.run.fluid_command}, std::pair{"run.particle_command", s.run.particle_command}})
+    if (!command.empty()) fmt::print("  commands    {} = `{}` runs as you\n", key, command);
   fmt::print("  output      a snapshot every {} steps; {}\n", s.output.every_steps,
              s.output.checkpoint_every_steps > 0
                  ? fmt::format("a checkpoint every {} steps (hemocosim resume)", s.output.checkpoint_every_steps)

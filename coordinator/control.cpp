@@ -15,6 +15,9 @@ int control_command(const std::string& action, const ControlOptions& opt) {
   auto [dir, ctx] = RunDirectory::open(opt.run_dir);
   // Sealed as the run's own messages are (bus.encrypt): a swap's request names its command.
   ctx.encrypt = load_scene(dir.scene_copy()).bus.encrypt;
+  if (!RunLock::held(dir.path))
+    throw std::runtime_error(
+        fmt::format("no coordinator is running {} (`hemocosim resume {}` goes on with it)", dir.path, dir.path));
   std::random_device rd;
   const ControlRequest request{static_cast<std::int64_t>((std::uint64_t(rd()) << 31) ^ rd()), action, opt.node,
                                opt.with};

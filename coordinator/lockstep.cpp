@@ -48,19 +48,19 @@ Lockstep::Lockstep(const Scene& scene, RunDirectory dir, const RunContext& ctx, 
   std::error_code ec;
   std::filesystem::remove_all(std::filesystem::path(heard_report_file(ctx_, "coordinator")).parent_path(), ec);
   write_coordinator_process(dir_.path);  // the nodes on this host watch it while it is silent
-  if (first_step > 0) {
-    metrics_.open(dir_.metrics_file(), std::ios::app);  // the steps before it are kept
-  } else {
-    metrics_.open(dir_.metrics_file());
-    metrics_ << "step,time_s,node,name,value\n";
-  }
+  // A resumed run keeps the steps before it.
+  metrics_ = AppendFile(dir_.metrics_file(), first_step == 0, "step,time_s,node,name,value\n");
   launch("fluid", scene.run.fluid_command, "hemocosim-fluid", scene.run.fluid_ranks, first_step);
   launch("particles", scene.run.particle_command, "hemocosim-particles", scene.run.particle_ranks, first_step);
 }
 
 Lockstep::~Lockstep() {
   bus_->log_counters();  // what the coordinator received and dropped, by cause
-  write_metrics();
+  try {
+    write_metrics();
+  } catch (const std::exception& e) {  // a full disk: the run stops for it already
+    fmt::print(stderr, "hemocosim: {}\n", e.what());
+  }
   for (auto& [name, node] : nodes_)
     if (node.process) node.process->terminate();
 }
@@ -117,10 +117,11 @@ double Lockstep::diagnostic(const std::string& node, const std::string& name) co
 }
 
 void Lockstep::write_metrics() {
+  std::string rows;
   for (const auto& r : unwritten_)
-    metrics_ << fmt::format("{},{:.9g},{},{},{:.17g}\n", r.step, r.time_s, r.source, r.name, r.value);
+    rows += fmt::format("{},{:.9g},{},{},{:.17g}\n", r.step, r.time_s, r.source, r.name, r.value);
   unwritten_.clear();
-  metrics_.flush();
+  metrics_.append(rows);
 }
 
 void Lockstep::record(const Received& msg) {

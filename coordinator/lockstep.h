@@ -7,6 +7,7 @@
 #include "liveness.h"
 #include "node_launcher.h"
 #include "run_directory.h"
+#include "run_files.h"
 #include "scene.h"
 
 #include <fstream>
@@ -93,7 +94,7 @@ class Lockstep {
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::map<std::string, NodeState> nodes_;
-  std::ofstream metrics_;
+  AppendFile metrics_;  // rows appended whole (common/run_files.h)
   struct MetricsRow {
     long step;
     double time_s;

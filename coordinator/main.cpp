@@ -80,6 +80,9 @@ int main(int argc, char** argv) {
       ->add_option("--stop-after-step", resume.stop_after_step,
                    "Stop again after this coupling step, writing a checkpoint there")
       ->check(CLI::PositiveNumber);
+  resume_cmd->add_flag("--allow-commands", resume.allow_commands,
+                       "Run the nodes' commands (run.fluid_command, run.particle_command, a swap's) even when this "
+                       "run's coordinator did not record them: scene.toml or run.toml was changed since");
 
   // restart and swap: a request to the coordinator of a running run.
   auto add_node_request = [&app](const char* name, const char* what, hemo::ControlOptions& opt) {

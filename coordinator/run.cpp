@@ -5,6 +5,7 @@
 #include "hosts.h"
 #include "relay.h"
 #include "run_driver.h"
+#include "run_files.h"
 #include "scene.h"
 #include "xdmf.h"
 
@@ -108,7 +109,12 @@ int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunCo
       write_paraview_sidecars(dir.path);
     } catch (const std::exception&) {
     }
-    throw std::runtime_error(e.what() + resume_hint(dir));
+    // A node's failed write says "error in IOstream" (OpenFOAM) or "cannot flush" (HDF5): the
+    // cause, named here, is the disk.
+    const std::string what = e.what();
+    const bool full = dir.out_of_space() && what.find("no space left on device") == std::string::npos;
+    throw std::runtime_error((full ? fmt::format("no space left on device for {}: ", dir.path) : "") + what +
+                             resume_hint(dir));
   }
   const int snapshots = write_paraview_sidecars(dir.path);
   fmt::print(stderr, "hemocosim: {} particle snapshots; open {}/particles.xmf and fluid/fluid.foam in ParaView\n",
@@ -120,6 +126,33 @@ int drive_and_finish(const Scene& scene_as_given, RunDirectory& dir, const RunCo
     fmt::print(stderr, "hemocosim: stopped as asked{}\n", resume_hint(dir));
   }
   return 0;
+}
+
+// The commands a resumed run executes, said; one this run's coordinator did not record and sign
+// (an edited scene.toml or run.toml) only with --allow-commands.
+void refuse_unsigned_commands(const RunDirectory& dir, const RunContext& ctx, const Scene& scene, bool allowed) {
+  for (const auto& [node, command] :
+       {std::pair{"fluid", scene.run.fluid_command}, std::pair{"particles", scene.run.particle_command}})
+    if (!command.empty()) fmt::print(stderr, "hemocosim: the {} node runs `{}`\n", node, command);
+  if (dir.commands_signed(ctx, scene)) return;
+  if (!allowed)
+    throw std::runtime_error(fmt::format(
+        "{}: the commands above were not recorded by this run's coordinator (scene.toml or run.toml changed since); "
+        "resume with --allow-commands to run them anyway",
+        dir.path));
+  fmt::print(stderr, "hemocosim: warning: running commands this run did not record (--allow-commands)\n");
+}
+
+// A resumed run writes at least a checkpoint like the one it starts from; refused before anything
+// is changed when the disk cannot take it (a resume on a full disk would cut what is there).
+void need_free_space(const RunDirectory& dir, long from) {
+  constexpr std::uintmax_t kMargin = 16u << 20;  // logs, metrics, run.toml, a snapshot of a small run
+  const std::uintmax_t need = dir.checkpoint_bytes(from) + kMargin, free = free_bytes(dir.path);
+  if (free < need)
+    throw std::runtime_error(fmt::format(
+        "no space left on device: {:.1f} MB free for {}, a resume needs at least {:.1f} MB (its checkpoint's size "
+        "and 16 MB); nothing was changed",
+        static_cast<double>(free) / 1e6, dir.path, static_cast<double>(need) / 1e6));
 }
 
 // The step after which to stop at the latest: --stop-after-step, else the last (with adaptive
@@ -177,6 +210,8 @@ int run_command(const RunOptions& opt) {
   }
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene,
                                          bus_ttl(scene.run.bus_ttl, scene.hosts.across_hosts()));
+  const RunLock lock(dir.path);  // for the run's life: a resume of it meanwhile is refused
+  dir.sign_commands(ctx, scene);
   dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
   dir.record_placement(scene.hosts);
   dir.record_transport(scene.hosts);
@@ -188,6 +223,7 @@ int run_command(const RunOptions& opt) {
 
 int resume_command(const ResumeOptions& opt) {
   auto [dir, ctx] = RunDirectory::open(opt.run_dir);
+  const RunLock lock(dir.path);  // before anything is changed: a coordinator still running it keeps it
   Scene scene = load_scene(dir.scene_copy());
   if (dir.fluid_ranks > 0) scene.run.fluid_ranks = dir.fluid_ranks;
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
@@ -198,8 +234,11 @@ int resume_command(const ResumeOptions& opt) {
     scene.hosts.relay_address = dir.placement.relay_address;
     scene.hosts.relay_port = dir.placement.relay_port;
   }
+  refuse_unsigned_commands(dir, ctx, scene, opt.allow_commands);
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
+  dir.verify_checkpoint(*from);
+  need_free_space(dir, *from);
   const long last = last_step(scene, opt.stop_after_step);
   if (*from >= last)
     throw std::runtime_error(

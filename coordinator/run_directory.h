@@ -35,22 +35,59 @@ struct RunDirectory {
   void record_bus_url(const std::string& url) const;
   // Remembers the program a node was swapped for: a resumed run goes on with it.
   void record_command(const std::string& node, const std::string& command);
-  // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h).
+  // Signs the commands the nodes run (scene.run.fluid_command / particle_command as the run goes
+  // on, a swap's included) in run.toml with the run's secret: a resume runs them without asking,
+  // but not a command put there by anything else (commands_signed).
+  void sign_commands(const RunContext& ctx, const Scene& scene);
+  bool commands_signed(const RunContext& ctx, const Scene& scene) const;
+  // The newest step of which both nodes wrote a complete checkpoint (common/checkpoint.h) and
+  // the coordinator sealed (seal_checkpoint).
   std::optional<long> last_checkpoint() const;
+  // Writes the SHA-256 of every file of the checkpoint of `step` to its SHA256SUMS (sha256sum's
+  // format), once both nodes have acknowledged it: only then is it one to go on from.
+  void seal_checkpoint(long step) const;
+  // Throws a one-line reason when a file of the checkpoint of `step` is not as sealed (changed,
+  // missing, added).
+  void verify_checkpoint(long step) const;
+  // Whether the file system of the run directory is full (under 1 MB free): what a node's failed
+  // write (OpenFOAM's "error in IOstream", HDF5's) or the coordinator's came from.
+  bool out_of_space() const;
+  // Bytes the checkpoint of `step` takes.
+  std::uintmax_t checkpoint_bytes(long step) const;
   // Removes every checkpoint but that of `step` (and partial ones of later steps).
   void keep_only_checkpoint(long step) const;
   // Removes the checkpoint of `step`, complete or not.
   void drop_checkpoint(long step) const;
-  // Drops the coordinator's metrics of steps after `step` (a resumed run writes them again).
+  // Drops the coordinator's metrics of steps after `step` (a resumed run writes them again), and
+  // lines that are not rows (a crash's, a full disk's) with a warning.
   void drop_metrics_after(long step) const;
 
-  // Creates a fresh run directory (refusing to reuse a non-empty one), copies the scene,
-  // and draws a run id, a bus URL of its own (multicast TTL `bus_ttl`: 0 keeps it on this host)
-  // and a secret readable by the user only.
+  // Creates a fresh run directory (refusing to reuse a non-empty one, or an empty one that is
+  // not the user's own or that others may write), readable by the user only (umask 077), copies
+  // the scene, and draws a run id, a bus URL of its own (multicast TTL `bus_ttl`: 0 keeps it on
+  // this host) and a secret (OpenSSL's RAND_bytes, created 0600 in one step).
   static std::pair<RunDirectory, RunContext> create(const std::string& path, const std::string& scene_path,
                                                     int bus_ttl = 0);
-  // Reads the identity of an existing run (for the monitor and resume).
+  // Reads the identity of an existing run (for the monitor, resume, restart and swap), refusing a
+  // directory or secret that is not the user's own (common/run_files.h).
   static std::pair<RunDirectory, RunContext> open(const std::string& path);
+};
+
+// The run directory's lock (RUN_DIR/lock, flock): held by the coordinator of `run` and `resume`
+// for the run's life, so that a second one on the same directory is refused, and `restart` and
+// `swap` know whether anyone drives the run. Not inherited by the nodes (close-on-exec).
+class RunLock {
+ public:
+  // Takes the lock; throws a one-line reason when another coordinator holds it.
+  explicit RunLock(const std::string& run_dir);
+  RunLock(const RunLock&) = delete;
+  RunLock& operator=(const RunLock&) = delete;
+  ~RunLock();
+  // Whether a coordinator holds the lock of `run_dir` now.
+  static bool held(const std::string& run_dir);
+
+ private:
+  int fd_ = -1;
 };
 
 }  // namespace hemo

@@ -76,7 +76,10 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
       if (checkpoint) dir.drop_checkpoint(k);  // once the nodes are done writing
       throw;
     }
-    if (checkpoint && lockstep.common_checkpoint() == k) dir.keep_only_checkpoint(k);
+    if (checkpoint && lockstep.common_checkpoint() == k) {
+      dir.seal_checkpoint(k);  // complete: one to go on from
+      dir.keep_only_checkpoint(k);
+    }
     if (request) throw RestartRequested(*request);
     clock.observe_relaxation_time(lockstep.diagnostic("particles", kRelaxationDiagnostic));
     progress.update(k, step.time_s,
@@ -142,6 +145,7 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
       if (r.action == "swap") {
         dir.record_command(r.node, r.command);
         use_swapped_programs(dir, scene);
+        dir.sign_commands(ctx, scene);  // asked for with the run's secret: a resume runs it too
       }
       const auto checkpoint = dir.last_checkpoint();
       if (!checkpoint) {
@@ -155,6 +159,7 @@ Reached drive(const Scene& scene_as_given, RunDirectory& dir, const RunContext& 
                  r.action, r.node, r.action == "swap" ? " (`" + r.command + "`)" : "", from);
       restarted = r;
     } catch (const NodeLost& e) {
+      if (dir.out_of_space()) throw;  // a restart would fail the same way (run.cpp names the cause)
       const auto checkpoint = dir.last_checkpoint();
       if (restarted) desk.answer(*restarted, false, e.what());
       if (!checkpoint || restarts == scene.run.max_restarts || interrupted()) {

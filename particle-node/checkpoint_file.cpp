@@ -7,6 +7,7 @@
 #include <hdf5.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <stdexcept>
 
 namespace hemo::particles {
@@ -14,7 +15,9 @@ namespace hemo::particles {
 namespace {
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
-  throw std::runtime_error("checkpoint file " + path + ": " + what);
+  // HDF5 says only that a call failed; a write the disk could not take left ENOSPC in errno.
+  throw std::runtime_error("checkpoint file " + path + ": " + what +
+                           (errno == ENOSPC ? ": no space left on device" : ""));
 }
 
 void write_array(hid_t file, const std::string& path, const std::string& name, hid_t mem_type, hid_t file_type,

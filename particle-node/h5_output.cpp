@@ -4,6 +4,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
@@ -12,7 +13,10 @@ namespace hemo::particles {
 
 namespace {
 
-[[noreturn]] void fail(const std::string& what) { throw std::runtime_error("particles.h5: " + what); }
+// HDF5 says only that a call failed; a write the disk could not take left ENOSPC in errno.
+[[noreturn]] void fail(const std::string& what) {
+  throw std::runtime_error("particles.h5: " + what + (errno == ENOSPC ? ": no space left on device" : ""));
+}
 
 void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, std::size_t rows, std::size_t cols,
                    const void* data) {

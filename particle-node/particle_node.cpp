@@ -134,13 +134,7 @@ void ParticleNode::resume(long step) {
   engine_->take_plasma_mass(deposition_);
   if (!saved.fluid_velocity.empty())
     fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient);
-  if (rank_ == 0) {
-    std::vector<long> dropped;
-    output_ = H5Output::resume(run_dir_ + "/particles.h5", step, &dropped);
-    if (!dropped.empty())
-      spdlog::info("particles.h5: dropped the {} snapshot(s) of steps {}..{}, written after step {}", dropped.size(),
-                   dropped.front(), dropped.back(), step);
-  }
+  if (rank_ == 0) output_resumes_after_ = step;  // particles.h5 is opened at the first snapshot
   spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
 }
 
@@ -244,6 +238,14 @@ particle_feedback_t ParticleNode::feedback() {
 void ParticleNode::write_output(long step, double time_s) {
   const auto t0 = std::chrono::steady_clock::now();
   ParticleSnapshot snap = engine_->snapshot(step, time_s);  // collective
+  if (output_resumes_after_ >= 0) {
+    std::vector<long> dropped;
+    output_ = H5Output::resume(run_dir_ + "/particles.h5", output_resumes_after_, &dropped);
+    if (!dropped.empty())
+      spdlog::info("particles.h5: dropped the {} snapshot(s) of steps {}..{}, written after step {}", dropped.size(),
+                   dropped.front(), dropped.back(), output_resumes_after_);
+    output_resumes_after_ = -1;
+  }
   if (output_) output_->write(snap);
   phase_.output += seconds_since(t0);
 }

@@ -104,6 +104,10 @@ class ParticleNode {
   Deposition deposition_;
   std::unique_ptr<DemEngine> engine_;
   std::unique_ptr<H5Output> output_;
+  // A resumed node opens particles.h5 at its first snapshot, once the coordinator has heard both
+  // nodes start (a resume that fails at start-up, on a full disk say, leaves the file untouched);
+  // snapshots after this step are dropped then. -1: not resumed.
+  long output_resumes_after_ = -1;
   DemTiming timing_;
   double timing_interval_ = 0;  // the coupling interval timing_ was derived for
   double interval_ = 0;         // of the last advance (0 before the first)

@@ -121,8 +121,8 @@ TEST_F(RuntimeTest, DeadNodeIsRestartedAtMostMaxRestartsTimes) {
 
 // `hemocosim swap` mid-run: the step the request came in is checkpointed (checkpoints are
 // otherwise off here), both nodes start again from it, the particles as the new program with
-// its arguments, the fluid as before; run.toml keeps the new program and the requester hears
-// that it was done.
+// its arguments, the fluid as before; run.toml keeps the new program, signed, and the requester
+// hears that it was done.
 TEST_F(RuntimeTest, SwapRelaunchesTheNodeWithTheOtherCommandFromTheStepItCameIn) {
   scene_.time.coupling_steps = 12;
   launcher_.compute_s = [](const std::string&, long) { return 0.05; };
@@ -154,6 +154,11 @@ TEST_F(RuntimeTest, SwapRelaunchesTheNodeWithTheOtherCommandFromTheStepItCameIn)
     }
   }
   EXPECT_EQ(RunDirectory::open(dir_.path).first.particle_command, "fake-other-particles --fast");
+  // Signed with the run's secret: a resume runs it without --allow-commands (the fluid's is the
+  // scene's, which `run` signs; drive() alone does not).
+  Scene swapped = scene_;
+  swapped.run.particle_command = "fake-other-particles --fast";
+  EXPECT_TRUE(dir_.commands_signed(ctx_, swapped));
   const auto a = answer.get();
   EXPECT_EQ(a.action, "done");
   EXPECT_NE(

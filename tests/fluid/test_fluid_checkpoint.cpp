@@ -14,6 +14,7 @@
 #include <cell_fields.h>
 #include <checkpoint.h>
 #include <node_port.h>
+#include <run_files.h>
 
 #include <hemo/step_done_t.hpp>
 
@@ -107,10 +108,8 @@ Published drive(const Drive& d) {
   ctx.secret.resize(32);
   for (auto& b : ctx.secret) b = static_cast<std::uint8_t>(rd());
   ctx.secret_file = d.run_dir + ".secret";
-  {
-    std::ofstream out(ctx.secret_file, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(ctx.secret.data()), static_cast<std::streamsize>(ctx.secret.size()));
-  }
+  std::filesystem::remove(ctx.secret_file);
+  hemo::create_private_file(ctx.secret_file, ctx.secret);  // the node reads only a private secret
   ctx.retry_s = 1;
 
   // Listen before the node starts (its first reports must be heard).

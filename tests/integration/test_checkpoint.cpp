@@ -9,6 +9,10 @@
 
 #include <hemo/heartbeat_t.hpp>
 
+#include <fcntl.h>
+#include <grp.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
 #include <toml++/toml.h>
 #include <unistd.h>
 #include <lcm/lcm-cpp.hpp>
@@ -16,6 +20,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -25,6 +30,7 @@
 #include <future>
 #include <iterator>
 #include <map>
+#include <new>
 #include <random>
 #include <regex>
 #include <set>
@@ -369,7 +375,8 @@ TEST(Checkpoint, SwapAskedForGoesOnWithTheOtherProgram) {
   EXPECT_NE(info.find(wrapper), std::string::npos) << info;
 }
 
-// Nobody drives the run (it has ended): the request is not answered, and says so in one line.
+// Nobody drives the run (it has ended): no coordinator holds its lock, and the request says so
+// in one line.
 TEST(Checkpoint, RestartOfARunThatIsNotGoingFailsInOneLine) {
   const std::string dir = fresh_run_dir("restart-ended");
   std::ofstream(dir + ".toml") << scene_with_checkpoints(4, 0);
@@ -377,7 +384,7 @@ TEST(Checkpoint, RestartOfARunThatIsNotGoingFailsInOneLine) {
   const auto r = run(bin("hemocosim") + " restart " + dir + " fluid --timeout 2");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
-  EXPECT_NE(r.output.find("no answer from the run's coordinator"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no coordinator is running"), std::string::npos) << r.output;
 }
 
 // With run.max_restarts = 0, a node killed mid-run stops the run naming its last checkpoint,
@@ -434,6 +441,214 @@ TEST(Checkpoint, UnstableStepIsNotKeptAsACheckpoint) {
   EXPECT_NE(r.output.find("at step 1 "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("it has no checkpoint to resume from"), std::string::npos) << r.output;
   EXPECT_TRUE(checkpoint_folders(dir).empty());
+}
+
+// Who may read and steer a run, and what survives faults (docs/architecture.md "Run state").
+
+// Another user racing open() on the secret through the whole start of a run never gets it: the
+// run directory is created 0700 and the secret 0600 in one step. The parent is open to all, as
+// /tmp is, and the racer can open a file there (it does race).
+TEST(RunState, AnotherUserNeverOpensTheSecretWhileARunStarts) {
+  if (::geteuid() != 0) GTEST_SKIP() << "racing as another user needs root (CI runs as root)";
+  const std::string dir = fresh_run_dir("secret-race");
+  const std::string parent = fs::path(dir).parent_path().string(), probe = parent + "/probe";
+  fs::permissions(parent, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec);
+  std::ofstream(probe) << "x\n";
+  fs::permissions(probe, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(2, 0);
+
+  struct Counts {
+    std::atomic<long> tries{0}, probe_opened{0}, secret_opened{0};
+  };
+  void* shared = ::mmap(nullptr, sizeof(Counts), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(shared, MAP_FAILED);
+  auto* counts = new (shared) Counts;
+  const std::string secret = dir + "/secret";
+  const pid_t racer = ::fork();
+  ASSERT_GE(racer, 0);
+  if (racer == 0) {  // nobody, from here on only system calls
+    if (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(3);
+    for (;;) {
+      counts->tries++;
+      if (const int fd = ::open(probe.c_str(), O_RDONLY); fd >= 0) {
+        counts->probe_opened++;
+        ::close(fd);
+      }
+      if (const int fd = ::open(secret.c_str(), O_RDONLY); fd >= 0) {
+        counts->secret_opened++;
+        ::close(fd);
+      }
+    }
+  }
+  const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+  ::kill(racer, SIGKILL);
+  int status = 0;
+  ::waitpid(racer, &status, 0);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_GT(counts->tries.load(), 1000) << "the racer ran";
+  EXPECT_GT(counts->probe_opened.load(), 0) << "the racer could open what others may";
+  EXPECT_EQ(counts->secret_opened.load(), 0) << "it never opened the secret";
+  EXPECT_EQ(fs::status(dir).permissions() & fs::perms::all, fs::perms::owner_all);
+  EXPECT_EQ(fs::status(secret).permissions() & fs::perms::all, fs::perms::owner_read | fs::perms::owner_write);
+  ::munmap(shared, sizeof(Counts));
+}
+
+// --out that is not the user's own, or that others may write, is refused in one line before
+// anything is written; so is a resume with a secret others may read.
+TEST(RunState, ARunDirectoryOrSecretOpenToOthersIsRefusedInOneLine) {
+  const std::string shared = fresh_run_dir("open-out");
+  fs::create_directories(shared);
+  fs::permissions(shared, fs::perms::owner_all | fs::perms::group_all);
+  std::ofstream(shared + ".toml") << scene_with_checkpoints(4, 0);
+  auto refused = [](const CommandResult& r, const std::string& why) {
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_NE(r.output.find(why), std::string::npos) << r.output;
+  };
+  refused(run(bin("hemocosim") + " run " + shared + ".toml --out " + shared), "writable by others");
+  EXPECT_TRUE(fs::is_empty(shared));
+  if (::geteuid() == 0) {
+    fs::permissions(shared, fs::perms::owner_all);
+    ASSERT_EQ(::chown(shared.c_str(), 65534, 65534), 0);
+    refused(run(bin("hemocosim") + " run " + shared + ".toml --out " + shared), "belongs to uid 65534");
+    EXPECT_TRUE(fs::is_empty(shared));
+  }
+
+  const std::string dir = fresh_run_dir("open-secret");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(4, 0);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --stop-after-step 2").exit_code, 0);
+  fs::permissions(dir + "/secret", fs::perms::others_read, fs::perm_options::add);
+  refused(run(bin("hemocosim") + " resume " + dir), "open to others");
+  refused(run(bin("hemocosim") + " monitor " + dir + " --duration 1"), "open to others");
+}
+
+// A checkpoint with one value changed, and a command written into run.toml, are refused by
+// resume; the command runs with --allow-commands only.
+TEST(RunState, ATamperedCheckpointOrAnAddedCommandIsRefused) {
+  const std::string dir = fresh_run_dir("tampered");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(6, 0);
+  const auto first = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --stop-after-step 2");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+
+  // One digit of the fluid node's checkpoint, in its largest file.
+  fs::path largest;
+  for (const auto& e : fs::recursive_directory_iterator(dir + "/checkpoints/step-2/fluid"))
+    if (e.is_regular_file() && (largest.empty() || e.file_size() > fs::file_size(largest))) largest = e.path();
+  ASSERT_FALSE(largest.empty());
+  const std::string original = file_text(largest.string());
+  std::string changed = original;
+  const auto digit = changed.find_last_of("0123456789");
+  ASSERT_NE(digit, std::string::npos);
+  changed[digit] = changed[digit] == '1' ? '2' : '1';
+  std::ofstream(largest, std::ios::binary) << changed;
+  const auto tampered = run(bin("hemocosim") + " resume " + dir);
+  EXPECT_NE(tampered.exit_code, 0);
+  EXPECT_EQ(std::count(tampered.output.begin(), tampered.output.end(), '\n'), 1) << tampered.output;
+  EXPECT_NE(tampered.output.find("was changed; refusing to resume from it"), std::string::npos) << tampered.output;
+  std::ofstream(largest, std::ios::binary) << original;
+
+  // A particle command added to run.toml: a wrapper of the particle node that leaves a mark.
+  const std::string wrapper = dir + "-wrapper.sh", mark = wrapper + ".ran";
+  std::ofstream(wrapper) << "#!/bin/sh\ntouch " << mark << "\nexec " << bin("hemocosim-particles") << " \"$@\"\n";
+  fs::permissions(wrapper, fs::perms::owner_all);
+  toml::table info = toml::parse_file(dir + "/run.toml");
+  info.insert_or_assign("particle_command", wrapper);
+  std::ofstream(dir + "/run.toml") << info << "\n";
+  const auto added = run(bin("hemocosim") + " resume " + dir);
+  EXPECT_NE(added.exit_code, 0);
+  EXPECT_NE(added.output.find("the particles node runs `" + wrapper + "`"), std::string::npos) << added.output;
+  EXPECT_NE(added.output.find("resume with --allow-commands"), std::string::npos) << added.output;
+  EXPECT_FALSE(fs::exists(mark)) << "the command did not run";
+  const auto allowed = run(bin("hemocosim") + " resume " + dir + " --allow-commands");
+  EXPECT_EQ(allowed.exit_code, 0) << allowed.output;
+  EXPECT_TRUE(fs::exists(mark)) << "it ran when allowed";
+}
+
+// Commands a scene makes the nodes run are code: `hemocosim check` says so before any run.
+TEST(RunState, CheckPrintsTheCommandsAScenesNodesRun) {
+  const std::string scene = fresh_run_dir("check-commands") + ".toml";
+  std::ofstream(scene) << small_scene_text(4, "particle_command = \"/opt/other-particle-node --fast\"\n");
+  const auto r = run(bin("hemocosim") + " check " + scene);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("run.particle_command = `/opt/other-particle-node --fast` runs as you"), std::string::npos)
+      << r.output;
+  std::ofstream(scene) << small_scene_text(4);
+  EXPECT_NE(run(bin("hemocosim") + " check " + scene).output.find("commands    the built-in nodes"), std::string::npos);
+}
+
+// A second coordinator on a run that is going is refused in one line, and the first run ends
+// as the uninterrupted run does, bit for bit.
+TEST(RunState, ASecondResumeOfARunThatIsGoingIsRefusedAndTheRunEndsAsIfAlone) {
+  const std::string whole = fresh_run_dir("lock-whole"), parts = fresh_run_dir("lock-parts");
+  std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + whole).exit_code, 0);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20").exit_code, 0);
+
+  Background first(bin("hemocosim") + " resume " + parts, parts + "-first");
+  for (int i = 0; i < 600 && file_text(first.err).find("resumes from step 20") == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_NE(file_text(first.err).find("resumes from step 20"), std::string::npos) << file_text(first.err);
+  const auto second = run(bin("hemocosim") + " resume " + parts);
+  EXPECT_NE(second.exit_code, 0);
+  EXPECT_EQ(std::count(second.output.begin(), second.output.end(), '\n'), 1) << second.output;
+  EXPECT_NE(second.output.find("another hemocosim coordinator runs it"), std::string::npos) << second.output;
+  const auto ended = first.done.get();
+  ASSERT_EQ(ended.exit_code, 0) << file_text(first.err);
+  expect_same_run(whole, parts, 0.0);
+
+  // Nobody drives it now: restart and swap say so in one line.
+  const auto restart = run(bin("hemocosim") + " restart " + parts + " fluid --timeout 2");
+  EXPECT_NE(restart.exit_code, 0);
+  EXPECT_NE(restart.output.find("no coordinator is running"), std::string::npos) << restart.output;
+}
+
+// A full disk mid-run (a small tmpfs): the run stops naming it; a resume while it is still full
+// is refused before it touches anything (particles.h5, its snapshots readable, run.toml and metrics.csv
+// as they were); once there is space, the resumed run ends as the uninterrupted one, bit for bit.
+TEST(RunState, AFullDiskStopsTheRunNamingItAndAResumeLosesNothing) {
+  if (::geteuid() != 0) GTEST_SKIP() << "mounting a small tmpfs needs root (CI runs as root)";
+  const long steps = 80;  // about 0.1 s a step: seconds to fill the disk after the checkpoint of step 16
+  const std::string whole = fresh_run_dir("full-whole"), disk = fresh_run_dir("full-disk");
+  fs::create_directories(disk);
+  ASSERT_EQ(run("mount -t tmpfs -o size=64m hemocosim-test " + disk).exit_code, 0);
+  struct Unmount {
+    std::string at;
+    ~Unmount() { run("umount -l " + at); }
+  } unmount{disk};
+  std::ofstream(whole + ".toml") << scene_with_checkpoints(steps, 8);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + whole).exit_code, 0);
+
+  const std::string dir = disk + "/run";
+  {
+    Background going(bin("hemocosim") + " run " + whole + ".toml --out " + dir, whole + "-full");
+    for (int i = 0; i < 1200 && !fs::exists(dir + "/checkpoints/step-16/SHA256SUMS"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    ASSERT_TRUE(fs::exists(dir + "/checkpoints/step-16/SHA256SUMS")) << file_text(going.err);
+    run("dd if=/dev/zero of=" + disk + "/filler bs=64k");  // until the disk is full
+    const auto stopped = going.done.get();
+    EXPECT_NE(stopped.exit_code, 0);
+    EXPECT_NE(error_line(file_text(going.err)).find("no space left on device"), std::string::npos)
+        << file_text(going.err);
+  }
+  const std::string info = file_text(dir + "/run.toml"), metrics = file_text(dir + "/metrics.csv");
+  const auto names = snapshot_names(dir + "/particles.h5");
+  ASSERT_GE(names.size(), 2u);
+  for (const auto& n : names) read_snapshot(dir + "/particles.h5", n);
+
+  const auto full = run(bin("hemocosim") + " resume " + dir);
+  EXPECT_NE(full.exit_code, 0);
+  EXPECT_EQ(std::count(full.output.begin(), full.output.end(), '\n'), 1) << full.output;
+  EXPECT_NE(full.output.find("no space left on device"), std::string::npos) << full.output;
+  EXPECT_EQ(file_text(dir + "/run.toml"), info);
+  EXPECT_EQ(file_text(dir + "/metrics.csv"), metrics);
+  EXPECT_EQ(snapshot_names(dir + "/particles.h5"), names);
+  for (const auto& n : names) read_snapshot(dir + "/particles.h5", n);
+
+  fs::remove(disk + "/filler");
+  const auto resumed = run(bin("hemocosim") + " resume " + dir);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  expect_same_run(whole, dir, 0.0);
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -111,7 +112,7 @@ TEST(StudyResume, UnfinishedRunIsRedone) {
   EXPECT_NE(r.runs[1].why.find("unfinished"), std::string::npos) << r.runs[1].why;
 }
 
-// An unfinished run of the same scene with a complete checkpoint (both nodes) is left for the
+// An unfinished run of the same scene with a complete checkpoint (both nodes, sealed) is left for the
 // runner to go on from; one whose particles never completed theirs is redone from scratch.
 TEST(StudyResume, UnfinishedRunWithACheckpointGoesOnFromIt) {
   StudyFixture fx("checkpointed");
@@ -121,6 +122,7 @@ TEST(StudyResume, UnfinishedRunWithACheckpointGoesOnFromIt) {
     fs::create_directories(fx.run_dir(d) + "/checkpoints/step-7/fluid");
   }
   fs::create_directories(fx.run_dir("02-b") + "/checkpoints/step-7/particles");
+  std::ofstream(fx.run_dir("02-b") + "/checkpoints/step-7/SHA256SUMS") << "\n";  // sealed by the coordinator
   fs::create_directories(fx.run_dir("03-c") + "/checkpoints/step-7/particles.partial");
   const auto r = fx.run();
   EXPECT_EQ(states(r), (std::vector<State>{State::skipped, State::ran, State::ran}));
