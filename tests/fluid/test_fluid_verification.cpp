@@ -316,10 +316,12 @@ TEST(FluidContinuity, BlobsSourceGoesOnSmoothlyWhenTheIntervalHalves) {
 // A uniform explicit momentum source of known total F (and a uniform implicit drag K u, on a
 // fixed phi = 0.2) in an undriven vessel starting at rest: the total fluid momentum
 // P = sum rho alpha u V, computed by the prescribed node from the velocities it received,
-// changes per unit time by F - sum K u V plus the wall's viscous force, which the fluid reports
-// (wall_force_z_N), plus what the implicit drag kept back in the step before and hands back in
-// this one (returned_force_z_N, coupling.return_held_back_momentum). The balance closes to
-// solver tolerance at every step.
+// changes per unit time by F - sum K u V plus the plasma's viscous force, which the fluid
+// reports (viscous_force_z_N: in the default form, the paper's alpha mu lap u summed over the
+// cells; where alpha sits inside the divergence, the wall's force, wall_force_z_N), plus what
+// the implicit drag kept back in the step before and hands back in this one
+// (returned_force_z_N, coupling.return_held_back_momentum). The balance closes to solver
+// tolerance at every step.
 TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   const double F = 1e-7;  // N
   SceneSpec s;
@@ -335,13 +337,13 @@ TEST(FluidMomentum, PrescribedSourceChangesMomentumByItsTotal) {
   const auto& P = m.at({"particles", "fluid_momentum_z_kg_m_s"});
   const auto& drag = m.at({"particles", "fluid_drag_z_N"});
   const auto& sent = m.at({"particles", "source_total_z_N"});
-  const auto& wall = m.at({"fluid", "wall_force_z_N"});
+  const auto& wall = m.at({"fluid", "viscous_force_z_N"});
   const auto& returned = m.at({"fluid", "returned_force_z_N"});
   const auto& own = m.at({"fluid", "momentum_budget_residual_z_N"});
   double worst = 0, worst_own = 0;
   std::printf(
       "momentum source F = %g N (phi = 0.2, K = 1e6 N s/m^4, at rest, no driving):\n"
-      "  step  dP/dt N         F - drag + ret + wall N  wall/F  residual/F\n",
+      "  step  dP/dt N         F - drag + ret + visc N  visc/F  residual/F\n",
       F);
   for (long k = 1; k <= s.steps; ++k) {
     EXPECT_NEAR(sent.at(k - 1), F, 1e-12 * F);
