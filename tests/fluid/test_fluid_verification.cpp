@@ -63,6 +63,7 @@ struct PoiseuilleRun {
   double tau = 0;                // wall_shear_stress_Pa reported
   double tau_polygon = 0;        // dP/l * A_h/P_h: the force balance on the polygonal cross-section
   double wall_over_driving = 0;  // wall force / driving force at the end
+  double wall_force = 0;         // wall_force_z_N at the end, N
   double seconds = 0;
   std::vector<hemo::fluidtest::CellState> cells;
 };
@@ -119,6 +120,7 @@ PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode n
   out.tau = last(m, "fluid", "wall_shear_stress_Pa");
   out.tau_polygon = dP / vessel.length * volume / wall_area;
   out.wall_over_driving = -last(m, "fluid", "wall_force_z_N") / last(m, "fluid", "driving_force_z_N");
+  out.wall_force = last(m, "fluid", "wall_force_z_N");
   return out;
 }
 
@@ -231,6 +233,37 @@ TEST(FluidUniformAlpha, GivesTheSamePoiseuilleProfile) {
   EXPECT_LT(worst / umax, 1e-8);
   EXPECT_NEAR(dense.error_average, plain.error_average, 1e-8);
   EXPECT_NEAR(dense.tau / plain.tau, 1, 1e-8);
+}
+
+// The paper's form (the default) puts F_p = -V_p grad P and F_v = V_p mu lap u on the particles,
+// and the fluid node publishes grad P (the imposed drop included) and mu lap u per cell. In
+// steady Poiseuille flow u = U_max (1 - r^2/R^2) both are the closed form, grad P = -dP/l e_z and
+// mu lap u = -4 mu U_max / R^2 e_z = -dP/l e_z, so F_p + F_v = 0 on a particle at rest there;
+// with a uniform solid fraction (0.3) too, since alpha multiplies every term of the plasma's
+// equation alike. Per cell to solver tolerance (the steady discrete equation is
+// nu lap u = grad p - G cell by cell; measured 1.5e-12 of dP/l). And the cells'
+// sum of V mu lap u is the wall's viscous force to round-off: the fluid's own discrete
+// Laplacian, whose interior fluxes telescope, so that plasma and particles together balance
+// the whole drop (docs/model.md 1.1).
+TEST(FluidStress, PoiseuilleGivesTheClosedFormsOfThePressureAndViscousForces) {
+  const double dPdl = 4 * kMu * 799 / 100e-6;  // Pa/m, d = 100 um, gamma_w = 799 1/s
+  for (const std::string mode : {"--mode none", "--mode uniform --phi 0.3"}) {
+    const auto run = poiseuille(4, 3, mode);
+    ASSERT_FALSE(run.cells.empty());
+    double worst_p = 0, worst_v = 0, sum = 0;
+    for (const auto& c : run.cells) {
+      worst_p = std::max({worst_p, std::abs(c.pressure_gradient[2] + dPdl), std::abs(c.pressure_gradient[0]),
+                          std::abs(c.pressure_gradient[1])});
+      worst_v = std::max({worst_v, std::abs(c.viscous[2] + dPdl), std::abs(c.viscous[0]), std::abs(c.viscous[1])});
+      sum += c.viscous[2] * c.volume;
+    }
+    std::printf("%s: worst |grad P + dP/l e_z| = %.2e, |mu lap u + dP/l e_z| = %.2e of dP/l; sum V mu lap u / wall "
+                "force = %.15f\n",
+                mode.c_str(), worst_p / dPdl, worst_v / dPdl, sum / run.wall_force);
+    EXPECT_LT(worst_p / dPdl, 1e-9) << mode;
+    EXPECT_LT(worst_v / dPdl, 1e-9) << mode;
+    EXPECT_NEAR(sum / run.wall_force, 1.0, 1e-10) << mode;
+  }
 }
 
 namespace {
