@@ -258,11 +258,12 @@ struct Scene {
   //                         next exchange (stable only while the interval is below twice the
   //                         particles' drag relaxation time at their DEM mass).
   std::string fluid_force = "per_dem_step";
-  // The plasma's pressure gradient on the particles' volume, F = -V_p grad P, grad P the cell's,
-  // including the imposed mean drop (-dP/l along the axis): the driving then acts on the whole
-  // mixture, not on the plasma's share alone (CFDEM's "model A" with its gradPForce). Not
-  // exchanged: the fluid feels alpha grad p itself.
-  bool pressure_gradient_force = false;
+  // How the pressure (with the imposed mean drop) and the plasma's viscous stress are shared
+  // between the plasma and the particles, and what the particles hand back: one of the forms in
+  // momentum_forms.h ("paper": the paper's eq:momentum with F_p and F_v on the particles, not
+  // exchanged; "cfdem_A", "cfdem_B", "cfdem_Bfull": CFDEMcoupling's model types;
+  // "plasma_driven": the drop on the plasma's share only, for comparison). docs/model.md, section 1.
+  std::string momentum = "paper";
   // The plasma velocity field the fluid node publishes: "cell_centre" (OpenFOAM's U after the
   // pressure correction, as CFDEM's solvers hand it over) or "face_flux" (U rebuilt from the
   // conservative face fluxes, fvc::reconstruct(phi), and its gradient: the velocity that carries
@@ -270,7 +271,7 @@ struct Scene {
   // Where the particles' momentum sources vary from cell to cell the two differ: in the
   // calibration scene the cell-centre U converges on the axis while the fluxes diverge
   // (docs/validation.md, "what carries platelets to the axis").
-  std::string plasma_velocity = "cell_centre";
+  std::string plasma_velocity = "face_flux";
   // When LIGGGHTS rebuilds the DEM's neighbour lists: "engine" (its own check: a particle moved
   // half the skin) or "streaming" (ours: the particles' motion relative to the Poiseuille flow of
   // the scene's driving, particle-node/dem_streaming_neighbours.h; one particle rank). The lists

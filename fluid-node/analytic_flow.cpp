@@ -32,6 +32,7 @@ AnalyticFlow poiseuille_flow(const FluidSettings& fluid, const Vessel& vessel) {
   f.kind = AnalyticFlow::Kind::poiseuille;
   f.a = fluid.pressure_drop / (4 * fluid.viscosity * vessel.length);
   f.radius = vessel.radius();
+  f.dpdz = -fluid.pressure_drop / vessel.length;
   return f;
 }
 
@@ -44,16 +45,20 @@ AnalyticFlow shear_flow(double rate, double u0) {
 }
 
 void fill_state(const AnalyticFlow& flow, const MeshGeometry& geometry, const std::string& mesh_hash, double time_s,
-                fluid_state_t& state) {
+                fluid_state_t& state, bool pressure_gradient, bool viscous_force) {
   const auto n = geometry.cell_centres.size();
   state.mesh_hash = mesh_hash;
   state.time_s = time_s;
-  resize_cells(state, static_cast<int>(n));
+  resize_cells(state, static_cast<int>(n), pressure_gradient, viscous_force);
+  const Vec3 grad_p = flow.pressure_gradient();
+  const Vec3 viscous = flow.viscous_force();
   for (std::size_t c = 0; c < n; ++c) {
     const Vec3 u = flow.velocity(geometry.cell_centres[c]);
     std::copy(u.begin(), u.end(), velocity_of(state, c));
     const auto g = flow.gradient(geometry.cell_centres[c]);
     std::copy(g.begin(), g.end(), gradient_of(state, c));
+    if (pressure_gradient) std::copy(grad_p.begin(), grad_p.end(), pressure_gradient_of(state, c));
+    if (viscous_force) std::copy(viscous.begin(), viscous.end(), viscous_force_of(state, c));
   }
 }
 

@@ -96,7 +96,8 @@ int main(int argc, char** argv) {
 
     port->initialize(mesh_msg);
     hemo::fluid_state_t state;
-    hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, 0.0, state);
+    hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, 0.0, state, fluid.publish_pressure_gradient,
+                     fluid.publish_viscous_force);
     hemo::Diagnostics diag{{"time_s", 0.0}};
 
     while (auto step = port->advance(state, diag)) {
@@ -109,7 +110,8 @@ int main(int argc, char** argv) {
         for (int k = 0; k < 3; ++k)
           source[k] += (hemo::source_of(fb, c)[k] - fb.drag_coefficient[c] * hemo::velocity_of(state, c)[k]) *
                        geometry.cell_volumes[c];
-      hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, step->order.time_s, state);
+      hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, step->order.time_s, state, fluid.publish_pressure_gradient,
+                       fluid.publish_viscous_force);
       diag = {{"time_s", step->order.time_s},     {"mean_velocity_m_s", mean_uz},
               {"max_velocity_m_s", max_u},        {"wall_shear_stress_Pa", fluid.viscosity * flow.wall_shear_rate()},
               {"received_source_x_N", source[0]}, {"received_source_y_N", source[1]},

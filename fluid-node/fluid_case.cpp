@@ -67,7 +67,8 @@ std::string fv_schemes() {
   std::string s = header("dictionary", "system", "fvSchemes");
   s += "ddtSchemes\n{\n    default         Euler;\n}\n\n"
        "gradSchemes\n{\n    default         Gauss linear;\n}\n\n"
-       "divSchemes\n{\n    default         none;\n    div(alphaPhi,U) Gauss linear;\n}\n\n"
+       "divSchemes\n{\n    default         none;\n    div(alphaPhi,U) Gauss linear;\n"
+       "    div(transposedStress) Gauss linear;  // CFDEM's forms (coupling.momentum)\n}\n\n"
        "laplacianSchemes\n{\n    default         Gauss linear corrected;\n}\n\n"
        "interpolationSchemes\n{\n    default         linear;\n}\n\n"
        "snGradSchemes\n{\n    default         corrected;\n}\n";
@@ -133,7 +134,9 @@ FluidSettings fluid_settings(const Scene& scene) {
   f.kinematic_viscosity = f.viscosity / f.density;
   f.pressure_drop = driving_pressure_drop(scene);
   f.body_force = f.pressure_drop / (f.density * scene.vessel.length);
-  f.publish_pressure_gradient = scene.pressure_gradient_force;
+  f.momentum = momentum_form(scene.momentum);
+  f.publish_pressure_gradient = f.momentum.needs_pressure_gradient();
+  f.publish_viscous_force = f.momentum.needs_viscous_force();
   f.publish_face_flux_velocity = scene.plasma_velocity == "face_flux";
   f.dt = scene.time.coupling_interval;
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");

@@ -5,6 +5,7 @@
 
 #include "vessel_mesh.h"
 
+#include <momentum_forms.h>
 #include <scene.h>
 
 #include <optional>
@@ -23,7 +24,9 @@ struct FluidSettings {
   double largest_particle_diameter = 0;     // m, over the species present (0: none)
   FluidSolver solver;                       // scene keys fluid.*: tolerances, PISO correctors, steady skip
   bool skip_when_steady = false;            // fluid.skip_when_steady and a one-way scene
-  bool publish_pressure_gradient = false;   // coupling.pressure_gradient_force: grad P goes with the state
+  MomentumForm momentum;                    // coupling.momentum: the plasma's equation and what it publishes
+  bool publish_pressure_gradient = false;   // the form puts F_p on the particles: grad P goes with the state
+  bool publish_viscous_force = false;       // the form puts F_v on the particles: div tau goes with the state
   bool publish_face_flux_velocity = false;  // coupling.plasma_velocity = "face_flux": U from the face fluxes
 };
 

@@ -20,15 +20,17 @@ inline constexpr int kVectorValues = 3;  // per cell: x, y, z
 inline constexpr int kTensorValues = 9;  // per cell: G[0][0], G[0][1], ..., G[2][2]
 
 // n_cells, the length fields and every per-cell array for n cells, all values zero (the
-// pressure gradient only when asked for: it is optional).
-inline void resize_cells(fluid_state_t& s, int n, bool pressure_gradient = false) {
+// pressure gradient and the viscous force only when asked for: they are optional).
+inline void resize_cells(fluid_state_t& s, int n, bool pressure_gradient = false, bool viscous_force = false) {
   s.n_cells = n;
   s.n_velocity_values = kVectorValues * n;
   s.n_gradient_values = kTensorValues * n;
   s.n_pressure_gradient_values = pressure_gradient ? kVectorValues * n : 0;
+  s.n_viscous_values = viscous_force ? kVectorValues * n : 0;
   s.velocity.assign(static_cast<std::size_t>(s.n_velocity_values), 0.0);
   s.velocity_gradient.assign(static_cast<std::size_t>(s.n_gradient_values), 0.0);
   s.pressure_gradient.assign(static_cast<std::size_t>(s.n_pressure_gradient_values), 0.0);
+  s.viscous_force.assign(static_cast<std::size_t>(s.n_viscous_values), 0.0);
 }
 inline void resize_cells(particle_feedback_t& fb, int n) {
   fb.n_cells = n;
@@ -53,6 +55,10 @@ inline const double* pressure_gradient_of(const fluid_state_t& s, std::size_t c)
 inline double* pressure_gradient_of(fluid_state_t& s, std::size_t c) {
   return s.pressure_gradient.data() + kVectorValues * c;
 }
+inline const double* viscous_force_of(const fluid_state_t& s, std::size_t c) {
+  return s.viscous_force.data() + kVectorValues * c;
+}
+inline double* viscous_force_of(fluid_state_t& s, std::size_t c) { return s.viscous_force.data() + kVectorValues * c; }
 inline const double* source_of(const particle_feedback_t& fb, std::size_t c) {
   return fb.source_explicit.data() + kVectorValues * c;
 }

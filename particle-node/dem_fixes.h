@@ -22,7 +22,8 @@ constexpr const char* kWallHistoryFix = "history_hemo_wall";
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1, or
 // a held coupling.fluid_force). kCell: the fluid cell they were evaluated in (where the
 // co-relaxed plasma answers), which moves with the atom to another rank as the per-tag locate
-// cache does not. kDrag: the drag held as a constant (coupling.fluid_force = "held").
+// cache does not. kDrag: the drag held as a constant (coupling.fluid_force = "held"). kStress:
+// the plasma's stress on the particle's volume, F_p + F_v (coupling.momentum).
 enum ClosureSlot {
   kBeta = 0,
   kRatio = 1,
@@ -31,7 +32,7 @@ enum ClosureSlot {
   kTorque = 8,
   kCell = 11,
   kDrag = 12,
-  kPressure = 15,
+  kStress = 15,
   kClosureSlots = 18
 };
 constexpr int kImpulseValues = 8;   // F dt (3), beta dt, last F (3), last beta

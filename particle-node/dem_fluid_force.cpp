@@ -42,6 +42,11 @@ void DemFluidForce::callback(void* self, std::int64_t ntimestep, int nlocal, int
 }
 
 void DemFluidForce::start_run(const Run& run, bool carry) {
+  if ((form_.pressure_force && !run.fluid->has_pressure_gradient()) ||
+      (form_.viscous_force && !run.fluid->has_viscous_force()))
+    throw std::invalid_argument("coupling.momentum = \"" + form_.name +
+                                "\" puts F_p and F_v on the particles, and the fluid state carries no " +
+                                (run.fluid->has_pressure_gradient() ? "viscous force" : "pressure gradient"));
   run_ = run;
   centreline_speed_ = run.fluid->max_cell_speed();
   evaluations_ = 0;
@@ -126,7 +131,7 @@ void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const 
     ff = held_fluid_force(step.held[i], vi, other, update_ == Update::held);
     step_cells_[i] = static_cast<int>(step.held[i][kCell]);
   }
-  if (cell_plasma_) cell_plasma_->add(step_cells_[i], step.duration * ff.total(), step.duration * ff.ratio * ff.beta);
+  if (cell_plasma_) cell_plasma_->add(step_cells_[i], step.duration * exchanged(ff), step.duration * ff.ratio * ff.beta);
   if (rotation) orientation_.kick_and_store(step.spin, i, t, *rotation, spin, ff.torque);
 }
 
@@ -144,12 +149,11 @@ void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double
     if (cell < 0) continue;
     FluidForce& ff = step_forces_[i];
     if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
-    const Vec3 fluid_force = ff.total();
-    const Vec3 applied = fluid_force + ff.pressure + weight[liggghts.species_of_type(type[i])];
+    const Vec3 applied = ff.total() + ff.stress + weight[liggghts.species_of_type(type[i])];
     f[i][0] = applied.x();
     f[i][1] = applied.y();
     f[i][2] = applied.z();
-    accumulate_impulse(impulse[i], fluid_force, ff.beta, step.duration, step.last);
+    accumulate_impulse(impulse[i], exchanged(ff), ff.beta, step.duration, step.last);
   }
 }
 
@@ -179,14 +183,14 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
     flow.centreline_speed = centreline_speed_;
   }
   flow.axis = p.axis;
-  // The plasma's pressure on the particle's volume acts like its weight: on the particle, in
-  // the drag's exponential update, not exchanged.
-  const Vec3 pressure =
-      pressure_force_ ? Vec3(-species_.volume[p.species] * fluid.pressure_gradient(cell)) : Vec3::Zero();
+  // The plasma's stress on the particle's volume acts like its weight in the drag's exponential
+  // update.
+  const Vec3 stress = stress_force(fluid, cell, species_.volume[p.species]);
+  const double drag_scale = void_fraction_.empty() ? 1.0 : 1.0 / void_fraction_[cell];
   // CFDEM's explicit force (coupling.fluid_force = "held") is the closures at the exchange's own
   // slip, held: evaluated as over a step of no length (drag beta (u - v), lift at that slip).
-  ff = forces.evaluate(flow, other + pressure, update_ == Update::held ? 0.0 : run_.dt);
-  ff.pressure = pressure;
+  ff = forces.evaluate(flow, other + stress, update_ == Update::held ? 0.0 : run_.dt, drag_scale);
+  ff.stress = stress;
   if (!ff.finite()) {
     problems_.note(p.tag,
                    fmt::format("the fluid force on particle {} is not finite at coupling step {} (DEM step {}): "
@@ -210,7 +214,7 @@ void DemFluidForce::hold(const FluidForce& ff, const Vec3& plasma_velocity, int 
     h[kLift + d] = ff.lift[d];
     h[kTorque + d] = ff.torque[d];
     h[kDrag + d] = ff.drag[d];
-    h[kPressure + d] = ff.pressure[d];
+    h[kStress + d] = ff.stress[d];
   }
 }
 
@@ -220,12 +224,12 @@ FluidForce DemFluidForce::held_fluid_force(const double* h, const Vec3& v, const
   ff.ratio = h[kRatio];
   ff.lift = Vec3(h[kLift], h[kLift + 1], h[kLift + 2]);
   ff.torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);
-  ff.pressure = Vec3(h[kPressure], h[kPressure + 1], h[kPressure + 2]);
+  ff.stress = Vec3(h[kStress], h[kStress + 1], h[kStress + 2]);
   if (constant_drag) {
     ff.drag = Vec3(h[kDrag], h[kDrag + 1], h[kDrag + 2]);
   } else {
     const Vec3 slip = Vec3(h[kVelocity], h[kVelocity + 1], h[kVelocity + 2]) - v;
-    ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift + ff.pressure);
+    ff.drag = exponential_drag_force(ff.ratio, ff.beta, slip, other + ff.lift + ff.stress);
   }
   return ff;
 }
@@ -267,10 +271,24 @@ void DemFluidForce::deposit(Deposition& deposition) {
 }
 
 void DemFluidForce::take_plasma_mass(const Deposition& deposition) {
+  if (form_.drag_over_void_fraction) {
+    // The floor only keeps a cell deposited full (a numerical accident, far above any packing
+    // of cells) from dividing by zero.
+    void_fraction_.resize(locator_.n_cells());
+    for (int c = 0; c < locator_.n_cells(); ++c)
+      void_fraction_[c] = std::max(1e-3, 1.0 - deposition.solid_volume(c) / locator_.volume(c));
+  }
   if (!cell_plasma_) return;
   for (int c = 0; c < locator_.n_cells(); ++c)
     cell_plasma_->set_plasma_mass(
         c, scene_.plasma.density * std::max(0.0, locator_.volume(c) - deposition.solid_volume(c)));
+}
+
+Vec3 DemFluidForce::stress_force(const FluidSampler& fluid, int cell, double volume) const {
+  Vec3 f = Vec3::Zero();
+  if (form_.pressure_force) f -= volume * fluid.pressure_gradient(cell);
+  if (form_.viscous_force) f += volume * fluid.viscous_force(cell);
+  return f;
 }
 
 void DemFluidForce::save(EngineState& s) const {

@@ -36,6 +36,7 @@
 #include "fluid_sampler.h"
 
 #include <mpi.h>
+#include <momentum_forms.h>
 #include <scene.h>
 
 #include <array>
@@ -71,6 +72,7 @@ class DemFluidForce {
   };
   // Before the run. `carry`: the run goes on with the last force of the previous run (`pre no`),
   // whose second half kick belongs to this interval.
+  // Throws std::invalid_argument when the fluid state lacks what the momentum form applies.
   void start_run(const Run& run, bool carry);
   // After it: throws std::runtime_error unless LIGGGHTS called the force `evaluations` times;
   // the run's largest Reynolds numbers, shortest relaxation time and particles outside the mesh
@@ -144,8 +146,16 @@ class DemFluidForce {
   const Update update_ = scene_.fluid_force == "held"                 ? Update::held
                          : scene_.fluid_force == "held_implicit_drag" ? Update::held_implicit_drag
                                                                       : Update::per_dem_step;
-  // coupling.pressure_gradient_force: -V_p grad P on every particle (fluid states carry grad P).
-  const bool pressure_force_ = scene_.pressure_gradient_force;
+  // coupling.momentum: F_p = -V_p grad P and F_v = V_p div tau on the particles (the fluid
+  // states carry both per cell), whether they go to the plasma with the drag and lift, and the
+  // drag over the void fraction (CFDEM's model B).
+  const MomentumForm& form_ = momentum_form(scene_.momentum);
+  // The plasma's stress on a particle of volume `volume` in `cell`, F_p + F_v (N).
+  Vec3 stress_force(const FluidSampler& fluid, int cell, double volume) const;
+  // What the particle hands the plasma: drag and lift, with F_p + F_v where the form exchanges them.
+  Vec3 exchanged(const FluidForce& ff) const { return form_.stress_exchanged ? Vec3(ff.total() + ff.stress) : ff.total(); }
+  // Each cell's void fraction alpha at the last deposition (for beta / alpha; else empty).
+  std::vector<double> void_fraction_;
   // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
   const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
   // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).

@@ -25,9 +25,9 @@ SpeciesForces::SpeciesForces(const Species& s, const Scene& scene) : params_(clo
   beta_rest_ = drag_->coefficient(ParticleFlow{});
 }
 
-FluidForce SpeciesForces::evaluate(const ParticleFlow& flow, const Vec3& other, double dt) const {
+FluidForce SpeciesForces::evaluate(const ParticleFlow& flow, const Vec3& other, double dt, double drag_scale) const {
   FluidForce f;
-  f.beta = beta_fixed_ >= 0 ? beta_fixed_ : drag_->coefficient(flow);
+  f.beta = drag_scale * (beta_fixed_ >= 0 ? beta_fixed_ : drag_->coefficient(flow));
   // The exponential ratio of the usual beta is computed once per step size.
   double r;
   if (f.beta == beta_rest_) {

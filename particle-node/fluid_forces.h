@@ -19,14 +19,15 @@ struct FluidForce {
   Vec3 drag = Vec3::Zero();    // N, on the particle, exponential update over the step
   Vec3 lift = Vec3::Zero();    // N
   Vec3 torque = Vec3::Zero();  // N m, world frame
-  // N, -V_p grad P (coupling.pressure_gradient_force): applied to the particle, not exchanged
-  // (the fluid feels its own share of the pressure), so not in total().
-  Vec3 pressure = Vec3::Zero();
+  // N, the plasma's stress on the particle's volume, F_p + F_v = -V_p grad P + V_p div tau, as
+  // the momentum form has them (coupling.momentum): applied to the particle; not in total(),
+  // which is what the particle hands to the plasma in every form (drag and lift).
+  Vec3 stress = Vec3::Zero();
   double beta = 0;   // N s/m, the linearised drag coefficient at this slip
   double ratio = 1;  // r of the exponential update at this beta and step (exponential_drag.h)
   Vec3 total() const { return drag + lift; }
   bool finite() const {
-    return drag.allFinite() && lift.allFinite() && torque.allFinite() && pressure.allFinite() && std::isfinite(beta);
+    return drag.allFinite() && lift.allFinite() && torque.allFinite() && stress.allFinite() && std::isfinite(beta);
   }
 };
 
@@ -35,8 +36,9 @@ class SpeciesForces {
   // Throws std::invalid_argument when a closure name is unknown or its constants impossible.
   SpeciesForces(const Species& species, const Scene& scene);
 
-  // `other`: the non-fluid force on the particle during the step (contacts, gravity; N).
-  FluidForce evaluate(const ParticleFlow& flow, const Vec3& other, double dt) const;
+  // `other`: the non-fluid force on the particle during the step (contacts, gravity, the plasma's
+  // stress; N). `drag_scale`: a factor on the drag coefficient (1 / alpha in CFDEM's model B).
+  FluidForce evaluate(const ParticleFlow& flow, const Vec3& other, double dt, double drag_scale = 1.0) const;
 
   double mass() const { return mass_; }
   double diameter() const { return params_.diameter; }

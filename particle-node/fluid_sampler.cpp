@@ -19,6 +19,8 @@ std::string sizes_problem(const fluid_state_t& s) {
   if (why.empty() && (s.n_pressure_gradient_values != 0 || !s.pressure_gradient.empty()))
     why = flat_size_problem("pressure gradient", s.n_pressure_gradient_values, s.pressure_gradient, kVectorValues,
                             s.n_cells);
+  if (why.empty() && (s.n_viscous_values != 0 || !s.viscous_force.empty()))
+    why = flat_size_problem("viscous force", s.n_viscous_values, s.viscous_force, kVectorValues, s.n_cells);
   return why.empty() ? why : "fluid state: " + why;
 }
 
@@ -40,6 +42,8 @@ std::string FluidSampler::check(const fluid_state_t& s, int n_cells, const std::
   }
   for (double g : s.pressure_gradient)
     if (!std::isfinite(g)) return "fluid pressure gradient is not finite";
+  for (double f : s.viscous_force)
+    if (!std::isfinite(f)) return "fluid viscous force is not finite";
   return {};
 }
 
@@ -75,6 +79,23 @@ void FluidSampler::set_state(const fluid_state_t& s) {
         throw std::invalid_argument("fluid pressure gradient is not finite in cell " + std::to_string(c));
     }
   }
+  viscous_force_.clear();
+  if (s.n_viscous_values > 0) {
+    viscous_force_.resize(n);
+    for (int c = 0; c < n; ++c) {
+      const double* f = viscous_force_of(s, c);
+      viscous_force_[c] = Vec3(f[0], f[1], f[2]);
+      if (!viscous_force_[c].allFinite())
+        throw std::invalid_argument("fluid viscous force is not finite in cell " + std::to_string(c));
+    }
+  }
+}
+
+std::vector<double> FluidSampler::cell_viscous_forces() const {
+  std::vector<double> out;
+  out.reserve(3 * viscous_force_.size());
+  for (const Vec3& f : viscous_force_) out.insert(out.end(), {f.x(), f.y(), f.z()});
+  return out;
 }
 
 std::vector<double> FluidSampler::cell_pressure_gradients() const {
@@ -101,10 +122,12 @@ std::vector<double> FluidSampler::cell_gradients() const {
 }
 
 void FluidSampler::set_state(const std::vector<double>& velocities, const std::vector<double>& gradients,
-                             const std::vector<double>& pressure_gradients) {
+                             const std::vector<double>& pressure_gradients,
+                             const std::vector<double>& viscous_forces) {
   const std::size_t n = static_cast<std::size_t>(locator_->n_cells());
   if (velocities.size() != 3 * n || gradients.size() != 9 * n ||
-      !(pressure_gradients.empty() || pressure_gradients.size() == 3 * n))
+      !(pressure_gradients.empty() || pressure_gradients.size() == 3 * n) ||
+      !(viscous_forces.empty() || viscous_forces.size() == 3 * n))
     throw std::invalid_argument("fluid fields of " + std::to_string(velocities.size() / 3) + " cells, the mesh has " +
                                 std::to_string(n));
   fluid_state_t s;
@@ -115,6 +138,8 @@ void FluidSampler::set_state(const std::vector<double>& velocities, const std::v
   s.velocity_gradient = gradients;
   s.n_pressure_gradient_values = static_cast<int>(pressure_gradients.size());
   s.pressure_gradient = pressure_gradients;
+  s.n_viscous_values = static_cast<int>(viscous_forces.size());
+  s.viscous_force = viscous_forces;
   set_state(s);
 }
 

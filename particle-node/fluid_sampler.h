@@ -1,7 +1,7 @@
 // The plasma as a particle sees it: cell velocity plus the cell's gradient times the offset
 // from the cell centre (exact for a linear field), or the cell's value alone (CFDEM's default;
-// coupling.fluid_velocity), the local shear rate, and the pressure gradient when the fluid
-// sends it (coupling.pressure_gradient_force).
+// coupling.fluid_velocity), the local shear rate, and the pressure gradient and viscous force
+// per volume when the fluid sends them (the momentum forms that put F_p, F_v on the particles).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -32,10 +32,10 @@ class FluidSampler {
   // The per-cell fields it holds, as set_state takes them (checkpoints keep them this way).
   std::vector<double> cell_velocities() const;  // 3 per cell
   std::vector<double> cell_gradients() const;   // 9 per cell, row-major G[i][j]
-  // set_state from those fields (sizes checked; no pressure gradient: an empty vector);
-  // throws std::invalid_argument.
+  // set_state from those fields (sizes checked; no pressure gradient or viscous force: an empty
+  // vector); throws std::invalid_argument.
   void set_state(const std::vector<double>& velocities, const std::vector<double>& gradients,
-                 const std::vector<double>& pressure_gradients = {});
+                 const std::vector<double>& pressure_gradients = {}, const std::vector<double>& viscous_forces = {});
 
   // Checks a fluid state against the mesh without keeping it: empty string when fine, else a
   // one-line reason (wrong mesh hash, wrong cell count or array length, non-finite value in cell i).
@@ -56,6 +56,11 @@ class FluidSampler {
   bool has_pressure_gradient() const { return !pressure_gradient_.empty(); }
   const Vec3& pressure_gradient(int cell) const { return pressure_gradient_[cell]; }
   std::vector<double> cell_pressure_gradients() const;  // 3 per cell, or none
+  // div tau of the cell, N/m^3 (mu lap u with the fluid's discrete Laplacian); only when the
+  // state carried it.
+  bool has_viscous_force() const { return !viscous_force_.empty(); }
+  const Vec3& viscous_force(int cell) const { return viscous_force_[cell]; }
+  std::vector<double> cell_viscous_forces() const;  // 3 per cell, or none
   // The largest cell speed |u_c| of the state (the closures' centre-line speed u_max).
   double max_cell_speed() const { return max_speed_; }
 
@@ -66,6 +71,7 @@ class FluidSampler {
   Sampling sampling_;
   std::vector<Vec3> velocity_;
   std::vector<Vec3> pressure_gradient_;  // Pa/m, or empty
+  std::vector<Vec3> viscous_force_;      // N/m^3, or empty
   std::vector<Mat3> gradient_;
   std::vector<double> shear_rate_;
   double max_speed_ = 0;

@@ -8,6 +8,7 @@
 #include <checkpoint.h>
 #include <clock.h>
 #include <fmt/format.h>
+#include <momentum_forms.h>
 #include <placement.h>
 #include <spdlog/spdlog.h>
 
@@ -48,6 +49,7 @@ struct ParticleNode::NodeCheckpoint {
   std::vector<double> deposition;                      // the interval's per-cell accumulators (Deposition::data)
   std::vector<double> fluid_velocity, fluid_gradient;  // the fluid state of the interval; empty before any
   std::vector<double> fluid_pressure_gradient;         // of that state; empty when it carried none
+  std::vector<double> fluid_viscous_force;             // likewise
 };
 
 ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
@@ -133,7 +135,8 @@ void ParticleNode::resume(long step) {
   std::copy(saved.deposition.begin(), saved.deposition.end(), deposition_.data());
   engine_->take_plasma_mass(deposition_);
   if (!saved.fluid_velocity.empty())
-    fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient);
+    fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient,
+                     saved.fluid_viscous_force);
   if (rank_ == 0) output_resumes_after_ = step;  // particles.h5 is opened at the first snapshot
   spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
 }
@@ -155,6 +158,7 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   in.get("fluid_velocity", c.fluid_velocity);
   in.get("fluid_gradient", c.fluid_gradient);
   in.get("fluid_pressure_gradient", c.fluid_pressure_gradient);
+  in.get("fluid_viscous_force", c.fluid_viscous_force);
   check_fits(c, step, in.path());
   return c;
 }
@@ -173,7 +177,8 @@ void ParticleNode::check_fits(const NodeCheckpoint& c, long step, const std::str
   const std::size_t cells = static_cast<std::size_t>(locator_.n_cells());
   const bool fluid_fits = c.fluid_velocity.empty() ||
                           (c.fluid_velocity.size() == 3 * cells && c.fluid_gradient.size() == 9 * cells &&
-                           (c.fluid_pressure_gradient.empty() || c.fluid_pressure_gradient.size() == 3 * cells));
+                           (c.fluid_pressure_gradient.empty() || c.fluid_pressure_gradient.size() == 3 * cells) &&
+                           (c.fluid_viscous_force.empty() || c.fluid_viscous_force.size() == 3 * cells));
   if (c.step != step || c.warned_re.size() != kSpeciesCount ||
       c.deposition.size() != static_cast<std::size_t>(deposition_.size()) || !fluid_fits)
     throw std::runtime_error(fmt::format("{} is damaged (step {}, {} deposition and {} fluid values for {} cells)",
@@ -204,11 +209,14 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
-  if (scene_.pressure_gradient_force && !fluid_.has_pressure_gradient())
+  const MomentumForm& form = momentum_form(scene_.momentum);
+  if ((form.needs_pressure_gradient() && !fluid_.has_pressure_gradient()) ||
+      (form.needs_viscous_force() && !fluid_.has_viscous_force()))
     return fmt::format(
-        "step {}: the fluid state carries no pressure gradient, and coupling.pressure_gradient_force "
-        "needs one (is the fluid node '{}' of another build?)",
-        order.envelope.step, scene_.run.fluid_command.empty() ? "built-in" : scene_.run.fluid_command);
+        "step {}: the fluid state carries no {}, and coupling.momentum = \"{}\" needs it (is the fluid node '{}' "
+        "of another build?)",
+        order.envelope.step, fluid_.has_pressure_gradient() ? "viscous force" : "pressure gradient", form.name,
+        scene_.run.fluid_command.empty() ? "built-in" : scene_.run.fluid_command);
   set_interval(order.dt_s);
   step_ = order.envelope.step;
   time_ = order.time_s;
@@ -280,6 +288,7 @@ void ParticleNode::write_node_checkpoint(const std::string& path) {
   out.put("fluid_velocity", fluid_.cell_velocities());
   out.put("fluid_gradient", fluid_.cell_gradients());
   out.put("fluid_pressure_gradient", fluid_.cell_pressure_gradients());
+  out.put("fluid_viscous_force", fluid_.cell_viscous_forces());
   out.close();
 }
 

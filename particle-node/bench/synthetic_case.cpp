@@ -184,6 +184,8 @@ Scene blood_scene(double diameter, double length, double hematocrit, double wall
   s.platelet.volume = 3.14159265358979323846 / 6 * 2.60e-6 * 2.60e-6 * 2.60e-6;
   s.platelet.mass = 8.79e-15;
   s.platelet.number_density = 3e5 * 1e9;
+  // fluid_state() gives the velocity alone: no pressure gradient or viscous force for F_p, F_v.
+  s.momentum = "plasma_driven";
   return s;
 }
 

@@ -30,7 +30,8 @@ using FieldAt =
 fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
 
 // A scene with docs/model.md's default RBCs and platelets (Stokes drag) in a vessel of the given
-// size, hematocrit and wall shear rate.
+// size, hematocrit and wall shear rate, in the momentum form "plasma_driven" (its fluid states
+// carry no pressure gradient or viscous force).
 Scene blood_scene(double diameter, double length, double hematocrit = 0.15, double wall_shear_rate = 799);
 
 // The paper's closures on a scene (what a scene file gets by default): RBC rbc_fit + rbc_lift,

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "minimal_scene.h"
+#include "momentum_forms.h"
 #include "scene.h"
 #include "test_helpers.h"
 #include "units.h"
@@ -298,6 +299,30 @@ TEST(Scene, MissingRequiredKeyIsOneProblem) {
   EXPECT_EQ(ps[0].message, "missing");
 }
 
+// coupling.momentum: every form of the table is a scene value, listed by `hemocosim check` with
+// whose it is; the key it replaced is refused with one line naming the new one.
+TEST(Scene, MomentumFormsAreTheTablesAndTheOldKeyPointsAtTheNewOne) {
+  for (const MomentumForm& form : momentum_forms()) {
+    const Scene s =
+        load_scene(test::write_temp(std::string(test::kMinimalScene) + "[coupling]\nmomentum = \"" + form.name + "\"\n"));
+    EXPECT_EQ(s.momentum, form.name);
+    bool listed = false;
+    for (const auto& r : numerical_readings(s))
+      if (r.key == "coupling.momentum") listed = r.value == form.name && r.reading == form.reading;
+    EXPECT_TRUE(listed) << form.name;
+    // A form that claims the exact balance puts the particles' share on them or on the plasma.
+    if (form.exact_balance) {
+      EXPECT_TRUE(form.pressure_force || !form.pressure_on_fraction) << form.name;
+    }
+  }
+  EXPECT_EQ(momentum_forms().front().name, Scene{}.momentum);
+  const auto ps = problems_of(std::string(test::kMinimalScene) + "[coupling]\npressure_gradient_force = true\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "coupling.pressure_gradient_force");
+  EXPECT_NE(ps[0].message.find("replaced by coupling.momentum"), std::string::npos) << ps[0].message;
+  EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
+}
+
 // The numerical readings the paper leaves open: ours by default, CFDEM's by name, each listed
 // by `hemocosim check` with whose reading it is.
 TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
@@ -305,7 +330,8 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
       load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
   EXPECT_EQ(ours.fluid_velocity, "reconstructed");
   EXPECT_EQ(ours.fluid_force, "per_dem_step");
-  EXPECT_FALSE(ours.pressure_gradient_force);
+  EXPECT_EQ(ours.momentum, "paper");
+  EXPECT_EQ(ours.plasma_velocity, "face_flux");
   for (const auto& r : numerical_readings(ours))
     EXPECT_NE(r.reading.rfind("CFDEM", 0), 0u) << r.key << ": " << r.reading;  // no reading of CFDEM's alone
 
@@ -325,11 +351,12 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   std::map<std::string, std::string> by_key;
   for (auto& p :
        problems_of(std::string(test::kMinimalScene) + "[coupling]\nfluid_velocity = \"trilinear\"\nfluid_force = "
-                                                      "\"explicit\"\npressure_gradient_force = \"yes\"\n"))
+                                                      "\"explicit\"\nmomentum = \"model_A\"\n"))
     by_key[p.key] = p.message;
   EXPECT_NE(by_key["coupling.fluid_velocity"].find("reconstructed, cell"), std::string::npos);
   EXPECT_NE(by_key["coupling.fluid_force"].find("per_dem_step, held_implicit_drag, held"), std::string::npos);
-  EXPECT_TRUE(by_key.count("coupling.pressure_gradient_force"));
+  EXPECT_NE(by_key["coupling.momentum"].find("paper, cfdem_A, cfdem_B, cfdem_Bfull, plasma_driven"), std::string::npos)
+      << by_key["coupling.momentum"];
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"face_flux\"\n").empty());
   EXPECT_FALSE(
       problems_of(std::string(test::kMinimalScene) + "[coupling]\nplasma_velocity = \"reconstructed\"\n").empty());

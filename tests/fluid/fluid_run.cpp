@@ -49,7 +49,7 @@ std::vector<CellState> read_state(const std::string& csv_path) {
     std::string item;
     std::vector<double> v;
     while (std::getline(ss, item, ',')) v.push_back(std::stod(item));
-    if (v.size() != 18) throw std::runtime_error("bad line in " + csv_path + ": " + line);
+    if (v.size() != 24) throw std::runtime_error("bad line in " + csv_path + ": " + line);
     CellState c{};
     c.x = v[1];
     c.y = v[2];
@@ -58,6 +58,8 @@ std::vector<CellState> read_state(const std::string& csv_path) {
     c.phi = v[5];
     for (int k = 0; k < 3; ++k) c.u[k] = v[6 + k];
     for (int k = 0; k < 9; ++k) c.grad[k] = v[9 + k];
+    for (int k = 0; k < 3; ++k) c.pressure_gradient[k] = v[18 + k];
+    for (int k = 0; k < 3; ++k) c.viscous[k] = v[21 + k];
     cells.push_back(c);
   }
   return cells;

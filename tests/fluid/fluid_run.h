@@ -49,6 +49,8 @@ struct CellState {
   double x, y, z, volume, phi;
   double u[3];
   double grad[9];
+  double pressure_gradient[3];  // Pa/m (zeros when the state carried none)
+  double viscous[3];            // N/m^3, div tau (likewise)
 };
 std::vector<CellState> read_state(const std::string& csv_path);
 

@@ -22,7 +22,7 @@
 // drag relaxation time (min_relaxation_time_s, read by the coordinator's adaptive clock; from
 // --later-from-s on --relaxation-time-later-s instead). With --record FILE it writes the
 // last fluid state it received, per cell, to RUN_DIR/FILE (CSV: cell, centre, volume, phi,
-// u, grad u) for tests that need the fields.
+// u, grad u, grad P, div tau) for tests that need the fields.
 //
 // Its feedback is a function of the step and the options alone, so its checkpoint (written when
 // an order asks, acknowledged with checkpoint_step like a real node's) is an empty folder: with
@@ -211,13 +211,18 @@ void record_state(const std::string& path, const hemo::mesh_t& mesh, const hemo:
                   const hemo::particle_feedback_t& phi_source) {
   std::ofstream out(path);
   out.precision(17);
-  out << "cell,x,y,z,volume,phi,ux,uy,uz,g00,g01,g02,g10,g11,g12,g20,g21,g22\n";
+  out << "cell,x,y,z,volume,phi,ux,uy,uz,g00,g01,g02,g10,g11,g12,g20,g21,g22,gpx,gpy,gpz,fvx,fvy,fvz\n";
   for (int c = 0; c < fluid.n_cells && c < mesh.n_cells; ++c) {
     const auto& x = mesh.cell_centres[c];
     const double phi = phi_source.n_cells == mesh.n_cells ? phi_source.solid_fraction[c] : 0.0;
     out << c << ',' << x[0] << ',' << x[1] << ',' << x[2] << ',' << mesh.cell_volumes[c] << ',' << phi;
     for (int k = 0; k < hemo::kVectorValues; ++k) out << ',' << hemo::velocity_of(fluid, c)[k];
     for (int k = 0; k < hemo::kTensorValues; ++k) out << ',' << hemo::gradient_of(fluid, c)[k];
+    // The pressure gradient and viscous force when the state carries them, else zeros.
+    for (int k = 0; k < hemo::kVectorValues; ++k)
+      out << ',' << (fluid.n_pressure_gradient_values > 0 ? hemo::pressure_gradient_of(fluid, c)[k] : 0.0);
+    for (int k = 0; k < hemo::kVectorValues; ++k)
+      out << ',' << (fluid.n_viscous_values > 0 ? hemo::viscous_force_of(fluid, c)[k] : 0.0);
     out << '\n';
   }
   out.close();

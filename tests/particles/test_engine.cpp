@@ -691,17 +691,22 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
 }
 
 namespace {
-hemo::fluid_state_t uniform_state(const hemo::mesh_t& mesh, const Vec3& u, const Vec3& pressure_gradient) {
+// A uniform flow u with a uniform pressure gradient and viscous force per volume in every cell.
+hemo::fluid_state_t uniform_state(const hemo::mesh_t& mesh, const Vec3& u, const Vec3& pressure_gradient,
+                                  const Vec3& viscous_force = Vec3::Zero()) {
   hemo::fluid_state_t s =
       fluid_state(mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel, std::array<double, 9>& g) {
         vel = {u.x(), u.y(), u.z()};
         g.fill(0.0);
       });
-  s.n_pressure_gradient_values = 3 * s.n_cells;
+  s.n_pressure_gradient_values = s.n_viscous_values = 3 * s.n_cells;
   s.pressure_gradient.clear();
-  for (int c = 0; c < s.n_cells; ++c)
+  s.viscous_force.clear();
+  for (int c = 0; c < s.n_cells; ++c) {
     s.pressure_gradient.insert(s.pressure_gradient.end(),
                                {pressure_gradient.x(), pressure_gradient.y(), pressure_gradient.z()});
+    s.viscous_force.insert(s.viscous_force.end(), {viscous_force.x(), viscous_force.y(), viscous_force.z()});
+  }
   return s;
 }
 }  // namespace
@@ -765,19 +770,22 @@ TEST(DemEngine, HeldImplicitDragEvaluatesTheClosuresOncePerInterval) {
   EXPECT_NE(held.velocity, every.velocity);
 }
 
-// coupling.pressure_gradient_force: -V grad P on each cell, not exchanged. A red cell in plasma at
-// rest under a uniform grad P (the calibration's mean drop, dP / l = 3.8e4 Pa/m) settles at the
-// terminal velocity V |grad P| / beta, and its momentum is the exchanged drag impulse plus
-// V |grad P| t exactly; without the force it does not move.
-TEST(DemEngine, PressureGradientForceDrivesTheCellAndIsNotExchanged) {
+// coupling.momentum: F_p = -V grad P and F_v = V div tau on each particle, exchanged only in
+// "cfdem_Bfull". A red cell in plasma at rest under a uniform grad P (the calibration's mean
+// drop, dP / l = 3.8e4 Pa/m) and a uniform div tau of a fifth of it settles at the terminal
+// velocity V |-grad P + div tau| / beta, and its momentum is what it exchanged plus, where the
+// stress is not exchanged, V (-grad P + div tau) t exactly; in "plasma_driven" it does not move.
+TEST(DemEngine, MomentumFormsPutTheStressOnTheCellAndExchangeItOnlyInBfull) {
   Fixture fx(0.15, false);
-  const Vec3 grad_p(0, 0, -3.8e4);
-  fx.fluid.set_state(uniform_state(fx.mesh, Vec3::Zero(), grad_p));
+  const Vec3 grad_p(0, 0, -3.8e4), div_tau(0, 0, -0.76e4);
+  fx.fluid.set_state(uniform_state(fx.mesh, Vec3::Zero(), grad_p, div_tau));
   const double beta = 3 * hemo::units::pi * fx.scene.plasma.viscosity * fx.scene.rbc.diameter;
   const double V = fx.scene.rbc.volume, m = fx.scene.rbc.mass, T = fx.interval;
-  for (bool on : {true, false}) {
+  const double stress = V * (-grad_p.z() + div_tau.z());  // N along z
+  for (const std::string form : {"paper", "cfdem_A", "cfdem_Bfull", "plasma_driven"}) {
+    const hemo::MomentumForm& mf = hemo::momentum_form(form);
     hemo::Scene scene = fx.scene;
-    scene.pressure_gradient_force = on;
+    scene.momentum = form;
     DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
     engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, Vec3(4e-6, 4e-6, 56e-6)}});
     Vec3 exchanged = Vec3::Zero();
@@ -790,15 +798,32 @@ TEST(DemEngine, PressureGradientForceDrivesTheCellAndIsNotExchanged) {
     const auto s = engine.snapshot(0, 0);
     const double v = s.velocity[2];
     // The last half kick of the last step is delivered by the next run: the force applied is
-    // the terminal one, V |grad P| minus its drag, ~0 there.
-    const double pressure_impulse = on ? -V * grad_p.z() * intervals * T : 0.0;
-    std::printf("[ info ] pressure force %s: v = %.6g m/s (terminal %.6g), drag impulse %.4g, pressure impulse %.4g\n",
-                on ? "on" : "off", v, -V * grad_p.z() / beta, exchanged.z(), pressure_impulse);
-    EXPECT_NEAR(m * v, exchanged.z() + pressure_impulse, 1e-9 * std::abs(pressure_impulse) + 1e-30);
-    if (on)
-      EXPECT_NEAR(v, -V * grad_p.z() / beta, 1e-6 * -V * grad_p.z() / beta);
+    // the terminal one, ~0 there.
+    const double kept = mf.pressure_force && !mf.stress_exchanged ? stress * intervals * T : 0.0;
+    std::printf("[ info ] %s: v = %.6g m/s (terminal %.6g), exchanged impulse %.4g, kept %.4g\n", form.c_str(), v,
+                stress / beta, exchanged.z(), kept);
+    EXPECT_NEAR(m * v, exchanged.z() + kept, 1e-9 * stress * intervals * T) << form;
+    if (mf.pressure_force)
+      EXPECT_NEAR(v, stress / beta, 1e-6 * stress / beta) << form;
     else
-      EXPECT_EQ(v, 0.0);
+      EXPECT_EQ(v, 0.0) << form;
+  }
+}
+
+// A form that puts F_p and F_v on the particles refuses a fluid state without them (one line),
+// rather than reading past its arrays.
+TEST(DemEngine, FormWithStressRefusesAStateWithout) {
+  Fixture fx(0.15, false);
+  hemo::Scene scene = fx.scene;
+  scene.momentum = "paper";
+  DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
+  engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, Vec3(4e-6, 4e-6, 56e-6)}});
+  fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(25e-6, 0.01)));
+  try {
+    engine.run(1, fx.timing.substeps, fx.timing.dt, fx.fluid);
+    FAIL() << "ran without the pressure gradient";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("carries no pressure gradient"), std::string::npos) << e.what();
   }
 }
 
@@ -811,7 +836,7 @@ TEST(DemEngine, PressureGradientForceDrivesTheCellAndIsNotExchanged) {
 TEST(DemEngine, RunawayPlateletSpinStopsTheRunNamingIt) {
   Fixture fx(0.02);
   hemo::Scene scene = fx.scene;
-  scene.pressure_gradient_force = true;
+  scene.momentum = "cfdem_A";  // the pressure gradient holds the slip
   scene.platelet.orientation_integrator = "euler";
   DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
   const double slip = 0.5, beta = 3 * hemo::units::pi * scene.plasma.viscosity * scene.platelet.diameter;

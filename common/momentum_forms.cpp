@@ -1,0 +1,81 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "momentum_forms.h"
+
+#include <stdexcept>
+
+namespace hemo {
+
+const std::vector<MomentumForm>& momentum_forms() {
+  using V = MomentumForm::Viscous;
+  static const std::vector<MomentumForm> forms = [] {
+    std::vector<MomentumForm> f;
+    {
+      MomentumForm m;
+      m.name = "paper";
+      m.reading = "the paper's eq:momentum, F_p and F_v on the particles (Goniva 2012), not exchanged";
+      m.pressure_on_fraction = true;
+      m.viscous = V::fraction_outside;
+      m.pressure_force = m.viscous_force = true;
+      m.exact_balance = true;
+      f.push_back(m);
+    }
+    {
+      MomentumForm m;
+      m.name = "cfdem_A";
+      m.reading = "CFDEM's modelType A (Zhou 2010 set I): gradPForce, viscForce on the particles";
+      m.pressure_on_fraction = true;
+      m.viscous = V::fraction_inside;
+      m.transposed_stress = true;
+      m.pressure_force = m.viscous_force = true;
+      f.push_back(m);
+    }
+    {
+      MomentumForm m;
+      m.name = "cfdem_B";
+      m.reading = "CFDEM's modelType B (Zhou 2010 set II): whole pressure on the plasma, drag / alpha";
+      m.pressure_on_fraction = false;
+      m.viscous = V::whole;
+      m.transposed_stress = true;
+      m.drag_over_void_fraction = true;
+      m.exact_balance = true;
+      f.push_back(m);
+    }
+    {
+      MomentumForm m;
+      m.name = "cfdem_Bfull";
+      m.reading = "CFDEM's modelType Bfull: whole pressure on the plasma, gradPForce and viscForce exchanged";
+      m.pressure_on_fraction = false;
+      m.viscous = V::whole;
+      m.transposed_stress = true;
+      m.pressure_force = m.viscous_force = m.stress_exchanged = true;
+      m.exact_balance = true;
+      f.push_back(m);
+    }
+    {
+      MomentumForm m;
+      m.name = "plasma_driven";
+      m.reading = "ours before: pressure and drop on the plasma's share only, none on the particles";
+      m.pressure_on_fraction = true;
+      m.viscous = V::fraction_inside;
+      f.push_back(m);
+    }
+    return f;
+  }();
+  return forms;
+}
+
+std::vector<std::string> momentum_form_names() {
+  std::vector<std::string> names;
+  for (const MomentumForm& m : momentum_forms()) names.push_back(m.name);
+  return names;
+}
+
+const MomentumForm& momentum_form(const std::string& name) {
+  for (const MomentumForm& m : momentum_forms())
+    if (m.name == name) return m;
+  std::string known;
+  for (const MomentumForm& m : momentum_forms()) known += (known.empty() ? "" : ", ") + m.name;
+  throw std::invalid_argument("no momentum form '" + name + "' (known: " + known + ")");
+}
+
+}  // namespace hemo
