@@ -3,7 +3,6 @@
 
 #include <fmt/format.h>
 #include <openssl/evp.h>
-#include <openssl/rand.h>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -192,12 +191,6 @@ std::string hmac_hex(const std::vector<std::uint8_t>& key, const std::string& te
                  reinterpret_cast<const unsigned char*>(text.data()), text.size(), md, sizeof md, &n))
     throw std::runtime_error("HMAC-SHA256 unavailable");
   return hex(md, n);
-}
-
-std::vector<std::uint8_t> random_bytes(std::size_t n) {
-  std::vector<std::uint8_t> out(n);
-  if (RAND_bytes(out.data(), static_cast<int>(n)) != 1) throw std::runtime_error("OpenSSL RAND_bytes failed");
-  return out;
 }
 
 }  // namespace hemo

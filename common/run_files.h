@@ -61,7 +61,5 @@ class AppendFile {
 std::string sha256_file(const std::string& path);
 // HMAC-SHA256 of `text` under `key`, in hex.
 std::string hmac_hex(const std::vector<std::uint8_t>& key, const std::string& text);
-// Fills `n` bytes from OpenSSL's CSPRNG; throws when it cannot.
-std::vector<std::uint8_t> random_bytes(std::size_t n);
 
 }  // namespace hemo

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_directory.h"
 
+#include "bus_crypto.h"
 #include "checkpoint.h"
 #include "hosts.h"
 #include "run_files.h"
