@@ -24,6 +24,29 @@ std::string sizes_problem(const fluid_state_t& s) {
   return why.empty() ? why : "fluid state: " + why;
 }
 
+// An optional per-cell vector field of a fluid state (none, or 3 values per cell; the sizes are
+// checked before): as vectors, refusing a value that is not finite with the cell it is in.
+std::vector<Vec3> optional_vectors(const std::vector<double>& values, int n, const char* what) {
+  std::vector<Vec3> out;
+  if (values.empty()) return out;
+  out.resize(n);
+  for (int c = 0; c < n; ++c) {
+    const double* v = values.data() + kVectorValues * c;
+    out[c] = Vec3(v[0], v[1], v[2]);
+    if (!out[c].allFinite())
+      throw std::invalid_argument(std::string("fluid ") + what + " is not finite in cell " + std::to_string(c));
+  }
+  return out;
+}
+
+// Vectors as the flat array of 3 values per cell a fluid state carries.
+std::vector<double> flat(const std::vector<Vec3>& vectors) {
+  std::vector<double> out;
+  out.reserve(3 * vectors.size());
+  for (const Vec3& v : vectors) out.insert(out.end(), {v.x(), v.y(), v.z()});
+  return out;
+}
+
 }  // namespace
 
 std::string FluidSampler::check(const fluid_state_t& s, int n_cells, const std::string& mesh_hash) {
@@ -69,48 +92,13 @@ void FluidSampler::set_state(const fluid_state_t& s) {
     shear_rate_[c] = std::sqrt(2.0 * (strain.array() * strain.array()).sum());
     max_speed_ = std::max(max_speed_, velocity_[c].norm());
   }
-  pressure_gradient_.clear();
-  if (s.n_pressure_gradient_values > 0) {
-    pressure_gradient_.resize(n);
-    for (int c = 0; c < n; ++c) {
-      const double* g = pressure_gradient_of(s, c);
-      pressure_gradient_[c] = Vec3(g[0], g[1], g[2]);
-      if (!pressure_gradient_[c].allFinite())
-        throw std::invalid_argument("fluid pressure gradient is not finite in cell " + std::to_string(c));
-    }
-  }
-  viscous_force_.clear();
-  if (s.n_viscous_values > 0) {
-    viscous_force_.resize(n);
-    for (int c = 0; c < n; ++c) {
-      const double* f = viscous_force_of(s, c);
-      viscous_force_[c] = Vec3(f[0], f[1], f[2]);
-      if (!viscous_force_[c].allFinite())
-        throw std::invalid_argument("fluid viscous force is not finite in cell " + std::to_string(c));
-    }
-  }
+  pressure_gradient_ = optional_vectors(s.pressure_gradient, n, "pressure gradient");
+  viscous_force_ = optional_vectors(s.viscous_force, n, "viscous force");
 }
 
-std::vector<double> FluidSampler::cell_viscous_forces() const {
-  std::vector<double> out;
-  out.reserve(3 * viscous_force_.size());
-  for (const Vec3& f : viscous_force_) out.insert(out.end(), {f.x(), f.y(), f.z()});
-  return out;
-}
-
-std::vector<double> FluidSampler::cell_pressure_gradients() const {
-  std::vector<double> out;
-  out.reserve(3 * pressure_gradient_.size());
-  for (const Vec3& g : pressure_gradient_) out.insert(out.end(), {g.x(), g.y(), g.z()});
-  return out;
-}
-
-std::vector<double> FluidSampler::cell_velocities() const {
-  std::vector<double> out;
-  out.reserve(3 * velocity_.size());
-  for (const Vec3& u : velocity_) out.insert(out.end(), {u.x(), u.y(), u.z()});
-  return out;
-}
+std::vector<double> FluidSampler::cell_viscous_forces() const { return flat(viscous_force_); }
+std::vector<double> FluidSampler::cell_pressure_gradients() const { return flat(pressure_gradient_); }
+std::vector<double> FluidSampler::cell_velocities() const { return flat(velocity_); }
 
 std::vector<double> FluidSampler::cell_gradients() const {
   std::vector<double> out;

@@ -243,7 +243,8 @@ int main(int argc, char** argv) {
     const auto mesh = box_mesh(o.cells, o.cells, o.axial_cells, -R, R, -R, R, l, scene.vessel.diameter);
     const CellLocator locator(mesh);
     FluidSampler fluid(locator);
-    fluid.set_state(fluid_state(mesh, poiseuille(R, scene.driving.wall_shear_rate * R / 2)));
+    fluid.set_state(with_poiseuille_stress(fluid_state(mesh, poiseuille(R, scene.driving.wall_shear_rate * R / 2)),
+                                           scene));
     Deposition deposition(locator, make_solid_fraction_model(scene.solid_fraction, locator));
     long pid = getpid();  // rank 0's: one folder for the job
     MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);

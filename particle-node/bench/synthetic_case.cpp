@@ -2,6 +2,7 @@
 #include "synthetic_case.h"
 
 #include "cell_fields.h"
+#include "momentum_forms.h"
 
 #include <algorithm>
 #include <cmath>
@@ -167,6 +168,23 @@ fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time)
     std::copy(g.begin(), g.end(), gradient_of(s, c));
   }
   return s;
+}
+
+fluid_state_t with_poiseuille_stress(fluid_state_t state, const Scene& scene) {
+  const MomentumForm& form = momentum_form(scene.momentum);
+  const int n = state.n_cells;
+  const double drop_per_length = scene.driving.pressure_drop / scene.vessel.length;  // Pa/m
+  if (form.needs_pressure_gradient()) {
+    state.n_pressure_gradient_values = kVectorValues * n;
+    state.pressure_gradient.assign(static_cast<std::size_t>(state.n_pressure_gradient_values), 0.0);
+    for (int c = 0; c < n; ++c) pressure_gradient_of(state, c)[2] = -drop_per_length;
+  }
+  if (form.needs_viscous_force()) {
+    state.n_viscous_values = kVectorValues * n;
+    state.viscous_force.assign(static_cast<std::size_t>(state.n_viscous_values), 0.0);
+    for (int c = 0; c < n; ++c) viscous_force_of(state, c)[2] = -drop_per_length;
+  }
+  return state;
 }
 
 Scene blood_scene(double diameter, double length, double hematocrit, double wall_shear_rate) {

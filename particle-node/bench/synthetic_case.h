@@ -28,6 +28,11 @@ mesh_t wedge_mesh(int n_around, int nz, double radius, double length, const std:
 using FieldAt =
     std::function<void(const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& grad)>;
 fluid_state_t fluid_state(const mesh_t& mesh, const FieldAt& field, double time = 0);
+// The state with the pressure gradient and viscous force a steady Poiseuille flow of the scene's
+// driving has, in every cell, where the scene's momentum form asks for them: grad P = -dP/l e_z
+// (the imposed drop) and mu lap u = -dP/l e_z (mu lap u = -4 mu U_max / R^2 with U_max the
+// profile's, the wall stress balancing the drop), so F_p + F_v = 0 on every particle.
+fluid_state_t with_poiseuille_stress(fluid_state_t state, const Scene& scene);
 
 // A scene with docs/model.md's default RBCs and platelets (Stokes drag) in a vessel of the given
 // size, hematocrit and wall shear rate, in the momentum form "plasma_driven" (its fluid states

@@ -697,12 +697,13 @@ TEST(FluidState, FaceFluxVelocityIsTheSameFlowWhereNothingForcesTheCells) {
   const auto flux = run_scene(s);
   ASSERT_EQ(flux.command.exit_code, 0) << flux.command.output;
   s.name = "poiseuille-cell-centre";
-  s.extra.clear();
+  s.extra = "[coupling]\nplasma_velocity = \"cell_centre\"\n";
   const auto centre = run_scene(s);
   ASSERT_EQ(centre.command.exit_code, 0) << centre.command.output;
   const auto still = compare(read_state(centre.dir + "/state.csv"), read_state(flux.dir + "/state.csv"));
 
   SceneSpec blob = moving_blob("blob-cell-centre", 24, 12, 10, "--record state.csv");
+  blob.extra = "[coupling]\nplasma_velocity = \"cell_centre\"\n";
   const auto b_centre = run_scene(blob);
   ASSERT_EQ(b_centre.command.exit_code, 0) << b_centre.command.output;
   blob.name = "blob-face-flux";
