@@ -9,8 +9,6 @@
 #include "scene.h"
 #include "units.h"
 
-#include <cmath>
-
 namespace hemo {
 
 // τ_w,imposed of the scene's driving, Pa.
@@ -18,13 +16,10 @@ inline double imposed_wall_shear_stress(const Scene& s) {
   return s.vessel.diameter * s.driving.pressure_drop / (4 * s.vessel.length);
 }
 
-// The τ_w / τ_w,imposed an exact balance reaches on the scene's mesh: its cross-section is the
-// inscribed polygon of n = 4 core_cells sides, whose area over perimeter is (R/2) cos(π/n), so
-// the wall of the polygonal tube carries (ΔP/l) A_h / P_h = τ_w,imposed cos(π/n): 0.981 on the
-// paper's 16-gon (measured to 1e-11 in a steady single-phase run, docs/fluid-verification.md §2).
-inline double mesh_balance_ratio(const Scene& s) {
-  const int sides = 4 * s.mesh.core_cells;
-  return sides >= 3 ? std::cos(units::pi / sides) : 1.0;
-}
+// The τ_w / τ_w,imposed an exact balance reaches on the scene's mesh: the wall carries
+// (ΔP/l) A / P = τ_w,imposed D_h / d, D_h = 4A/P its cross-section's hydraulic diameter — 1 on
+// the default circumscribed polygon, cos(π/n) on the inscribed one (0.981 on the paper's 16-gon,
+// measured to 1e-11 in a steady single-phase run, docs/fluid-verification.md §2).
+inline double mesh_balance_ratio(const Scene& s) { return s.mesh.hydraulic_diameter_ratio(); }
 
 }  // namespace hemo

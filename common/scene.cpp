@@ -769,6 +769,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.mesh.core_cells >= 1, "mesh.core_cells", "must be at least 1");
   r.check(s.mesh.ring_cells >= 1, "mesh.ring_cells", "must be at least 1");
   r.check(s.mesh.axial_cells >= 1, "mesh.axial_cells", "must be at least 1");
+  read_name(r, "mesh.wall_polygon", s.mesh.wall_polygon, {"circumscribed", "inscribed"});
 
   r.read("plasma.density_kg_m3", s.plasma.density);
   r.read("plasma.viscosity_Pa_s", s.plasma.viscosity);
@@ -887,6 +888,16 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   return s;
 }
 
+// A regular n-gon tangent to the circle of radius R has its corners at R / cos(π/n) and area over
+// perimeter R/2; one with its corners on the circle has area over perimeter (R/2) cos(π/n).
+double MeshSpec::wall_corner_radius() const {
+  return wall_polygon == "inscribed" ? 1.0 : 1.0 / std::cos(units::pi / wall_sides());
+}
+
+double MeshSpec::hydraulic_diameter_ratio() const {
+  return wall_polygon == "inscribed" ? std::cos(units::pi / wall_sides()) : 1.0;
+}
+
 std::vector<NumericalReading> numerical_readings(const Scene& s) {
   const std::string every =
       fmt::format("ours: closures every {} DEM step(s), drag on the current velocity every step (exponential)",
@@ -906,6 +917,10 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                                           : "ours: K from the interval's drag response"},
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
+  r.push_back({"mesh.wall_polygon", s.mesh.wall_polygon,
+               s.mesh.wall_polygon == "inscribed"
+                   ? "blockMesh's arcs: corners on the circle, hydraulic diameter d cos(pi/n)"
+                   : "ours: sides tangent to the circle, hydraulic diameter d, so d dP/(4l) is the wall's"});
   r.push_back({"coupling.plasma_velocity", s.plasma_velocity,
                s.plasma_velocity == "face_flux" ? "ours: U rebuilt from the conservative face fluxes"
                                                 : "CFDEM's: OpenFOAM's cell-centre U"});

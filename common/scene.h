@@ -21,11 +21,21 @@ struct Vessel {
 // O-grid of a disk extruded along z: a core_cells x core_cells square core and four blocks of
 // core_cells x ring_cells around it; cross-section has core_cells^2 + 4 core_cells ring_cells cells.
 // The paper's 1,536 cells: core 4, ring 3 (64 per section), axial 24.
+// The wall is a polygon of n = 4 core_cells flat sides (docs/model.md §5 "Momentum balance"):
+//   "circumscribed" (default)  sides tangent to the vessel circle: the cross-section's hydraulic
+//                              diameter 4A/P is the vessel's d, so the streamwise balance
+//                              τ_w = d ΔP / (4 l) holds on the mesh exactly;
+//   "inscribed"                corners on the circle (as blockMesh's arcs put them): hydraulic
+//                              diameter d cos(π/n), the wall carries cos(π/n) of d ΔP / (4 l).
 struct MeshSpec {
   int core_cells = 4;
   int ring_cells = 3;
   int axial_cells = 24;
+  std::string wall_polygon = "circumscribed";
   int cells() const { return (core_cells * core_cells + 4 * core_cells * ring_cells) * axial_cells; }
+  int wall_sides() const { return 4 * core_cells; }
+  double wall_corner_radius() const;      // the wall polygon's corners, in vessel radii
+  double hydraulic_diameter_ratio() const;  // 4A/P of the cross-section, in vessel diameters
 };
 
 struct Plasma {

@@ -46,7 +46,8 @@ Vec2 core_edge_point(double theta, double s, double rounding) {
   return {r * c, r * sn};
 }
 
-Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
+// `radius` sizes the core; the wall's nodes sit at `wall_radius` (MeshSpec::wall_polygon).
+Section make_section(double radius, double wall_radius, int nc, int nr, const OGridShape& shape) {
   Section sec;
   const double s = shape.core_half_width * radius;
   const double w = shape.core_rounding;
@@ -101,7 +102,7 @@ Section make_section(double radius, int nc, int nr, const OGridShape& shape) {
     for (int m = 0; m < nc; ++m) {
       const double theta = (-45 + 90 * k + 90.0 * m / nc) * deg;
       const Vec2 inner = sec.nodes[static_cast<std::size_t>(side_id(k, m))];
-      const Vec2 outer{radius * std::cos(theta), radius * std::sin(theta)};
+      const Vec2 outer{wall_radius * std::cos(theta), wall_radius * std::sin(theta)};
       for (int l = 1; l <= nr; ++l) {
         const double f = double(l) / nr;
         Vec2 p{inner[0] + f * (outer[0] - inner[0]), inner[1] + f * (outer[1] - inner[1])};
@@ -305,7 +306,8 @@ void add_boundary_faces(const Section& sec, const SectionEdges& edges, const Lay
 
 PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
   check_mesh_request(vessel, spec, shape);
-  const Section sec = make_section(vessel.radius(), spec.core_cells, spec.ring_cells, shape);
+  const Section sec = make_section(vessel.radius(), vessel.radius() * spec.wall_corner_radius(), spec.core_cells,
+                                   spec.ring_cells, shape);
   const Layers at{static_cast<int>(sec.nodes.size()), static_cast<int>(sec.quads.size())};
   const int nz = spec.axial_cells;
   PolyMesh mesh;

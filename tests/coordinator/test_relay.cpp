@@ -699,7 +699,7 @@ TEST(RelayLimits, MonitorAndRestartedNodeJoinWhileStrangersHoldEveryHandshakePla
 // mesh message and fluid state (with the pressure gradient) for the scene's mesh, and not much
 // larger, from the paper's 1,536 cells to 100,000.
 TEST(RelayLimits, LargestMessageIsTheRunsRealLargestWithLittleMargin) {
-  for (const MeshSpec spec : {MeshSpec{4, 3, 24}, MeshSpec{10, 6, 100}, MeshSpec{20, 10, 125}}) {
+  for (const MeshSpec& spec : {MeshSpec{4, 3, 24}, MeshSpec{10, 6, 100}, MeshSpec{20, 10, 125}}) {
     Scene scene;
     scene.vessel.diameter = 100e-6;
     scene.vessel.length = 600e-6;

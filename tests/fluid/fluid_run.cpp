@@ -19,7 +19,8 @@ std::string SceneSpec::text() const {
   if (!particle_command.empty()) s << "particle_command = \"" << particle_command << "\"\n";
   if (!fluid_command.empty()) s << "fluid_command = \"" << fluid_command << "\"\n";
   s << "\n[vessel]\ndiameter_um = " << diameter_um << "\nlength_um = " << length_um << "\n"
-    << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial << "\n"
+    << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial
+    << "\nwall_polygon = \"" << wall_polygon << "\"\n"
     << "\n[driving]\n"
     << driving << "\n"
     << "\n[time]\ncoupling_interval_s = " << dt << "\ncoupling_steps = " << steps << "\n"

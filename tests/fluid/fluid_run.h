@@ -25,6 +25,7 @@ struct SceneSpec {
   std::string name = "fluid-test";
   double diameter_um = 100, length_um = 600;
   int core = 4, ring = 3, axial = 2;
+  std::string wall_polygon = "circumscribed";  // mesh.wall_polygon
   std::string driving = "wall_shear_rate_per_s = 799";
   double dt = 2e-3;
   long steps = 20;

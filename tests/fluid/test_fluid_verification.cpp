@@ -64,15 +64,18 @@ struct PoiseuilleRun {
   double tau_polygon = 0;        // dP/l * A_h/P_h: the force balance on the polygonal cross-section
   double wall_over_driving = 0;  // wall force / driving force at the end
   double wall_force = 0;         // wall_force_z_N at the end, N
+  double relative_viscosity = 0; // gamma_w / (8 U / d): mu_app/mu of plasma alone, 1 on the circle
   double seconds = 0;
   std::vector<hemo::fluidtest::CellState> cells;
 };
 
 // A steady particle-free Poiseuille run: d = 100 um, l = 600 um, gamma_w = 799 1/s, 2 axial
 // cells (the flow does not vary along z), 20 implicit steps of 2 ms (10 viscous times R^2/nu).
-PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode none", const std::string& extra = "") {
+PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode none", const std::string& extra = "",
+                         const std::string& wall_polygon = "circumscribed") {
   SceneSpec s;
-  s.name = "poiseuille-" + std::to_string(core);
+  s.name = "poiseuille-" + std::to_string(core) + "-" + wall_polygon;
+  s.wall_polygon = wall_polygon;
   s.extra = extra;
   s.core = core;
   s.ring = ring;
@@ -88,11 +91,12 @@ PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode n
   const auto m = read_metrics(r.dir);
   const auto& mean = m.at({"fluid", "mean_velocity_m_s"});
   EXPECT_LT(std::abs(mean.rbegin()->second / std::next(mean.rbegin())->second - 1), 1e-9) << "not steady";
+  out.relative_viscosity = 799 / (8 * mean.rbegin()->second / 100e-6);
 
   const hemo::Vessel vessel{100e-6, 600e-6};
   const double R = vessel.radius(), dP = 4 * kMu * vessel.length * 799 / vessel.diameter;
   const double a = dP / (4 * kMu * vessel.length), umax = a * R * R;
-  const auto mesh = hemo::make_vessel_mesh(vessel, hemo::MeshSpec{core, ring, s.axial});
+  const auto mesh = hemo::make_vessel_mesh(vessel, hemo::MeshSpec{core, ring, s.axial, wall_polygon});
   const auto r2 = cell_mean_r2(mesh);
   out.cells = read_state(r.dir + "/state.csv");
   EXPECT_EQ(out.cells.size(), static_cast<std::size_t>(mesh.n_cells));
@@ -140,46 +144,25 @@ double observed_order(const std::vector<double>& h, const std::vector<double>& e
 
 double tau_exact() { return 100e-6 * (4 * kMu * 600e-6 * 799 / 100e-6) / (4 * 600e-6); }
 
-}  // namespace
+PoiseuilleRun inscribed(int core, int ring) { return poiseuille(core, ring, "--mode none", "", "inscribed"); }
 
-// No particles: the axial velocity converges to (dP/(4 mu l)) (R^2 - r^2). Three O-grids, each
-// twice as fine as the one before across the section (core/ring cells 4/3 = the paper's, 8/6,
-// 16/12). The observed order of the L2 error is between 1.3 and 2: second order at coarse
-// resolution, falling toward first order as the O-grid's non-smooth lines (the corners of the
-// core block, the jump in cell size between core and ring) take over.
-TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
-  std::vector<PoiseuilleRun> runs{poiseuille(4, 3), poiseuille(8, 6), poiseuille(16, 12)};
-  std::vector<double> h, ea, ec;
-  std::printf(
-      "Poiseuille, d = 100 um, gamma_w = 799 1/s, steady:\n"
-      "  core/ring  cells/section  L2 err (cell avg)  L2 err (centre)  max err/u_max  run s\n");
-  for (const auto& r : runs) {
+void print_profile_errors(const std::vector<PoiseuilleRun>& runs) {
+  std::printf("  core/ring  cells/section  L2 err (cell avg)  L2 err (centre)  max err/u_max  run s\n");
+  for (const auto& r : runs)
     std::printf("  %4d/%-4d  %13d  %17.4e  %15.4e  %13.4e  %5.1f\n", r.core, r.ring,
                 r.core * r.core + 4 * r.core * r.ring, r.error_average, r.error_centre, r.error_max, r.seconds);
-    h.push_back(r.h);
-    ea.push_back(r.error_average);
-    ec.push_back(r.error_centre);
-  }
-  for (std::size_t i = 1; i < runs.size(); ++i) {
-    const double p = std::log(ea[i - 1] / ea[i]) / std::log(h[i - 1] / h[i]);
+  for (std::size_t i = 1; i < runs.size(); ++i)
     std::printf("  order %d/%d -> %d/%d: %.3f (cell averages), %.3f (centres)\n", runs[i - 1].core, runs[i - 1].ring,
-                runs[i].core, runs[i].ring, p, std::log(ec[i - 1] / ec[i]) / std::log(h[i - 1] / h[i]));
-    EXPECT_LT(ea[i], ea[i - 1]);
-  }
-  const double order = observed_order(h, ea);
-  std::printf("  observed order (least squares over the three): %.3f (cell averages), %.3f (centres)\n", order,
-              observed_order(h, ec));
-  EXPECT_GT(order, 1.3);
-  EXPECT_LT(order, 2.0);
-  EXPECT_LT(ea.front(), 0.06);  // paper mesh: a few per cent
-  EXPECT_LT(ea.back(), 0.006);  // 16/12
+                runs[i].core, runs[i].ring,
+                std::log(runs[i - 1].error_average / runs[i].error_average) / std::log(runs[i - 1].h / runs[i].h),
+                std::log(runs[i - 1].error_centre / runs[i].error_centre) / std::log(runs[i - 1].h / runs[i].h));
+}
 
-  // Wall shear stress. The reported value is -mu dU_z/dn from the wall cells, exactly the wall
-  // flux of the discrete Laplacian: in the steady state it balances the driving force to solver
-  // tolerance, i.e. tau = dP/l * A_h/P_h with A_h, P_h the area and perimeter of the mesh's
-  // polygonal cross-section. Its error against d dP/(4 l) is that of the inscribed polygon
-  // (second order: -1.9 % with the paper's 16 wall faces per section) and is within 1 % from
-  // 8 core cells (32 wall faces) on.
+// Wall shear stress: the reported value is -mu dU_z/dn from the wall cells, exactly the wall
+// flux of the discrete Laplacian, so in the steady state it balances the driving force to solver
+// tolerance: tau = dP/l * A_h/P_h with A_h, P_h the area and perimeter of the mesh's polygonal
+// cross-section. Returns |tau / (d dP/(4l)) - 1| per run.
+std::vector<double> wall_shear_errors(const std::vector<PoiseuilleRun>& runs) {
   std::printf("  core/ring  tau_w Pa     error vs d dP/(4l)  error vs polygon balance  wall/driving - 1\n");
   std::vector<double> et;
   for (const auto& r : runs) {
@@ -190,12 +173,79 @@ TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAtTheObservedOrder) {
     EXPECT_NEAR(r.wall_over_driving, 1, 1e-8);
     et.push_back(std::abs(err));
   }
+  return et;
+}
+
+std::vector<double> profile_errors(const std::vector<PoiseuilleRun>& runs) {
+  std::vector<double> e;
+  for (const auto& r : runs) e.push_back(r.error_average);
+  return e;
+}
+
+std::vector<double> cell_sizes(const std::vector<PoiseuilleRun>& runs) {
+  std::vector<double> h;
+  for (const auto& r : runs) h.push_back(r.h);
+  return h;
+}
+
+}  // namespace
+
+// No particles, the default wall (a polygon tangent to the vessel circle, hydraulic diameter d):
+// the axial velocity converges to (dP/(4 mu l)) (R^2 - r^2) over three O-grids, each twice as fine
+// as the one before across the section (core/ring cells 4/3 = the paper's, 8/6, 16/12), and the
+// wall carries d dP/(4l) — the paper's exact balance — at every resolution, to solver tolerance.
+// The profile converges faster than on the inscribed polygon (observed order above 2): the
+// polygon's extra area near its corners and the O-grid's own error have opposite signs.
+TEST(FluidPoiseuille, ConvergesToTheAnalyticProfileAndTheWallCarriesTheExactBalance) {
+  const std::vector<PoiseuilleRun> runs{poiseuille(4, 3), poiseuille(8, 6), poiseuille(16, 12)};
+  std::printf("Poiseuille, d = 100 um, gamma_w = 799 1/s, steady, circumscribed wall polygon:\n");
+  print_profile_errors(runs);
+  const auto h = cell_sizes(runs), ea = profile_errors(runs);
+  for (std::size_t i = 1; i < runs.size(); ++i) EXPECT_LT(ea[i], ea[i - 1]);
+  const double order = observed_order(h, ea);
+  std::printf("  observed order (least squares over the three): %.3f (cell averages)\n", order);
+  EXPECT_GT(order, 1.3);
+  EXPECT_LT(ea.front(), 0.06);  // paper mesh: a few per cent
+  EXPECT_LT(ea.back(), 0.006);  // 16/12
+  for (const double e : wall_shear_errors(runs)) EXPECT_LT(e, 1e-8);
+  // The price: the tangent polygon has more area than the circle (16 tan(pi/16) / pi = 1.013 on
+  // the paper's mesh), so plasma alone flows faster than Poiseuille's circle at the same drop and
+  // its mu_app/mu, gamma_w / (8 U / d), is below 1 by a few per cent on the paper's mesh, the
+  // error falling with the mesh.
+  EXPECT_LT(runs.front().relative_viscosity, 1);
+  double previous = 1;
+  for (const auto& r : runs) {
+    std::printf("  %4d/%-4d  plasma alone: mu_app/mu = %.4f\n", r.core, r.ring, r.relative_viscosity);
+    EXPECT_LT(std::abs(1 - r.relative_viscosity), previous);
+    previous = std::abs(1 - r.relative_viscosity);
+  }
+}
+
+// The same on the inscribed polygon (corners on the circle, as blockMesh's arcs put them). The
+// observed order of the L2 error is between 1.3 and 2: second order at coarse resolution,
+// falling toward first order as the O-grid's non-smooth lines (the corners of the core block,
+// the jump in cell size between core and ring) take over. The wall shear stress's error against
+// d dP/(4 l) is that of the inscribed polygon, 1 - cos(pi/n) (second order: -1.9 % with the
+// paper's 16 wall faces per section), within 1 % from 8 core cells (32 wall faces) on.
+TEST(FluidPoiseuille, OnTheInscribedPolygonTheWallCarriesCosPiOverNOfTheBalance) {
+  const std::vector<PoiseuilleRun> runs{inscribed(4, 3), inscribed(8, 6), inscribed(16, 12)};
+  std::printf("Poiseuille, d = 100 um, gamma_w = 799 1/s, steady, inscribed wall polygon:\n");
+  print_profile_errors(runs);
+  const auto h = cell_sizes(runs), ea = profile_errors(runs);
+  for (std::size_t i = 1; i < runs.size(); ++i) EXPECT_LT(ea[i], ea[i - 1]);
+  const double order = observed_order(h, ea);
+  std::printf("  observed order (least squares over the three): %.3f (cell averages)\n", order);
+  EXPECT_GT(order, 1.3);
+  EXPECT_LT(order, 2.0);
+  EXPECT_LT(ea.front(), 0.06);
+  EXPECT_LT(ea.back(), 0.006);
+  const auto et = wall_shear_errors(runs);
+  for (std::size_t i = 0; i < runs.size(); ++i) EXPECT_NEAR(et[i], 1 - std::cos(kPi / (4 * runs[i].core)), 1e-8);
   const double tau_order = observed_order(h, et);
   std::printf("  observed order of the wall shear stress error: %.3f\n", tau_order);
   EXPECT_NEAR(tau_order, 2.0, 0.05);
-  EXPECT_NEAR(et[0], 0.0192, 0.0005);  // paper mesh
-  EXPECT_LT(et[1], 0.01);              // 8/6 meets 1 %
-  EXPECT_LT(et[2], 0.01);
+  EXPECT_LT(et[1], 0.01);  // 8/6 meets 1 %
+  for (const auto& r : runs) std::printf("  %4d/%-4d  plasma alone: mu_app/mu = %.4f\n", r.core, r.ring, r.relative_viscosity);
 }
 
 // The same table with a fourth, finer O-grid (32/24, 8,192 cells per section; about a minute):
