@@ -58,7 +58,7 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   // Throws SceneError listing every problem, a run's too: the particles are placed here as the
   // particle node will place them at step 0 (SceneCheck::placement).
   const Scene s = load_scene(scene_path, SceneCheck::placement);
-  // The counts the particle node places (common/placement.h).
+  // The counts the particle node places (model/placement.h).
   const long rbcs = particles::rbc_count(s), platelets = particles::platelet_count(s);
   fmt::print("{}: ok\n", scene_path);
   fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,

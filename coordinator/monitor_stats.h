@@ -53,7 +53,7 @@ class MonitorStats {
                  double wait_s, const std::vector<std::string>& names, const std::vector<double>& values);
   void heartbeat(const std::string& sender, double uptime_s, const ProcessCounts& counts);
   void own_counts(const ProcessCounts& counts) { own_ = counts; }
-  // The imposed wall shear stress (common/momentum_balance.h) and the plasma's viscosity, to hold
+  // The imposed wall shear stress (model/momentum_balance.h) and the plasma's viscosity, to hold
   // the fluid's `wall_shear_stress_Pa` against; without them the row has the realised stress only.
   void balance_reference(const Scene& scene);
 

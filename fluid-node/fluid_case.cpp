@@ -113,16 +113,6 @@ std::string fv_solution(const FluidSolver& solver) {
 
 }  // namespace
 
-double driving_pressure_drop(const Scene& scene) {
-  // load_scene fills both from the one the file gives; prefer the pressure drop.
-  if (scene.driving.pressure_drop > 0) return scene.driving.pressure_drop;
-  if (scene.driving.wall_shear_rate > 0)
-    return 4 * scene.plasma.viscosity * scene.vessel.length * scene.driving.wall_shear_rate / scene.vessel.diameter;
-  // Neither: no driving (a scene that gives pressure_drop_Pa = 0; flow only from sources).
-  if (scene.driving.pressure_drop == 0 && scene.driving.wall_shear_rate == 0) return 0;
-  throw std::invalid_argument("driving: pressure_drop and wall_shear_rate must not be negative");
-}
-
 FluidSettings fluid_settings(const Scene& scene) {
   FluidSettings f;
   f.density = scene.plasma.density;

@@ -5,6 +5,7 @@
 
 #include "vessel_mesh.h"
 
+#include <driving.h>  // driving_pressure_drop
 #include <momentum_forms.h>
 #include <scene.h>
 
@@ -29,11 +30,6 @@ struct FluidSettings {
   bool publish_viscous_force = false;       // the form puts F_v on the particles: div tau goes with the state
   bool publish_face_flux_velocity = false;  // coupling.plasma_velocity = "face_flux": U from the face fluxes
 };
-
-// The pressure drop a scene asks for: `driving.pressure_drop`, or 4 mu l gamma_w / d from
-// `driving.wall_shear_rate` (the pressure drop wins when both are set, as load_scene does).
-// Both zero: no driving, 0. Throws std::invalid_argument when either is negative.
-double driving_pressure_drop(const Scene& scene);
 
 FluidSettings fluid_settings(const Scene& scene);
 

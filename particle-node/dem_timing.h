@@ -12,32 +12,13 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <dem_step.h>  // hertz_contact_time, dem_scene, dem_substeps: the model's
+#include <driving.h>   // wall_shear_rate
 #include <scene.h>
 
 #include <string>
 
 namespace hemo::particles {
-
-// Hertz contact duration of two elastic spheres (mass kg, radius m, Young's modulus Pa,
-// Poisson ratio) colliding at normal velocity v (m/s):
-//   t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5)
-// with 1/m* = 1/m1 + 1/m2, 1/R* = 1/r1 + 1/r2, 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2.
-// A wall is mass = radius = infinity.
-double hertz_contact_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2, double nu2,
-                          double v);
-
-// Rayleigh time pi r sqrt(rho / G) / (0.1631 nu + 0.8766), G = E / (2 (1 + nu)).
-double rayleigh_time(double radius, double density, double youngs, double poisson);
-
-// The factor the DEM multiplies a species' mass by: its own mass_scaling, else time.mass_scaling.
-double dem_mass_scaling(const Scene& scene, const Species& species);
-
-// The scene as the DEM integrates it: every species' mass times dem_mass_scaling (the rest is
-// the scene's). derive_dem_timing and DemEngine take the physical scene and apply it themselves.
-Scene dem_scene(const Scene& scene);
-
-// The wall shear rate of a scene: given, or from the pressure drop d dP / (4 mu l).
-double wall_shear_rate(const Scene& scene);
 
 struct DemTiming {
   double contact_time = 0;          // s, shortest Hertz contact time

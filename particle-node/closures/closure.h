@@ -21,8 +21,9 @@
 //   #endif
 //
 // CMake reads these lines (closure_table.cmake) into the closure table, closure_table.h in the
-// build directory: the registry (registry.cpp) builds closures from it, scene validation
-// (common/scene.cpp) takes the names it accepts from it. Nothing else lists a closure.
+// build directory: the registry (registry.cpp) builds closures from it. Scene validation, which
+// is engine-free, takes the names it accepts from model/closure_names.h instead; the registry
+// static_asserts that the two lists are the same, so a new closure's name goes there too.
 // "none" (no lift, no torque) is NoClosure's, below.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

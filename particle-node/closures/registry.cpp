@@ -1,14 +1,18 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The factories of the closures in the closure table. Both includes below are generated from the
-// HEMO_CLOSURE lines of closures/*.h (closure_table.cmake): a new closure needs no line here.
+// HEMO_CLOSURE lines of closures/*.h (closure_table.cmake): a new closure needs no line here, and
+// its name one line in model/closure_names.h.
 #include "closure.h"
 #include "closure_headers.h"  // every header that registers a closure
 #include "closure_table.h"    // HEMO_{DRAG,LIFT,TORQUE}_CLOSURES(X): X("name", Class), by name
+
+#include <closure_names.h>
 
 #include <initializer_list>
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -31,6 +35,20 @@ class ClosureRegistry {
 };
 
 namespace {
+
+// The scene validates closure names against model/closure_names.h, which cannot read this table:
+// the two lists must be the same, or the build stops here naming the slot.
+#define HEMO_CLOSURE_NAME(name, cls) std::string_view(name),
+constexpr std::string_view kTableDragNames[] = {HEMO_DRAG_CLOSURES(HEMO_CLOSURE_NAME)};
+constexpr std::string_view kTableLiftNames[] = {HEMO_LIFT_CLOSURES(HEMO_CLOSURE_NAME)};
+constexpr std::string_view kTableTorqueNames[] = {HEMO_TORQUE_CLOSURES(HEMO_CLOSURE_NAME)};
+#undef HEMO_CLOSURE_NAME
+static_assert(same_closure_names(kTableDragNames, kDragClosureNames),
+              "the drag closures' HEMO_CLOSURE lines and model/closure_names.h's kDragClosureNames differ");
+static_assert(same_closure_names(kTableLiftNames, kLiftClosureNames),
+              "the lift closures' HEMO_CLOSURE lines and model/closure_names.h's kLiftClosureNames differ");
+static_assert(same_closure_names(kTableTorqueNames, kTorqueClosureNames),
+              "the torque closures' HEMO_CLOSURE lines and model/closure_names.h's kTorqueClosureNames differ");
 
 template <class Base>
 using Factory = std::unique_ptr<Base> (*)(const ClosureParams&);

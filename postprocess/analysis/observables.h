@@ -158,7 +158,7 @@ double time_mean(const std::vector<double>& t, const std::vector<double>& value,
 
 // ---- Momentum balance (docs/model.md §5) -----------------------------------------------------
 
-// The realised wall shear stress against the one the driving imposes (common/momentum_balance.h).
+// The realised wall shear stress against the one the driving imposes (model/momentum_balance.h).
 struct WallShearBalance {
   double imposed = 0;                       // τ_w,imposed = d ΔP / (4 l), Pa
   double viscosity = 0;                     // µ, Pa s

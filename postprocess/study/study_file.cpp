@@ -325,7 +325,7 @@ std::vector<StudyCase> expand_study(const Study& study, const std::string& scene
       for (const auto& p : e.problems()) {
         const bool swept = std::find(study.keys.begin(), study.keys.end(), p.key) != study.keys.end();
         if (swept && p.message == "unknown key")
-          fail(study.path, "sweep: '{}' is not a scene key (see docs/scenes.md and common/scene.cpp)", p.key);
+          fail(study.path, "sweep: '{}' is not a scene key (see docs/scenes.md and model/scene.cpp)", p.key);
         why += (why.empty() ? "" : "; ") + fmt::format("{}: {}", p.key, p.message) + (swept ? " (the swept key)" : "");
       }
       fail(study.path, "run {} ({}): the scene is invalid: {}", c.dir_name, study.value_text(i), why);

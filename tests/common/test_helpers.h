@@ -27,14 +27,4 @@ inline RunContext make_context(const std::string& tag) {
   return ctx;
 }
 
-inline std::string write_temp(const std::string& text, const std::string& suffix = ".toml") {
-  char name[] = "/tmp/hemo_test_XXXXXX";
-  const int fd = mkstemp(name);
-  close(fd);
-  std::string path = std::string(name) + suffix;
-  std::rename(name, path.c_str());
-  std::ofstream(path) << text;
-  return path;
-}
-
 }  // namespace hemo::test

@@ -1,4 +1,4 @@
-// Runs across hosts, the pure parts (common/hosts.h, docs/hosts.md): host lists, ranks from
+// Runs across hosts, the pure parts (model/hosts.h, docs/hosts.md): host lists, ranks from
 // slots, the bus URL's TTL, the launch-command template, the remote command, the [hosts] keys.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>

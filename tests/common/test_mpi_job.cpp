@@ -1,5 +1,5 @@
 // How a node becomes an MPI job (common/mpi_job.h): mpirun here or on placed hosts, srun as a
-// Slurm job step; and how the slurm launcher shares an allocation's nodes (common/hosts.h).
+// Slurm job step; and how the slurm launcher shares an allocation's nodes (model/hosts.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 

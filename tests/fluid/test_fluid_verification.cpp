@@ -496,7 +496,7 @@ TEST(FluidBadInput, MeshFinerThanTheParticlesIsRefused) {
   s.ring = 6;
   s.axial = 30;
   s.extra = "[rbc]\nhematocrit = 0.1\n";
-  // Refused with the scene, before any node starts (common/scene.cpp, by the mean cell volume);
+  // Refused with the scene, before any node starts (model/scene.cpp, by the mean cell volume);
   // the fluid node's own check (fluid_case.cpp, by the smallest cell) stays for the O-grid's
   // cells below the mean.
   const auto r = run_scene(s);

@@ -24,19 +24,6 @@ hemo::Scene calibration_scene() {
 }
 }  // namespace
 
-TEST(DemTiming, HertzContactTimeFormula) {
-  // Two equal spheres: m* = m/2, R* = r/2, E* = E / (2 (1 - nu^2)).
-  const double m = 1e-13, r = 3e-6, e = 7.5e5, nu = 0.45, v = 4e-3;
-  const double ms = m / 2, rs = r / 2, es = e / (2 * (1 - nu * nu));
-  EXPECT_NEAR(hertz_contact_time(m, r, e, nu, m, r, e, nu, v), 2.87 * std::pow(ms * ms / (rs * es * es * v), 0.2),
-              1e-18);
-  const double inf = std::numeric_limits<double>::infinity();
-  const double ew = 7.5e7, nuw = 0.18;
-  const double esw = 1 / ((1 - nu * nu) / e + (1 - nuw * nuw) / ew);
-  EXPECT_NEAR(hertz_contact_time(m, r, e, nu, inf, inf, ew, nuw, v), 2.87 * std::pow(m * m / (r * esw * esw * v), 0.2),
-              1e-18);
-}
-
 TEST(DemTiming, StepFromTheCalibrationScene) {
   hemo::Scene s = calibration_scene();
   const auto t = derive_dem_timing(s, 1e-5);
@@ -117,10 +104,3 @@ TEST(DemTiming, PlateletMassScalingHandsTheStepToTheRedCells) {
   EXPECT_EQ(dem_scene(s).platelet.mass, 10 * s.platelet.mass);
 }
 
-TEST(DemTiming, WallShearRateFromPressureDrop) {
-  hemo::Scene s;
-  s.vessel.diameter = 100e-6;
-  s.vessel.length = 600e-6;
-  s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * 799 / s.vessel.diameter;
-  EXPECT_NEAR(wall_shear_rate(s), 799, 1e-9);
-}

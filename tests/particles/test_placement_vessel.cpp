@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // `hemocosim check` and `run` place a scene's particles before any node starts
-// (SceneCheck::placement, common/scene.cpp): in the scene's vessel, from z = 0, with the scene's
+// (SceneCheck::placement, model/scene.cpp): in the scene's vessel, from z = 0, with the scene's
 // seed. The particle node places them at step 0 in the vessel of its CellLocator on the built-in
 // fluid node's mesh. These must be one vessel, bit for bit, so that the check's placement is the
 // node's: what the check passes, the node places; what it refuses, the node cannot place, for the

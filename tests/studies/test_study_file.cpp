@@ -223,7 +223,7 @@ TEST(StudyFile, SetDottedRefusesToDescendIntoAValue) {
 }
 
 // The studies of docs/model.md §4 shipped in scenes/studies: every run's scene valid, full and reduced.
-// (Their closure keys need the particle closures of issue #4 in common/scene.cpp.)
+// (Their closure keys need the particle closures of issue #4 in model/scene.cpp.)
 TEST(ShippedStudies, ExpandToValidScenes) {
   const std::map<std::string, std::size_t> want = {{"shape", 2}, {"diameter", 3}, {"shear-rate", 8}, {"hematocrit", 3}};
   for (const auto& [name, runs] : want) {

@@ -10,7 +10,6 @@
 #include "minimal_scene.h"
 #include "momentum_forms.h"
 #include "scene.h"
-#include "test_helpers.h"
 #include "units.h"
 
 using namespace hemo;

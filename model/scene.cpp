@@ -3,11 +3,11 @@
 
 #include "momentum_forms.h"
 
+#include "dem_step.h"
+#include "driving.h"
 #include "hosts.h"
 #include "placement.h"
 #include "units.h"
-
-#include <closure_table.h>
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -34,22 +34,6 @@ std::string SceneProblem::str(const std::string& file) const {
   if (line > 0) return fmt::format("{}:{}: {}: {}", file, line, what, message);
   return fmt::format("{}: {}: {}", file, what, message);
 }
-
-// Only the names: the classes stay with the particle node, which expands the same table.
-#define HEMO_CLOSURE_NAME(name, cls) name,
-const std::vector<std::string>& known_drag_closures() {
-  static const std::vector<std::string> n = {HEMO_DRAG_CLOSURES(HEMO_CLOSURE_NAME)};
-  return n;
-}
-const std::vector<std::string>& known_lift_closures() {
-  static const std::vector<std::string> n = {HEMO_LIFT_CLOSURES(HEMO_CLOSURE_NAME)};
-  return n;
-}
-const std::vector<std::string>& known_torque_closures() {
-  static const std::vector<std::string> n = {HEMO_TORQUE_CLOSURES(HEMO_CLOSURE_NAME)};
-  return n;
-}
-#undef HEMO_CLOSURE_NAME
 
 static std::string join_problems(const std::string& file, const std::vector<SceneProblem>& ps) {
   std::string s;
@@ -362,57 +346,17 @@ void read_species(Reader& r, Species& s, bool rbc) {
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
                         SceneCheck check = SceneCheck::values);
 
-namespace {
-
-// Hertz contact duration of two elastic spheres (particle-node/dem_timing.cpp, which the
-// coordinator does not link: the same formula, for the work estimate only). A wall is
-// mass = radius = infinity.
-double hertz_time(double m1, double r1, double e1, double nu1, double m2, double r2, double e2, double nu2, double v) {
-  auto inv = [](double x) { return std::isfinite(x) ? 1.0 / x : 0.0; };
-  const double m = 1.0 / (inv(m1) + inv(m2));
-  const double r = 1.0 / (inv(r1) + inv(r2));
-  const double e = 1.0 / ((1 - nu1 * nu1) / e1 + (1 - nu2 * nu2) / e2);
-  return 2.87 * std::pow(m * m / (r * e * e * v), 0.2);
-}
-
-}  // namespace
-
 WorkEstimate estimate_work(const Scene& s) {
   WorkEstimate w;
-  const double volume = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+  const double volume = vessel_volume(s.vessel);
   w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
                 (s.platelet.present ? s.platelet.number_density * volume : 0);
-  struct Body {
-    const Species* sp;
-    double mass, r;
-  };
-  std::vector<Body> bodies;
-  for (const Species* sp : {&s.rbc, &s.platelet})
-    if (sp->present && sp->diameter > 0 && sp->mass > 0)
-      bodies.push_back(
-          {sp, sp->mass * (sp->mass_scaling > 0 ? sp->mass_scaling : s.time.mass_scaling), sp->diameter / 2});
-  const double inf = std::numeric_limits<double>::infinity();
-  const auto& c = s.contact;
-  const double shear = s.driving.wall_shear_rate;
-  auto impact = [&](double d) { return shear > 0 ? shear * d : 1e-3; };
-  w.contact_time = inf;
-  for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const auto& a = bodies[i];
-    for (std::size_t j = i; j < bodies.size(); ++j) {
-      const auto& b = bodies[j];
-      w.contact_time = std::min(
-          w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, b.mass, b.r,
-                                     c.cell_youngs_modulus, c.cell_poisson_ratio, impact(2 * std::max(a.r, b.r))));
-    }
-    w.contact_time =
-        std::min(w.contact_time, hertz_time(a.mass, a.r, c.cell_youngs_modulus, c.cell_poisson_ratio, inf, inf,
-                                            c.wall_youngs_modulus, c.wall_poisson_ratio, impact(2 * a.r)));
-  }
+  // The particle node's contact time (particle-node/dem_timing.cpp calls the same function).
+  w.contact_time = particles::shortest_contact_time(particles::dem_scene(s), s.driving.wall_shear_rate).time;
   if (s.time.dem_substeps > 0)
     w.substeps = s.time.dem_substeps;
   else if (std::isfinite(w.contact_time))
-    w.substeps =
-        std::max(1.0, std::ceil(s.time.coupling_interval / (w.contact_time / s.time.steps_per_contact) * (1 - 1e-12)));
+    w.substeps = particles::dem_substeps(s.time.coupling_interval, w.contact_time / s.time.steps_per_contact);
   else
     w.substeps = 0;  // no particles: no DEM
   w.particle_steps = w.substeps * static_cast<double>(s.time.coupling_steps) * std::ceil(w.particles);
@@ -437,7 +381,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   const double cells =
       std::max(1.0, (1.0 * s.mesh.core_cells * s.mesh.core_cells + 4.0 * s.mesh.core_cells * s.mesh.ring_cells) *
                         s.mesh.axial_cells);
-  const double cell = std::cbrt(units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length / cells);
+  const double cell = std::cbrt(vessel_volume(s.vessel) / cells);
   for (const Species* sp : {&s.rbc, &s.platelet}) {
     if (!sp->present) continue;
     const std::string dkey = sp->name + ".diameter_um";
@@ -490,7 +434,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
 }
 
 // Whether the particles can be placed, found by placing them: the particle node's own placement
-// (common/placement.h, the same function and order), with the scene's seed, in the vessel the
+// (model/placement.h, the same function and order), with the scene's seed, in the vessel the
 // node places in. That vessel is the built-in fluid node's mesh, whose diameter and length are
 // the scene's (fluid-node/vessel_mesh.cpp, fill_mesh_message; the particle node refuses a mesh
 // that differs) and whose lowest point, the node's z0, is z = 0 (make_vessel_mesh extrudes from
@@ -512,7 +456,7 @@ void check_placement(Reader& r, const Scene& s) {
     }
     // The key that made the species present, and so is in the file.
     const std::string key = sp->name + (sp == &s.rbc ? ".hematocrit" : ".number_density_per_ul");
-    const double vessel = units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length;
+    const double vessel = vessel_volume(s.vessel);
     const double asked = static_cast<double>(e.requested) * units::pi / 6 * std::pow(sp->diameter, 3) / vessel;
     r.problem(key, r.line_of(key),
               fmt::format("cannot be placed: {} {}s of {:g} um, a sphere volume fraction of {:.3g}, in a vessel of "
@@ -784,10 +728,11 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.driving.wall_shear_rate >= 0, "driving.wall_shear_rate_per_s", "must not be negative");
   // gamma_w = d dP / (4 mu l): the wall shear rate is defined from the pressure drop (docs/model.md §4).
   if (has_shear)
-    s.driving.pressure_drop = 4 * s.plasma.viscosity * s.vessel.length * s.driving.wall_shear_rate / s.vessel.diameter;
+    s.driving.pressure_drop =
+        pressure_drop_of(s.driving.wall_shear_rate, s.vessel.diameter, s.plasma.viscosity, s.vessel.length);
   else if (s.vessel.diameter > 0 && s.vessel.length > 0)
     s.driving.wall_shear_rate =
-        s.vessel.diameter * s.driving.pressure_drop / (4 * s.plasma.viscosity * s.vessel.length);
+        wall_shear_rate_of(s.vessel.diameter, s.driving.pressure_drop, s.plasma.viscosity, s.vessel.length);
 
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);

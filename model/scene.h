@@ -3,6 +3,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "closure_names.h"  // the names a scene accepts per closure slot
 #include "hosts.h"
 
 #include <optional>
@@ -63,7 +64,7 @@ struct Species {
   // Platelets' contacts are the shortest (they set the DEM step): scaling them more than the red
   // cells lengthens the step without making the red cells heavier.
   double mass_scaling = 0;
-  // Closures chosen by name (particle-node/closures/; docs/model.md §2, §3). A scene file's defaults
+  // Closures chosen by name (closure_names.h; particle-node/closures/; docs/model.md §2, §3). A scene file's defaults
   // are the paper's models: RBC "rbc_fit" + "rbc_lift", platelet "oblate" for all three
   // (spherical surrogate: drag "schiller_naumann", lift "shear_lift", torque "none"). A Species
   // built in code starts from plain Stokes drag without lift or torque.
@@ -78,13 +79,6 @@ struct Species {
   double semi_axis_c = 0;  // m
   std::string orientation_integrator = "splitting";
 };
-
-// Names the scene accepts per closure slot, in the order messages list them (by name): the
-// particle node's closure table, closure_table.h, generated at configure time from the
-// HEMO_CLOSURE line in each closure's header (particle-node/closures/closure_table.cmake).
-const std::vector<std::string>& known_drag_closures();
-const std::vector<std::string>& known_lift_closures();
-const std::vector<std::string>& known_torque_closures();
 
 struct Contact {
   double cell_youngs_modulus = 7.5e5;  // Pa
@@ -176,7 +170,7 @@ struct RunSettings {
   double bus_check_s = 10;
 };
 
-// Where the nodes run (docs/hosts.md): host lists as "a" or "b:2,c:2" (common/hosts.h); a node
+// Where the nodes run (docs/hosts.md): host lists as "a" or "b:2,c:2" (model/hosts.h); a node
 // without hosts runs on the coordinator's host. A node with hosts runs on their ranks' sum.
 struct HostPlacement {
   std::string fluid;
@@ -331,7 +325,7 @@ enum class SceneCheck {
   // Types, ranges, geometry (the particles fit the vessel and are smaller than its cells) and
   // work: what every process that reads a scene needs.
   values,
-  // Those, and the particles' initial placement (common/placement.h), run as the particle node
+  // Those, and the particles' initial placement (model/placement.h), run as the particle node
   // runs it at step 0: a scene whose particles cannot be placed is refused, naming the species'
   // key (rbc.hematocrit or platelet.number_density_per_ul). For `hemocosim check` and `run`,
   // before any node starts; the nodes themselves load with `values` (the particle node places

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "placement.h"
 
+#include "driving.h"
 #include "spatial_hash.h"
 
 #include <units.h>
@@ -15,8 +16,6 @@ namespace hemo::particles {
 
 namespace {
 
-double vessel_volume(const Scene& s) { return units::pi * s.vessel.radius() * s.vessel.radius() * s.vessel.length; }
-
 const char* species_name(int species) { return species == kRbc ? "RBC" : "platelet"; }
 
 // Uniform in [0, 1) from 53 random bits.
@@ -26,12 +25,12 @@ double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11)
 
 long rbc_count(const Scene& s) {
   if (!s.rbc.present || !(s.rbc.volume > 0)) return 0;
-  return std::lround(s.rbc.hematocrit * vessel_volume(s) / s.rbc.volume);
+  return std::lround(s.rbc.hematocrit * vessel_volume(s.vessel) / s.rbc.volume);
 }
 
 long platelet_count(const Scene& s) {
   if (!s.platelet.present) return 0;
-  return std::lround(s.platelet.number_density * vessel_volume(s));
+  return std::lround(s.platelet.number_density * vessel_volume(s.vessel));
 }
 
 std::vector<PlacementRequest> placement_requests(const Scene& s) {

@@ -7,7 +7,7 @@
 // library's distributions).
 // Pure geometry, in hemocommon: the particle node places its particles with it at step 0, and
 // `hemocosim check` / `run` run the very same placement beforehand to refuse a scene whose
-// particles cannot be placed (common/scene.h, SceneCheck::placement).
+// particles cannot be placed (model/scene.h, SceneCheck::placement).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 

@@ -1,5 +1,5 @@
 // Small vector types of the particle node and of the placement it shares with the coordinator
-// (common/placement.h): Eigen, fixed size, SI units.
+// (model/placement.h): Eigen, fixed size, SI units.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
