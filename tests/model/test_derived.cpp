@@ -3,6 +3,7 @@
 // and the closure names a scene validates against (closure_names.h): the formulas, and that
 // scene loading and `hemocosim check`'s work estimate take their figures from these very
 // functions, to the bit.
+#include "calibration_scene.h"
 #include "minimal_scene.h"
 
 #include <closure_names.h>
@@ -22,19 +23,7 @@ using namespace hemo;
 using namespace hemo::particles;
 
 namespace {
-// The calibration vessel with both species at docs/model.md's sizes and masses.
-Scene calibration_scene() {
-  Scene s;
-  s.vessel.diameter = 100e-6;
-  s.vessel.length = 600e-6;
-  s.driving.wall_shear_rate = 799;
-  s.rbc.present = s.platelet.present = true;
-  s.rbc.diameter = 5.56e-6;
-  s.rbc.mass = 9.9e-14;
-  s.platelet.diameter = 2.66e-6;
-  s.platelet.mass = 8.79e-15;
-  return s;
-}
+using test::calibration_scene;
 
 Scene load_text(const std::string& text) { return load_scene(test::write_temp(text)); }
 }  // namespace

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_timing.h"
 
+#include "calibration_scene.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,21 +10,7 @@
 
 using namespace hemo::particles;
 
-namespace {
-// The calibration vessel with both species at docs/model.md's sizes and masses.
-hemo::Scene calibration_scene() {
-  hemo::Scene s;
-  s.vessel.diameter = 100e-6;
-  s.vessel.length = 600e-6;
-  s.driving.wall_shear_rate = 799;
-  s.rbc.present = s.platelet.present = true;
-  s.rbc.diameter = 5.56e-6;
-  s.rbc.mass = 9.9e-14;
-  s.platelet.diameter = 2.66e-6;
-  s.platelet.mass = 8.79e-15;
-  return s;
-}
-}  // namespace
+using hemo::test::calibration_scene;
 
 TEST(DemTiming, StepFromTheCalibrationScene) {
   hemo::Scene s = calibration_scene();
