@@ -224,7 +224,7 @@ TEST(Analyze, EndToEndOnAConstructedRun) {
   EXPECT_NEAR(a.balance.mean, 0.9 * imposed, 1e-12);
   EXPECT_NEAR(a.balance.end, 0.9 * imposed, 1e-12);
   EXPECT_NEAR(a.balance.wall_shear_rate(), 720, 1e-9);
-  EXPECT_NEAR(a.balance.mesh_ratio, std::cos(kPi / 8), 1e-15);  // core_cells = 2: an octagon
+  EXPECT_EQ(a.balance.mesh_ratio, 1.0);  // the default wall polygon, tangent to the circle
   EXPECT_FALSE(a.balance_verdict.judged);
 
   EXPECT_EQ(hemo::analyze_command(opt), 0);

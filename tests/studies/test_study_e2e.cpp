@@ -104,9 +104,10 @@ TEST(ReducedStudy, HematocritEndToEnd) {
     // Every observable is there (a number, not empty).
     for (const char* k : {"cfl_edge_m", "cfl_profile_m", "D_m2_s", "relative_apparent_viscosity", "margination_index"})
       EXPECT_FALSE(rows[i].at(k).empty()) << k;
-    // More cells, more resistance: mu_app/mu above 1 and growing with Ht.
+    // More cells, more resistance: mu_app/mu growing with Ht. Not "above 1": on the default
+    // wall polygon, tangent to the circle, plasma alone's mu_app/mu is below 1 on a coarse mesh
+    // (0.964 on the paper's, docs/fluid-verification.md §1).
     const double mu = std::stod(rows[i].at("relative_apparent_viscosity"));
-    EXPECT_GT(mu, 1.0);
     EXPECT_GT(mu, previous_viscosity);
     previous_viscosity = mu;
   }
