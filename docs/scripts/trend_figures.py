@@ -4,8 +4,8 @@
 swept quantity (shear rate, hematocrit, vessel diameter).
 
     /usr/bin/python3 docs/scripts/trend_figures.py --out docs/figures/validation/trends.png \
-        --d-rel-sd 0.042 shear-rate=docs/study-reports/shear-rate/summary.csv \
-        hematocrit=docs/study-reports/hematocrit/summary.csv diameter=docs/study-reports/diameter/summary.csv
+        --d-rel-sd 0.042 shear-rate=docs/study-reports/former-default/shear-rate/summary.csv \
+        hematocrit=docs/study-reports/former-default/hematocrit/summary.csv diameter=docs/study-reports/former-default/diameter/summary.csv
 
 Each STUDY=SUMMARY is a `hemocosim study` summary.csv; a missing file leaves its column empty
 ("not run yet"). The top row is the CFL thickness (edge and profile methods, docs/model.md §5),

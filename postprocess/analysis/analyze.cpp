@@ -49,7 +49,22 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   const double mean_u = time_mean(u.time_s, u.value, a.window_start, a.window_end);
   for (double t : u.time_s) a.velocity_samples += t >= a.window_start && t <= a.window_end;
   if (u.empty()) a.notes.push_back("metrics.csv has no mean_velocity_m_s: no apparent viscosity");
-  a.rheology = apparent_viscosity(mean_u, run.scene.vessel.diameter, run.scene.driving.wall_shear_rate);
+  a.plasma_mean_velocity = mean_u;
+
+  const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, a.window_end);
+  if (std::isfinite(mean_sup)) {
+    a.total_volume_flux = total_volume_flux(mean_sup, mean_cells_flux, a.tube);
+    a.total_flux_source = "pi R^2 <alpha u_z> (superficial_velocity_m_s) + sum V_p v_z / L over all cells";
+  } else {
+    // Without the plasma's superficial velocity, the blood is taken to move at the plasma's mean.
+    a.total_volume_flux = a.tube.cross_section() * mean_u;
+    a.total_flux_source = "pi R^2 U (superficial_velocity_m_s not reported)";
+  }
+  a.discharge_hematocrit = discharge_hematocrit(a.rbc_volume_flux, a.total_volume_flux);
+  // The paper's 8 U / d is built from the realised mean velocity of the blood, plasma and cells.
+  a.rheology = apparent_viscosity(a.total_volume_flux / a.tube.cross_section(), run.scene.vessel.diameter,
+                                  run.scene.driving.wall_shear_rate);
+
   a.balance = momentum_balance(tau, run.scene, a.window_start, a.window_end);
   a.wall_shear_stress = a.balance.mean;
   a.settling_time = settling_time(run.scene.vessel.diameter, run.scene.plasma.kinematic_viscosity());
@@ -63,17 +78,6 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
     a.notes.push_back("momentum balance not judged: " + a.balance_verdict.why_not_judged);
   else if (!a.balance_verdict.holds)
     a.notes.push_back(a.balance_verdict.line);
-
-  const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, a.window_end);
-  if (std::isfinite(mean_sup)) {
-    a.total_volume_flux = total_volume_flux(mean_sup, mean_cells_flux, a.tube);
-    a.total_flux_source = "pi R^2 <alpha u_z> (superficial_velocity_m_s) + sum V_p v_z / L over all cells";
-  } else {
-    // Without the plasma's superficial velocity, the blood is taken to move at the plasma's mean.
-    a.total_volume_flux = a.tube.cross_section() * mean_u;
-    a.total_flux_source = "pi R^2 U (superficial_velocity_m_s not reported)";
-  }
-  a.discharge_hematocrit = discharge_hematocrit(a.rbc_volume_flux, a.total_volume_flux);
 }
 
 }  // namespace
@@ -269,6 +273,8 @@ std::string format_json(const Analysis& a) {
   j["rheology"] = {{"samples", a.velocity_samples},
                    {"wall_shear_rate_per_s", number(a.rheology.wall_shear_rate)},
                    {"apparent_wall_shear_rate_per_s", number(a.rheology.apparent_wall_shear_rate)},
+                   {"mean_velocity_source", "Q / (pi R^2), Q the blood's volume flux (hematocrit.total_volume_flux_m3_s)"},
+                   {"plasma_mean_velocity_m_s", number(a.plasma_mean_velocity)},
                    {"wall_shear_stress_Pa", number(a.wall_shear_stress)}};
   const auto& b = a.balance;
   j["momentum_balance"] = {

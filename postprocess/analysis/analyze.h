@@ -54,7 +54,8 @@ struct Analysis {
   std::vector<MsdPoint> msd;
   DiffusionFit diffusion;
 
-  ApparentViscosity rheology;
+  ApparentViscosity rheology;     // from the blood's mean velocity Q / (pi R^2)
+  double plasma_mean_velocity = 0;  // m/s, the fluid node's interstitial mean, window mean
   long velocity_samples = 0;
   double wall_shear_stress = 0;  // Pa, window mean from the fluid node
   WallShearBalance balance;      // τ_w against τ_w,imposed over the window

@@ -35,7 +35,7 @@ std::string diffusion_detail(const Analysis& a) {
 
 std::string viscosity_detail(const Analysis& a) {
   auto rate = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f}", v) : "n/a"; };
-  return fmt::format("γ̇_w / (8U/d): imposed {} 1/s, apparent {} 1/s; wall shear stress {} Pa (fluid node)",
+  return fmt::format("γ̇_w / (8U/d), U = Q/(πR²) of the blood: imposed {} 1/s, apparent {} 1/s; wall shear stress {} Pa (fluid node)",
                      rate(a.rheology.wall_shear_rate), rate(a.rheology.apparent_wall_shear_rate),
                      std::isfinite(a.wall_shear_stress) ? fmt::format("{:.4f}", a.wall_shear_stress) : "n/a");
 }
@@ -120,10 +120,11 @@ const std::vector<Observable>& observable_table() {
       {"D_fit_end_s", "diffusion.window_end_s", "D fit end", "s", "largest MSD lag used in the fit of D",
        [](const Analysis& a) { return a.diffusion.window_end; }, {Style::general, 3, 1, "s"}},
       {"relative_apparent_viscosity", "rheology.relative_apparent_viscosity", "µ_app/µ", "1",
-       "apparent viscosity relative to the plasma's: imposed wall shear rate over 8 U / d",
+       "apparent viscosity relative to the plasma's: imposed wall shear rate over 8 U / d, U the blood's mean velocity",
        [](const Analysis& a) { return a.rheology.relative_viscosity; }, {Style::fixed, 3, 1, ""}, viscosity_detail,
        "µ_app / µ", "γ̇ / (8Ū/d)"},
-      {"mean_velocity_m_s", "rheology.mean_velocity_m_s", "U", "m/s", "mean plasma velocity, window mean (fluid node)",
+      {"mean_velocity_m_s", "rheology.mean_velocity_m_s", "U", "m/s",
+       "mean blood velocity Q / (π R²): plasma (fluid node) and cells, window mean",
        [](const Analysis& a) { return a.rheology.mean_velocity; }, {Style::scientific, 3, 1, "m/s"}, velocity_detail},
       {"wall_shear_stress_Pa", "momentum_balance.wall_shear_stress_Pa", "τ_w", "Pa",
        "wall shear stress the fluid node realises, window mean (docs/model.md §5 momentum balance)",
@@ -139,6 +140,17 @@ const std::vector<Observable>& observable_table() {
       {"discharge_hematocrit", "hematocrit.discharge", "H_D", "1",
        "discharge hematocrit Q_RBC / Q: the RBC share of the volume flux",
        [](const Analysis& a) { return a.discharge_hematocrit; }, {Style::fixed, 3, 1, ""}, discharge_detail},
+      {"fahraeus_ratio", "hematocrit.fahraeus_ratio", "H_T/H_D", "1",
+       "tube over discharge hematocrit: below 1 when the red cells ride the fast core (Fåhræus effect)",
+       [](const Analysis& a) { return a.tube_hematocrit / a.discharge_hematocrit; }, {Style::fixed, 3, 1, ""}},
+      {"in_vitro_fahraeus_ratio", "in_vitro.fahraeus_ratio", "H_T/H_D in vitro", "1",
+       "H_T/H_D of blood in a glass tube of this diameter at this run's H_D (Pries et al. 1990, docs/model.md §7.4)",
+       [](const Analysis& a) { return in_vitro_fahraeus_ratio(2 * a.tube.radius, a.discharge_hematocrit); },
+       {Style::fixed, 3, 1, ""}},
+      {"in_vitro_relative_viscosity", "in_vitro.relative_viscosity", "µ_app/µ in vitro", "1",
+       "relative apparent viscosity of blood in a glass tube of this diameter at this run's H_D (Pries et al. 1992, docs/model.md §7.4)",
+       [](const Analysis& a) { return in_vitro_relative_viscosity(2 * a.tube.radius, a.discharge_hematocrit); },
+       {Style::fixed, 3, 1, ""}},
       {"margination_index", "margination.index", "margination", "1",
        "fraction of platelets in the cell-free layer, r > R − δ (edge method), window mean",
        [](const Analysis& a) { return a.margination_index; }, {Style::fixed, 3, 1, ""}, margination_detail},

@@ -460,6 +460,27 @@ double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux) {
   return total_volume_flux != 0 ? rbc_volume_flux / total_volume_flux : kNaN;
 }
 
+// ---- Blood in glass tubes: the in-vitro references ---------------------------------------------
+
+namespace {
+// The fits take the diameter in micrometres.
+double in_micrometres(double diameter) { return diameter / 1e-6; }
+}  // namespace
+
+double in_vitro_relative_viscosity(double diameter, double hd) {
+  const double D = in_micrometres(diameter);
+  // At H_D = 0.45, and the shape of its dependence on H_D.
+  const double eta_45 = 220 * std::exp(-1.3 * D) + 3.2 - 2.44 * std::exp(-0.06 * std::pow(D, 0.645));
+  const double s = 1 / (1 + 1e-11 * std::pow(D, 12));
+  const double c = (0.8 + std::exp(-0.075 * D)) * (-1 + s) + s;
+  return 1 + (eta_45 - 1) * (std::pow(1 - hd, c) - 1) / (std::pow(1 - 0.45, c) - 1);
+}
+
+double in_vitro_fahraeus_ratio(double diameter, double hd) {
+  const double D = in_micrometres(diameter);
+  return hd + (1 - hd) * (1 + 1.7 * std::exp(-0.415 * D) - 0.6 * std::exp(-0.011 * D));
+}
+
 // ---- Margination -----------------------------------------------------------------------------
 
 double margination_index(const std::vector<double>& platelet_r, double radius, double cfl_thickness) {

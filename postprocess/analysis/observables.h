@@ -145,7 +145,7 @@ DiffusionFit fit_diffusivity(const std::vector<MsdPoint>& msd, double t_fit);
 // ---- Apparent viscosity ----------------------------------------------------------------------
 
 struct ApparentViscosity {
-  double mean_velocity = 0;             // U, m/s
+  double mean_velocity = 0;             // U = Q / (pi R^2), the blood's mean velocity, m/s
   double wall_shear_rate = 0;           // gamma_w = d dP / (4 mu l), 1/s (imposed)
   double apparent_wall_shear_rate = 0;  // 8 U / d, 1/s
   double relative_viscosity = 0;        // mu_app / mu = gamma_w / (8 U / d)
@@ -233,6 +233,17 @@ double total_volume_flux(double superficial_plasma_velocity, double cells_volume
 // Discharge hematocrit H_D = Q_RBC / Q: the RBC share of the volume that flows through a
 // section. H_D = H_T in plug flow; H_D > H_T when RBCs ride the fast core (Fahraeus effect).
 double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux);
+
+// ---- Blood in glass tubes: the in-vitro references (docs/model.md §7.4) -------------------------
+
+// Relative apparent viscosity of blood in a glass tube of diameter d at discharge hematocrit H_D,
+// the in-vitro fit of Pries, Neuhaus & Gaehtgens (1992, Am. J. Physiol. 263:H1770) to the
+// published tube-viscosity data (d in µm inside the fit; here in metres). 1 at H_D = 0.
+double in_vitro_relative_viscosity(double diameter, double discharge_hematocrit);
+
+// Tube over discharge hematocrit H_T / H_D in a glass tube (the Fåhræus effect), the in-vitro fit
+// of Pries, Secomb, Gaehtgens & Gross (1990, Circ. Res. 67:826). 1 in a wide tube.
+double in_vitro_fahraeus_ratio(double diameter, double discharge_hematocrit);
 
 // ---- Margination -----------------------------------------------------------------------------
 

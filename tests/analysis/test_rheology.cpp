@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace hemo::analysis;
 using namespace hemo::analysis::test;
 
@@ -77,4 +79,38 @@ TEST(Margination, FractionOfPlateletsInTheLayer) {
   EXPECT_DOUBLE_EQ(margination_index(r, 10, 0), 0);
   EXPECT_TRUE(std::isnan(margination_index(r, 10, std::nan(""))));
   EXPECT_TRUE(std::isnan(margination_index({}, 10, 1)));
+}
+
+// The in-vitro fits (docs/model.md §7.4) at their defining points: Pries et al. (1992) is built
+// so that mu_rel = 1 without cells and equals its eta_0.45 at H_D = 0.45, and grows with H_D; its
+// eta_0.45 tends to 3.2 in wide tubes and has the Fahraeus-Lindqvist minimum near 7 um. Pries et
+// al. (1990): H_T/H_D tends to 1 in wide tubes and lies below 1 (the Fahraeus effect) in between.
+TEST(InVitroBlood, RelativeViscosityFitHoldsItsDefiningPoints) {
+  for (double d_um : {10.0, 30.0, 100.0, 300.0}) {
+    const double d = d_um * kUm;
+    EXPECT_NEAR(in_vitro_relative_viscosity(d, 0.0), 1.0, 1e-12) << d_um;
+    const double eta_45 = 220 * std::exp(-1.3 * d_um) + 3.2 - 2.44 * std::exp(-0.06 * std::pow(d_um, 0.645));
+    EXPECT_NEAR(in_vitro_relative_viscosity(d, 0.45), eta_45, 1e-12) << d_um;
+    double previous = 1;
+    for (double hd = 0.05; hd < 0.6; hd += 0.05) {
+      EXPECT_GT(in_vitro_relative_viscosity(d, hd), previous) << d_um << " " << hd;
+      previous = in_vitro_relative_viscosity(d, hd);
+    }
+  }
+  EXPECT_NEAR(in_vitro_relative_viscosity(3000 * kUm, 0.45), 3.2, 1e-3);
+  // The Fahraeus-Lindqvist effect: at H_D 0.45 the viscosity falls from wide tubes to ~7 um.
+  EXPECT_LT(in_vitro_relative_viscosity(7 * kUm, 0.45), in_vitro_relative_viscosity(30 * kUm, 0.45));
+  EXPECT_LT(in_vitro_relative_viscosity(30 * kUm, 0.45), in_vitro_relative_viscosity(300 * kUm, 0.45));
+  EXPECT_LT(in_vitro_relative_viscosity(7 * kUm, 0.45), in_vitro_relative_viscosity(4 * kUm, 0.45));
+}
+
+TEST(InVitroBlood, FahraeusRatioBelowOneInMicrovesselsAndOneInWideTubes) {
+  EXPECT_NEAR(in_vitro_fahraeus_ratio(5000 * kUm, 0.45), 1.0, 1e-6);
+  for (double d_um : {15.0, 30.0, 100.0}) {
+    const double r = in_vitro_fahraeus_ratio(d_um * kUm, 0.2);
+    EXPECT_GT(r, 0.5) << d_um;
+    EXPECT_LT(r, 1.0) << d_um;
+  }
+  // H_T/H_D = H_D + (1 - H_D) f(d): at H_D = 1 the tube is all cells, whatever d.
+  EXPECT_NEAR(in_vitro_fahraeus_ratio(100 * kUm, 1.0), 1.0, 1e-12);
 }
