@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """What moves the platelets in a run: radial drift by radius, orientation activity, near-axis density.
 
-    /usr/bin/python3 docs/scripts/readings_mechanism.py RUN_DIR [RUN_DIR ...] [--csv OUT.csv]
+    /usr/bin/python3 docs/scripts/readings_mechanism.py RUN_DIR [RUN_DIR ...] [--window T0 T1] [--csv OUT.csv]
 
 For each run directory (its particles.h5: /snapshots/<step> with species, position, orientation):
   - the mean radial velocity dr/dt of platelets and of red cells in five bands of r/R, from
@@ -10,6 +10,8 @@ For each run directory (its particles.h5: /snapshots/<step> with species, positi
   - the platelets' mean rotation rate of the symmetry axis n between snapshots (rad/s, a lower
     bound: several turns between two snapshots count as their net angle), and the fraction of
     platelets whose axis left the start orientation by more than 60 degrees by the last snapshot;
+  - the platelets' local radial diffusivity in the same bands, <(dr)^2> / (2 dt) over consecutive
+    snapshots (m^2/s): where a collision-driven random walk is slower, its walkers accumulate;
   - the platelet number density within r < 0.2 R at the last snapshot over that at t = 0;
   - the plasma's own mean radial velocity U.e_r in the same bands, from the fluid node's time
     directories (cell centres from fluid/constant/polyMesh; um/s);
@@ -18,6 +20,8 @@ For each run directory (its particles.h5: /snapshots/<step> with species, positi
     the conservative face fluxes (alpha_f phi_f) and once from the cell-centre U interpolated to
     the faces (alpha_f (U_o + U_n)/2 . S_f): where the two part, the particles that sample U see
     a radial flow the plasma's volume does not make.
+--window restricts everything to the snapshots and fluid times in [T0, T1] s (default: the whole
+run); the near-axis density is then the last snapshot's in the window over the first's.
 One line per run on stdout; --csv writes the same as a table.
 """
 import argparse
@@ -70,12 +74,19 @@ def cell_centres(run):
     return sums / counts[:, None]
 
 
+WINDOW = (-math.inf, math.inf)
+
+
+def in_window(t):
+    return WINDOW[0] - 1e-9 <= float(t) <= WINDOW[1] + 1e-9
+
+
 def plasma_drift(run, radius):
     centres = cell_centres(run)
     r = np.hypot(centres[:, 0], centres[:, 1])
     e_r = np.stack([centres[:, 0] / r, centres[:, 1] / r], axis=1)
     out = [[] for _ in BANDS[1:]]
-    for t in snapshot_times(run):
+    for t in filter(in_window, snapshot_times(run)):
         path = f"{run}/fluid/{t}/U"
         if not os.path.exists(path):
             continue
@@ -102,7 +113,7 @@ def plasma_fluxes(run, radius, length):
         sign = np.where(inside[owner], 1.0, -1.0)
         cylinder = 2 * np.pi * rho * radius * length
         by_phi, by_u = [], []
-        for t in snapshot_times(run):
+        for t in filter(in_window, snapshot_times(run)):
             if not all(os.path.exists(f"{run}/fluid/{t}/{f}") for f in ("U", "alpha", "phi")):
                 continue
             try:
@@ -127,8 +138,11 @@ def analyse(run):
     for line in text.splitlines():
         if line.strip().startswith("diameter_um") and radius is None:
             radius = float(line.split("=")[1].split("#")[0]) * 0.5e-6
-    snaps = list(snapshots(os.path.join(run, "particles.h5")))
+    snaps = [s for s in snapshots(os.path.join(run, "particles.h5")) if in_window(s[0])]
+    if len(snaps) < 2:
+        raise ValueError(f"fewer than two snapshots in the window {WINDOW} s")
     drift = {0: [[] for _ in BANDS[1:]], 1: [[] for _ in BANDS[1:]]}
+    spread = [[] for _ in BANDS[1:]]  # platelets' (dr)^2 / (2 dt), m^2/s
     rates = []
     first_axis = None
     for (t0, id0, sp0, x0, q0), (t1, id1, sp1, x1, q1) in zip(snaps, snaps[1:]):
@@ -141,6 +155,8 @@ def analyse(run):
                 m = (sp0 == species) & (r0 >= BANDS[b]) & (r0 < BANDS[b + 1])
                 if m.any():
                     drift[species][b].append(v[m].mean())
+                    if species == 1:
+                        spread[b].append((((r1 - r0)[m] * radius) ** 2).mean() / (2 * (t1 - t0)))
         if q0 is not None and q1 is not None:
             plt = sp0 == 1
             n0, n1 = axis_of(q0[plt]), axis_of(q1[plt])
@@ -157,6 +173,8 @@ def analyse(run):
         for b in range(len(BANDS) - 1):
             vals = drift[species][b]
             out[f"{name}_drift_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_um_s"] = float(np.mean(vals)) if vals else float("nan")
+    for b in range(len(BANDS) - 1):
+        out[f"plt_D_{BANDS[b]:.1f}_{BANDS[b + 1]:.1f}_m2_s"] = float(np.mean(spread[b])) if spread[b] else float("nan")
     length = None
     for line in text.splitlines():
         if line.strip().startswith("length_um") and length is None:
@@ -174,8 +192,12 @@ def analyse(run):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+")
+    ap.add_argument("--window", nargs=2, type=float, metavar=("T0", "T1"))
     ap.add_argument("--csv")
     a = ap.parse_args()
+    if a.window:
+        global WINDOW
+        WINDOW = tuple(a.window)
     rows = []
     for run in a.runs:
         try:
