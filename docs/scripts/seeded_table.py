@@ -57,7 +57,7 @@ def main():
     with open(a.summary) as f:
         for row in csv.DictReader(f):
             m = re.fullmatch(r"(.+)-s(\d+)", row["label"])
-            if not m or row["status"] != "ran":
+            if not m or row["status"] not in ("ran", "finished earlier"):
                 continue
             if m.group(1) not in order:
                 order.append(m.group(1))
