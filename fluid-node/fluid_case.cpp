@@ -125,6 +125,7 @@ FluidSettings fluid_settings(const Scene& scene) {
   f.pressure_drop = driving_pressure_drop(scene);
   f.body_force = f.pressure_drop / (f.density * scene.vessel.length);
   f.momentum = momentum_form(scene.momentum);
+  f.suspension = suspension_viscosity(scene.plasma.suspension_viscosity);
   f.publish_pressure_gradient = f.momentum.needs_pressure_gradient();
   f.publish_viscous_force = f.momentum.needs_viscous_force();
   f.publish_face_flux_velocity = scene.plasma_velocity == "face_flux";

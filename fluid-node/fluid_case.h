@@ -8,6 +8,7 @@
 #include <driving.h>  // driving_pressure_drop
 #include <momentum_forms.h>
 #include <scene.h>
+#include <suspension_viscosity.h>
 
 #include <optional>
 #include <string>
@@ -26,6 +27,7 @@ struct FluidSettings {
   FluidSolver solver;                       // scene keys fluid.*: tolerances, PISO correctors, steady skip
   bool skip_when_steady = false;            // fluid.skip_when_steady and a one-way scene
   MomentumForm momentum;                    // coupling.momentum: the plasma's equation and what it publishes
+  SuspensionViscosity suspension;           // plasma.suspension_viscosity: the mixture's own stress, beyond the paper
   bool publish_pressure_gradient = false;   // the form puts F_p on the particles: grad P goes with the state
   bool publish_viscous_force = false;       // the form puts F_v on the particles: div tau goes with the state
   bool publish_face_flux_velocity = false;  // coupling.plasma_velocity = "face_flux": U from the face fluxes

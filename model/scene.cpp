@@ -2,6 +2,7 @@
 #include "scene.h"
 
 #include "momentum_forms.h"
+#include "suspension_viscosity.h"
 
 #include "dem_step.h"
 #include "driving.h"
@@ -719,6 +720,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("plasma.viscosity_Pa_s", s.plasma.viscosity);
   r.check(s.plasma.density > 0, "plasma.density_kg_m3", "must be positive");
   r.check(s.plasma.viscosity > 0, "plasma.viscosity_Pa_s", "must be positive");
+  read_name(r, "plasma.suspension_viscosity", s.plasma.suspension_viscosity, suspension_viscosity_names());
 
   const bool has_dp = r.read("driving.pressure_drop_Pa", s.driving.pressure_drop);
   const bool has_shear = r.read("driving.wall_shear_rate_per_s", s.driving.wall_shear_rate);
@@ -866,6 +868,9 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                s.mesh.wall_polygon == "inscribed"
                    ? "blockMesh's arcs: corners on the circle, hydraulic diameter d cos(pi/n)"
                    : "ours: sides tangent to the circle, hydraulic diameter d, so d dP/(4l) is the wall's"});
+  if (suspension_viscosity(s.plasma.suspension_viscosity).adds_stress())  // beyond the paper: named when chosen
+    r.push_back({"plasma.suspension_viscosity", s.plasma.suspension_viscosity,
+                 suspension_viscosity(s.plasma.suspension_viscosity).reading});
   r.push_back({"coupling.plasma_velocity", s.plasma_velocity,
                s.plasma_velocity == "face_flux" ? "ours: U rebuilt from the conservative face fluxes"
                                                 : "CFDEM's: OpenFOAM's cell-centre U"});

@@ -42,6 +42,8 @@ struct MeshSpec {
 struct Plasma {
   double density = 1025;      // kg/m^3
   double viscosity = 1.2e-3;  // Pa s (dynamic)
+  // The suspension's own stress beyond the paper, suspension_viscosity.h ("none": the paper's).
+  std::string suspension_viscosity = "none";
   double kinematic_viscosity() const { return viscosity / density; }
 };
 

@@ -3,12 +3,15 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <filesystem>
 #include <map>
 #include <set>
 
 #include "minimal_scene.h"
 #include "momentum_forms.h"
+#include "suspension_viscosity.h"
 #include "scene.h"
 #include "units.h"
 
@@ -320,6 +323,40 @@ TEST(Scene, MomentumFormsAreTheTablesAndTheOldKeyPointsAtTheNewOne) {
   EXPECT_EQ(ps[0].key, "coupling.pressure_gradient_force");
   EXPECT_NE(ps[0].message.find("replaced by coupling.momentum"), std::string::npos) << ps[0].message;
   EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
+}
+
+// plasma.suspension_viscosity (beyond the paper): "none", the paper's equations, by default; each
+// closure a scene value, listed by `hemocosim check` with whose relation it is when chosen; the relations at
+// their published forms: Einstein's 1 + 2.5 phi, Krieger & Dougherty's (1 - phi/0.64)^(-1.6),
+// which starts as Einstein's, grows faster and stays finite past close packing.
+TEST(Scene, SuspensionViscositiesAreTheTablesAndNoneIsTheDefault) {
+  EXPECT_EQ(suspension_viscosities().front().name, Scene{}.plasma.suspension_viscosity);
+  EXPECT_FALSE(suspension_viscosity("none").adds_stress());
+  for (const SuspensionViscosity& closure : suspension_viscosities()) {
+    const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) +
+                                                "[plasma]\nsuspension_viscosity = \"" + closure.name + "\"\n"));
+    EXPECT_EQ(s.plasma.suspension_viscosity, closure.name);
+    bool listed = false;
+    for (const auto& r : numerical_readings(s))
+      if (r.key == "plasma.suspension_viscosity") listed = r.value == closure.name && r.reading == closure.reading;
+    EXPECT_EQ(listed, closure.adds_stress()) << closure.name;  // listed when chosen, beyond the paper
+    EXPECT_DOUBLE_EQ(closure.relative(0), 1) << closure.name;
+  }
+  const auto& einstein = suspension_viscosity("einstein");
+  const auto& kd = suspension_viscosity("krieger_dougherty");
+  EXPECT_DOUBLE_EQ(einstein.relative(0.3), 1.75);
+  EXPECT_NEAR(kd.relative(0.3), std::pow(1 - 0.3 / 0.64, -2.5 * 0.64), 1e-12);
+  EXPECT_NEAR((kd.relative(1e-6) - 1) / 1e-6, 2.5, 1e-4);  // Einstein's slope at phi -> 0
+  double previous = 1;
+  for (double phi = 0.05; phi < 0.64; phi += 0.05) {
+    EXPECT_GT(kd.relative(phi), std::max(previous, einstein.relative(phi))) << phi;
+    previous = kd.relative(phi);
+  }
+  EXPECT_TRUE(std::isfinite(kd.relative(0.7)));
+  EXPECT_THROW(suspension_viscosity("quemada"), std::invalid_argument);
+  const auto ps = problems_of(std::string(test::kMinimalScene) + "[plasma]\nsuspension_viscosity = \"quemada\"\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_EQ(ps[0].key, "plasma.suspension_viscosity");
 }
 
 // The numerical readings the paper leaves open: ours by default, CFDEM's by name, each listed
