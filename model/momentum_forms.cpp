@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "momentum_forms.h"
 
-#include <stdexcept>
+#include "named_table.h"
 
 namespace hemo {
 
@@ -64,18 +64,10 @@ const std::vector<MomentumForm>& momentum_forms() {
   return forms;
 }
 
-std::vector<std::string> momentum_form_names() {
-  std::vector<std::string> names;
-  for (const MomentumForm& m : momentum_forms()) names.push_back(m.name);
-  return names;
-}
+std::vector<std::string> momentum_form_names() { return names_of(momentum_forms()); }
 
 const MomentumForm& momentum_form(const std::string& name) {
-  for (const MomentumForm& m : momentum_forms())
-    if (m.name == name) return m;
-  std::string known;
-  for (const MomentumForm& m : momentum_forms()) known += (known.empty() ? "" : ", ") + m.name;
-  throw std::invalid_argument("no momentum form '" + name + "' (known: " + known + ")");
+  return named_entry(momentum_forms(), name, "momentum form");
 }
 
 }  // namespace hemo

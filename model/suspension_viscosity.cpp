@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "suspension_viscosity.h"
 
+#include "named_table.h"
+
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 namespace hemo {
 
@@ -37,18 +38,10 @@ const std::vector<SuspensionViscosity>& suspension_viscosities() {
   return all;
 }
 
-std::vector<std::string> suspension_viscosity_names() {
-  std::vector<std::string> names;
-  for (const auto& s : suspension_viscosities()) names.push_back(s.name);
-  return names;
-}
+std::vector<std::string> suspension_viscosity_names() { return names_of(suspension_viscosities()); }
 
 const SuspensionViscosity& suspension_viscosity(const std::string& name) {
-  for (const auto& s : suspension_viscosities())
-    if (s.name == name) return s;
-  std::string known;
-  for (const auto& s : suspension_viscosities()) known += (known.empty() ? "" : ", ") + s.name;
-  throw std::invalid_argument("unknown suspension viscosity '" + name + "' (known: " + known + ")");
+  return named_entry(suspension_viscosities(), name, "suspension viscosity");
 }
 
 }  // namespace hemo

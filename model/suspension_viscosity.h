@@ -23,7 +23,7 @@ struct SuspensionViscosity {
 // Every closure, the default ("none": the paper's equations) first.
 const std::vector<SuspensionViscosity>& suspension_viscosities();
 std::vector<std::string> suspension_viscosity_names();
-// The closure named `name`; throws std::invalid_argument naming the known ones when there is none.
+// The closure named `name`; throws std::invalid_argument naming the known ones when there is none (named_table.h).
 const SuspensionViscosity& suspension_viscosity(const std::string& name);
 
 }  // namespace hemo

@@ -13,9 +13,13 @@ configuration's, paired by seed. Only finished runs ("ran") count.
 import argparse
 import csv
 import math
+import os
 import re
 import sys
 from collections import defaultdict
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from readings_table import fmt, mean_se  # noqa: E402
 
 COLUMNS = [  # (summary.csv column, header, scale, digits)
     ("D_m2_s", "D (10⁻¹¹ m²/s)", 1e11, 2),
@@ -27,24 +31,6 @@ COLUMNS = [  # (summary.csv column, header, scale, digits)
     ("margination_index", "margination", 1, 3),
     ("platelet_axis_enrichment", "axis enrichment", 1, 2),
 ]
-
-
-def mean_se(values):
-    n = len(values)
-    if n == 0:
-        return float("nan"), float("nan")
-    m = sum(values) / n
-    if n == 1:
-        return m, float("nan")
-    return m, math.sqrt(sum((v - m) ** 2 for v in values) / (n - 1) / n)
-
-
-def fmt(m, se, scale, digits):
-    if math.isnan(m):
-        return "—"
-    if math.isnan(se):
-        return f"{m * scale:.{digits}f}"
-    return f"{m * scale:.{digits}f} ± {se * scale:.{digits}f}"
 
 
 def main():
