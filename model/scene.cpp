@@ -5,6 +5,7 @@
 
 #include "dem_step.h"
 #include "driving.h"
+#include "geometry.h"
 #include "hosts.h"
 #include "placement.h"
 #include "units.h"
@@ -411,6 +412,16 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
                        sp->name, d / units::um, cell / units::um, d / cell));
     }
   }
+  if (const auto& shape = vessel_shape(s.vessel.shape); !shape.narrowing_key.empty()) {
+    const double throat = 2 * make_vessel_geometry(s.vessel)->throat_radius();
+    if (!(throat > s.rbc.diameter))
+      fail(shape.narrowing_key, r.value_text(shape.narrowing_key).empty()
+                                    ? fmt::format("{:g}", s.vessel.stenosis_area_reduction)
+                                    : r.value_text(shape.narrowing_key),
+           fmt::format("the throat is {:.3g} um across, narrower than a red cell (rbc.diameter_um {:g}): lower it "
+                       "or widen the vessel",
+                       throat / units::um, s.rbc.diameter / units::um));
+  }
   if (std::max<long long>(1,
                           1LL * s.mesh.core_cells * s.mesh.core_cells + 4LL * s.mesh.core_cells * s.mesh.ring_cells) *
           s.mesh.axial_cells >
@@ -663,6 +674,24 @@ static void read_hosts(Reader& r, Scene& s) {
   }
 }
 
+// vessel.shape and its parameters (model/geometry.h); a shape ignores the parameters it does not
+// take.
+static void read_vessel_shape(Reader& r, Vessel& v) {
+  read_name(r, "vessel.shape", v.shape, vessel_shape_names());
+  r.read("vessel.stenosis_area_reduction", v.stenosis_area_reduction);
+  r.check(v.stenosis_area_reduction >= 0 && v.stenosis_area_reduction < 1, "vessel.stenosis_area_reduction",
+          "must be in [0, 1) (1 closes the vessel)");
+  r.read("vessel.stenosis_length_um", v.stenosis_length, units::um);
+  const VesselShape* shape = nullptr;
+  for (const VesselShape& sh : vessel_shapes())
+    if (sh.name == v.shape) shape = &sh;
+  if (shape == nullptr) return;  // refused above
+  r.check(!shape->takes("vessel.stenosis_length_um") || v.stenosis_length > 0, "vessel.stenosis_length_um",
+          "must be positive for a vessel.shape that takes it");
+  r.check(!(v.stenosis_length > v.length) || !(v.length > 0), "vessel.stenosis_length_um",
+          "must not exceed vessel.length_um (the constriction fits in the periodic vessel)");
+}
+
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
                         SceneCheck check) {
   Scene s;
@@ -706,6 +735,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
       r.refuse_once(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
     r.check(*value > 0, key, "must be positive");
   }
+  read_vessel_shape(r, s.vessel);
 
   r.read("mesh.core_cells", s.mesh.core_cells);
   r.read("mesh.ring_cells", s.mesh.ring_cells);
