@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <fstream>
 #include <stdexcept>
 
 namespace hemo {
@@ -141,6 +142,60 @@ class Stenosis final : public VesselGeometry {
 };
 
 }  // namespace
+
+std::vector<WallTriangle> wall_surface(const VesselGeometry& geometry, int around, int along) {
+  if (around < 3 || along < 1) throw std::invalid_argument("a wall surface needs >= 3 vertices around, >= 1 station");
+  std::vector<VesselGeometry::Point> ring;  // station k's vertex i at k * around + i
+  ring.reserve(static_cast<std::size_t>(around) * static_cast<std::size_t>(along + 1));
+  for (int k = 0; k <= along; ++k) {
+    const double z = k == along ? geometry.length() : geometry.length() * k / along;
+    const double R = geometry.radius_at(z);
+    for (int i = 0; i < around; ++i) {
+      const double t = 2 * units::pi * i / around;
+      ring.emplace_back(R * std::cos(t), R * std::sin(t), z);
+    }
+  }
+  auto at = [&](int k, int i) { return ring[static_cast<std::size_t>(k * around + i % around)]; };
+  std::vector<WallTriangle> out;
+  out.reserve(2 * static_cast<std::size_t>(around) * static_cast<std::size_t>(along));
+  for (int k = 0; k < along; ++k)
+    for (int i = 0; i < around; ++i) {
+      // Counter-clockwise seen from the axis: the normal (b - a) x (c - a) points inwards.
+      out.push_back({{at(k, i), at(k + 1, i), at(k + 1, i + 1)}});
+      out.push_back({{at(k, i), at(k + 1, i + 1), at(k, i + 1)}});
+    }
+  return out;
+}
+
+WallResolution dem_wall_resolution(const VesselGeometry& geometry) {
+  // The facets within 2e-3 R0 of the wall: around, 1 - cos(pi / n) <= 1e-3 (n >= 71; 72, a
+  // multiple of the O-grid's 4 blocks); along, the chord of R(z) between stations, max|R''| h^2 / 8,
+  // at most 1e-3 R0 more, and stations at most R0 / 2 apart (LIGGGHTS bins facets by their boxes: long ones
+  // sit in many bins). What the facets cost per DEM step: docs/performance.md §7.
+  constexpr double tolerance = 1e-3;
+  constexpr int around = 72;
+  const double R0 = geometry.nominal_radius(), length = geometry.length();
+  double curvature = 0;
+  constexpr int samples = 4096;
+  for (int i = 0; i < samples; ++i) curvature = std::max(curvature, std::abs(geometry.radius_curvature(length * i / samples)));
+  double spacing = R0 / 2;
+  if (curvature > 0) spacing = std::min(spacing, std::sqrt(8 * tolerance * R0 / curvature));
+  return {around, std::max(1, static_cast<int>(std::ceil(length / spacing)))};
+}
+
+void write_stl(const std::string& path, const std::vector<WallTriangle>& triangles) {
+  std::ofstream out(path);
+  out.precision(17);
+  out << "solid vessel_wall\n";
+  for (const WallTriangle& t : triangles) {
+    const VesselGeometry::Point n = (t.vertex[1] - t.vertex[0]).cross(t.vertex[2] - t.vertex[0]).normalized();
+    out << " facet normal " << n.x() << ' ' << n.y() << ' ' << n.z() << "\n  outer loop\n";
+    for (const auto& v : t.vertex) out << "   vertex " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
+    out << "  endloop\n endfacet\n";
+  }
+  out << "endsolid vessel_wall\n";
+  if (!out.flush()) throw std::runtime_error("cannot write the vessel wall's surface to " + path);
+}
 
 double stenosis_severity(double area_reduction) { return 1 - std::sqrt(1 - area_reduction); }
 

@@ -18,6 +18,7 @@
 
 #include <Eigen/Dense>
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -71,6 +72,23 @@ class VesselGeometry {
   double nearest_wall_z(double r, double z) const;
   double radius_, length_;
 };
+
+// The wall surface the DEM collides with: triangles on r = R(z), `around` vertices per station
+// (on the station's circle: the facets' chords lie R (1 - cos(pi / around)) inside it) at `along` + 1 equally spaced stations over [0, length], each
+// quad between stations split in two; normals point into the vessel.
+struct WallTriangle {
+  std::array<VesselGeometry::Point, 3> vertex;
+};
+std::vector<WallTriangle> wall_surface(const VesselGeometry& geometry, int around, int along);
+// The resolution the DEM's wall is made with: its facets within 2e-3 R0 of the wall r = R(z)
+// (1e-3 R0 from the chords around, as much from those along).
+struct WallResolution {
+  int around = 0, along = 0;
+};
+WallResolution dem_wall_resolution(const VesselGeometry& geometry);
+// The triangles as an ASCII STL file (LIGGGHTS's fix mesh/surface reads it); throws
+// std::runtime_error when the file cannot be written.
+void write_stl(const std::string& path, const std::vector<WallTriangle>& triangles);
 
 // One shape a scene may name (vessel.shape): its name, what it is in a few words, how to build
 // it from the scene's vessel, the scene keys of its parameters, and the key that sets how narrow it gets ("" when it does not narrow), which

@@ -180,3 +180,66 @@ TEST(VesselGeometry, SceneTakesAStenosisAndRefusesImpossibleOnes) {
   refused("shape = \"stenosis\"", "vessel.stenosis_length_um", "must be positive");
   refused("shape = \"bulge\"", "vessel.shape", "unknown name 'bulge' (known: straight, stenosis)");
 }
+
+// The DEM's wall surface: every vertex on r = R(z); the facets cover the wall once (their areas
+// sum to the shape's lateral area within the chords' deficit), each facet's normal points into
+// the vessel, and every facet's centroid lies within 2e-3 R0 of the wall at the resolution the DEM
+// uses (1e-3 R0 from the chords around, as much from those along).
+TEST(VesselGeometry, WallSurfaceIsTheShapesWallWithinTheTolerance) {
+  const auto g = make_vessel_geometry(stenosis(0.5, 400));
+  const WallResolution res = dem_wall_resolution(*g);
+  EXPECT_EQ(res.around, 72);
+  const auto triangles = wall_surface(*g, res.around, res.along);
+  ASSERT_EQ(triangles.size(), 2u * res.around * res.along);
+  // Lateral area of r = R(z): 2 pi int R sqrt(1 + R'^2) dz, by the trapezoid on a fine grid.
+  double lateral = 0;
+  constexpr int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    const double z = g->length() * (i + 0.5) / n, R = g->radius_at(z), dR = g->radius_slope(z);
+    lateral += 2 * units::pi * R * std::sqrt(1 + dR * dR) * g->length() / n;
+  }
+  double area = 0, deepest = 0;
+  for (const auto& t : triangles) {
+    for (const auto& v : t.vertex) ASSERT_NEAR(std::hypot(v.x(), v.y()), g->radius_at(v.z()), 1e-18);
+    const Point normal = (t.vertex[1] - t.vertex[0]).cross(t.vertex[2] - t.vertex[0]);
+    area += normal.norm() / 2;
+    const Point centroid = (t.vertex[0] + t.vertex[1] + t.vertex[2]) / 3;
+    EXPECT_LT(normal.dot(g->outward_normal(centroid)), 0);  // into the vessel
+    deepest = std::max(deepest, std::abs(g->signed_distance(centroid)));
+  }
+  std::printf("  %d x %d stations, %zu facets: area / lateral - 1 = %.2e, centroids within %.2e R0 of the wall\n",
+              res.around, res.along, triangles.size(), area / lateral - 1, deepest / g->nominal_radius());
+  EXPECT_LT(deepest, 2e-3 * g->nominal_radius());
+  EXPECT_NEAR(area / lateral, 1, 2e-3);  // chords: sin(pi/n)/(pi/n) - 1 = -3.2e-4 around, plus the axial chords
+}
+
+// What a narrowing vessel cannot have, refused in one line each: the streaming neighbour-list
+// criterion (it predicts the straight tube's flow), and a vessel too small for LIGGGHTS's mesh
+// wall (it refuses meshes spanning under 1e-4 in its units).
+TEST(VesselGeometry, SceneRefusesWhatANarrowingVesselCannotHave) {
+  auto problems = [](const std::string& text) -> std::vector<SceneProblem> {
+    try {
+      load_scene(test::write_temp(text));
+    } catch (const SceneError& e) {
+      return e.problems();
+    }
+    return {};
+  };
+  const std::string stenosis = "shape = \"stenosis\"\nstenosis_length_um = 30\n";
+  const std::string driving = "[driving]\nwall_shear_rate_per_s = 799\n";
+  auto streaming = problems("[vessel]\ndiameter_um = 100\nlength_um = 600\n" + stenosis + driving +
+                            "[dem]\nneighbour_rebuild = \"streaming\"\n");
+  ASSERT_EQ(streaming.size(), 1u);
+  EXPECT_EQ(streaming[0].key, "dem.neighbour_rebuild");
+  EXPECT_NE(streaming[0].message.find("predicts the straight tube's Poiseuille flow"), std::string::npos);
+  EXPECT_TRUE(problems("[vessel]\ndiameter_um = 100\nlength_um = 600\n" + driving +
+                       "[dem]\nneighbour_rebuild = \"streaming\"\n")
+                  .empty());
+
+  auto small = problems("[vessel]\ndiameter_um = 40\nlength_um = 60\n" + stenosis + driving);
+  ASSERT_EQ(small.size(), 1u);
+  EXPECT_EQ(small[0].key, "vessel.length_um");
+  EXPECT_EQ(small[0].message.rfind("a vessel.shape that narrows has a LIGGGHTS mesh wall", 0), 0u) << small[0].message;
+  EXPECT_TRUE(problems("[vessel]\ndiameter_um = 40\nlength_um = 80\n" + stenosis + driving).empty());  // spans 100 um
+  EXPECT_TRUE(problems("[vessel]\ndiameter_um = 40\nlength_um = 60\n" + driving).empty());  // the straight tube's zcylinder
+}
