@@ -700,6 +700,7 @@ static void read_vessel_shape(Reader& r, Vessel& v) {
   r.check(v.stenosis_area_reduction >= 0 && v.stenosis_area_reduction < 1, "vessel.stenosis_area_reduction",
           "must be in [0, 1) (1 closes the vessel)");
   r.read("vessel.stenosis_length_um", v.stenosis_length, units::um);
+  r.check(v.stenosis_length >= 0, "vessel.stenosis_length_um", "must not be negative");
   const VesselShape* shape = nullptr;
   for (const VesselShape& sh : vessel_shapes())
     if (sh.name == v.shape) shape = &sh;

@@ -118,3 +118,16 @@ TEST(ShapePlacement, KeepsEveryParticleInsideTheLocalWall) {
   ASSERT_EQ(by_shape.size(), by_radius.size());
   for (std::size_t i = 0; i < by_shape.size(); ++i) ASSERT_EQ(by_shape[i].position, by_radius[i].position) << i;
 }
+
+// scenes/stenosis.toml: `hemocosim check` places its particles in the scene's shape from z = 0;
+// the particle node in its locator's shape on the fluid node's mesh. One vessel, bit for bit.
+TEST(ShapePlacement, TheCheckPlacesTheStenosisSceneAsTheNode) {
+  const hemo::Scene scene = hemo::load_scene(std::string(HEMO_SCENES_DIR) + "/stenosis.toml");
+  const CellLocator locator(mesh_message(scene.vessel, scene.mesh), hemo::make_vessel_geometry(scene.vessel));
+  const auto requests = placement_requests(scene);
+  const auto by_node = place_particles(locator.geometry(), locator.z0(), requests, scene.run.seed);
+  const auto by_check = place_particles(*hemo::make_vessel_geometry(scene.vessel), 0.0, requests, scene.run.seed);
+  ASSERT_EQ(static_cast<long>(by_node.size()), rbc_count(scene) + platelet_count(scene));
+  ASSERT_EQ(by_node.size(), by_check.size());
+  for (std::size_t i = 0; i < by_node.size(); ++i) ASSERT_EQ(by_node[i].position, by_check[i].position) << i;
+}
