@@ -202,7 +202,7 @@ double stenosis_severity(double area_reduction) { return 1 - std::sqrt(1 - area_
 const std::vector<VesselShape>& vessel_shapes() {
   static const std::vector<VesselShape> shapes = {
       {"straight", "a straight periodic tube of the vessel's diameter",
-       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); }, {}, ""},
+       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); }, {}, "", ""},
       {"stenosis",
        "a cosine constriction of vessel.stenosis_length_um centred in the length, its throat's area reduced by "
        "vessel.stenosis_area_reduction",
@@ -214,7 +214,8 @@ const std::vector<VesselShape>& vessel_shapes() {
          return std::make_unique<Stenosis>(v.radius(), v.length, stenosis_severity(v.stenosis_area_reduction),
                                            v.stenosis_length);
        },
-       {"vessel.stenosis_area_reduction", "vessel.stenosis_length_um"}, "vessel.stenosis_area_reduction"},
+       {"vessel.stenosis_area_reduction", "vessel.stenosis_length_um"}, "vessel.stenosis_area_reduction",
+       "stenosis_area_reduction = 0.5\nstenosis_length_um = 300"},
   };
   return shapes;
 }

@@ -91,14 +91,17 @@ WallResolution dem_wall_resolution(const VesselGeometry& geometry);
 void write_stl(const std::string& path, const std::vector<WallTriangle>& triangles);
 
 // One shape a scene may name (vessel.shape): its name, what it is in a few words, how to build
-// it from the scene's vessel, the scene keys of its parameters, and the key that sets how narrow it gets ("" when it does not narrow), which
-// a throat too narrow for a red cell is blamed on.
+// it from the scene's vessel, the scene keys of its parameters, the key that sets how narrow it
+// gets ("" when it does not narrow), which a throat too narrow for a red cell is blamed on, and
+// an example of its parameters, [vessel] lines a scene may hold (the recipe's test builds every
+// shape from it: docs/design.md, "A new vessel shape").
 struct VesselShape {
   std::string name;
   std::string description;
   std::function<std::unique_ptr<VesselGeometry>(const Vessel&)> make;
   std::vector<std::string> keys;
   std::string narrowing_key;
+  std::string example;
   bool takes(const std::string& key) const;
 };
 
