@@ -87,10 +87,13 @@ std::string zeros(int n) {
   return s;
 }
 
-std::string wall_file_for(const std::string& log_path) {
+// One file for all ranks: next to the log, or named by the first rank's process id.
+std::string wall_file_for(const std::string& log_path, MPI_Comm comm) {
   namespace fs = std::filesystem;
   if (log_path != "none") return (fs::path(log_path).parent_path() / "vessel_wall.stl").string();
-  return (fs::temp_directory_path() / fmt::format("hemocosim-vessel-wall-{}.stl", ::getpid())).string();
+  long pid = ::getpid();
+  MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);
+  return (fs::temp_directory_path() / fmt::format("hemocosim-vessel-wall-{}.stl", pid)).string();
 }
 
 // The fluid force while the neighbour lists are rebuilt: none (the forces are thrown away).
@@ -105,7 +108,7 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
       locator_(locator),
       species_(species),
       log_path_(log_path),
-      wall_file_(wall_file_for(log_path)),
+      wall_file_(wall_file_for(log_path, comm)),
       bookkeeping_(bookkeeping),
       comm_(comm) {
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
@@ -127,7 +130,13 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
   for (const auto& line : base_settings(bookkeeping_)) command(line);
 }
 
-LiggghtsSession::~LiggghtsSession() { delete lmp_; }
+LiggghtsSession::~LiggghtsSession() {
+  delete lmp_;
+  if (log_path_ == "none") {  // the wall's STL went to the temporary directory: nobody keeps it
+    std::error_code ignored;
+    std::filesystem::remove(wall_file_, ignored);
+  }
+}
 
 void LiggghtsSession::command(const std::string& line) { lmp_->input->one(line.c_str()); }
 
