@@ -1,6 +1,7 @@
 // hemocosim check: validate a scene and say what it will run.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
+#include "geometry.h"
 #include "placement.h"
 #include "resource_estimate.h"
 #include "scene.h"
@@ -63,6 +64,9 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   fmt::print("{}: ok\n", scene_path);
   fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
              s.vessel.length / units::um, s.mesh.cells());
+  if (const auto g = make_vessel_geometry(s.vessel); !g->uniform())
+    fmt::print("  shape       {}: narrowest d = {:.1f} um; the DEM's wall a triangle mesh (vessel_wall.stl)\n",
+               s.vessel.shape, 2 * g->throat_radius() / units::um);
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,

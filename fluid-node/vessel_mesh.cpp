@@ -2,6 +2,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "vessel_mesh.h"
 
+#include <geometry.h>
 #include <hemo/mesh_t.hpp>
 
 #include <algorithm>
@@ -191,13 +192,16 @@ void check_mesh_request(const Vessel& vessel, const MeshSpec& spec, const OGridS
     throw std::invalid_argument("O-grid core half-width must be in (0, 1/sqrt 2) R, rounding in [0, 1]");
 }
 
-// The section's nodes repeated on nz + 1 layers along the vessel; point (node, layer) is
-// layer * nodes + node.
-void extrude_points(const Section& sec, double length, int nz, PolyMesh& mesh) {
+// The section's nodes repeated on nz + 1 layers along the vessel, each layer's scaled by the
+// local radius over the nominal one, R(z) / R0 (exactly 1 on a straight tube: the same points to
+// the bit); point (node, layer) is layer * nodes + node.
+void extrude_points(const Section& sec, const VesselGeometry& geometry, int nz, PolyMesh& mesh) {
+  const double length = geometry.length();
   mesh.points.reserve(sec.nodes.size() * static_cast<std::size_t>(nz + 1));
   for (int k = 0; k <= nz; ++k) {
     const double z = (k == nz) ? length : length * k / nz;
-    for (const auto& n : sec.nodes) mesh.points.push_back({n[0], n[1], z});
+    const double scale = geometry.radius_at(z) / geometry.nominal_radius();
+    for (const auto& n : sec.nodes) mesh.points.push_back({scale * n[0], scale * n[1], z});
   }
 }
 
@@ -312,7 +316,7 @@ PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGri
   const int nz = spec.axial_cells;
   PolyMesh mesh;
   mesh.n_cells = at.quads * nz;
-  extrude_points(sec, vessel.length, nz, mesh);
+  extrude_points(sec, *make_vessel_geometry(vessel), nz, mesh);
   const SectionEdges edges = section_edges(sec);
   add_internal_faces(sec, edges, at, nz, mesh);
   add_boundary_faces(sec, edges, at, nz, vessel.length, mesh);

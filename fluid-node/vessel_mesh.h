@@ -1,5 +1,7 @@
-// The fluid mesh of a straight periodic vessel: an O-grid disk (square core and four ring
-// blocks) extruded along z, generated in plain C++ in OpenFOAM's polyMesh order, written as
+// The fluid mesh of the periodic vessel: an O-grid disk (square core and four ring blocks)
+// extruded along z, each axial station's section scaled to the vessel shape's local radius R(z)
+// (model/geometry.h; the wall polygon's sides tangent to, or corners on, that station's circle),
+// generated in plain C++ in OpenFOAM's polyMesh order, written as
 // constant/polyMesh and packed into the mesh message the particle node locates particles with.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "driving.h"
 
+#include "geometry.h"
+
 #include <stdexcept>
 
 namespace hemo {
@@ -21,6 +23,11 @@ double driving_pressure_drop(const Scene& scene) {
   // Neither: no driving (a scene that gives pressure_drop_Pa = 0; flow only from sources).
   if (scene.driving.pressure_drop == 0 && scene.driving.wall_shear_rate == 0) return 0;
   throw std::invalid_argument("driving: pressure_drop and wall_shear_rate must not be negative");
+}
+
+double vessel_volume(const Vessel& v) {
+  if (!(v.diameter > 0) || !(v.length > 0)) return 0;
+  return make_vessel_geometry(v)->volume();
 }
 
 }  // namespace hemo

@@ -36,7 +36,8 @@ double wall_shear_rate(const Scene& scene);
 // Both zero: no driving, 0. Throws std::invalid_argument when either is negative.
 double driving_pressure_drop(const Scene& scene);
 
-// The vessel's volume, pi R^2 l, m^3.
-inline double vessel_volume(const Vessel& v) { return units::pi * v.radius() * v.radius() * v.length; }
+// The vessel's volume, m^3: its shape's (model/geometry.h; pi R^2 l for the straight tube); 0 for a
+// vessel without a positive diameter and length.
+double vessel_volume(const Vessel& v);
 
 }  // namespace hemo

@@ -45,13 +45,22 @@ namespace {
 // The particles placed so far, with a spatial hash to test a new one against them.
 class Packing {
  public:
-  Packing(double radius, double length, double z0, double reach, double gap_fraction)
-      : radius_(radius),
-        length_(length),
+  Packing(const VesselGeometry& vessel, double z0, double reach, double gap_fraction)
+      : vessel_(vessel),
+        radius_(vessel.nominal_radius()),
+        length_(vessel.length()),
         z0_(z0),
         reach_(reach),
         gap_fraction_(gap_fraction),
-        grid_(radius, length, z0, reach) {}
+        grid_(radius_, length_, z0, reach) {}
+
+  // Whether a sphere of diameter d at x keeps d/2 + gap from the wall. Candidates are drawn
+  // within r_max of the widest radius, which is all a straight tube asks (no test: the same
+  // random draws as before shapes); a shape that narrows asks its signed distance.
+  bool clear_of_wall(const Vec3& x, double d) const {
+    return vessel_.uniform() ||
+           vessel_.signed_distance(Vec3(x.x(), x.y(), x.z() - z0_)) <= -(d / 2 + gap_fraction_ * d);
+  }
 
   // Whether a sphere of diameter d at x keeps r_i + r_j + gap from every placed one (across the
   // periodic ends too).
@@ -77,10 +86,11 @@ class Packing {
     grid_ = SpatialHash(radius_, length_, z0_, reach_);
     for (const auto& p : kept) add(p.species, p.diameter, p.position);
   }
-  double volume_fraction() const { return solid_ / (units::pi * radius_ * radius_ * length_); }
+  double volume_fraction() const { return solid_ / vessel_.volume(); }
   std::vector<PlacedParticle>& placed() { return placed_; }
 
  private:
+  const VesselGeometry& vessel_;
   double radius_, length_, z0_, reach_, gap_fraction_;
   SpatialHash grid_;
   std::vector<PlacedParticle> placed_;
@@ -97,7 +107,8 @@ long place_randomly(Packing& packing, const PlacementRequest& req, double r_max,
       const double rr = r_max * std::sqrt(uniform01(rng));
       const double th = 2 * units::pi * uniform01(rng);
       const Vec3 x(rr * std::cos(th), rr * std::sin(th), z0 + length * uniform01(rng));
-      if ((ok = packing.fits(x, req.diameter))) packing.add(req.species, req.diameter, x);
+      if ((ok = packing.clear_of_wall(x, req.diameter) && packing.fits(x, req.diameter)))
+        packing.add(req.species, req.diameter, x);
     }
     if (!ok) return n;
   }
@@ -147,7 +158,7 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
   long n = 0;
   for (const Vec3& x : sites) {
     if (n == req.count) break;
-    if (packing.fits(x, req.diameter)) {
+    if (packing.clear_of_wall(x, req.diameter) && packing.fits(x, req.diameter)) {
       packing.add(req.species, req.diameter, x);
       ++n;
     }
@@ -162,6 +173,17 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
                                             const PlacementOptions& opt) {
   if (requests.empty()) return {};
   if (!(radius > 0) || !(length > 0)) throw PlacementError("placement needs a vessel with positive radius and length");
+  Vessel straight;
+  straight.diameter = 2 * radius;
+  straight.length = length;
+  return place_particles(*make_vessel_geometry(straight), z0, requests, seed, opt);
+}
+
+std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double z0,
+                                            const std::vector<PlacementRequest>& requests, unsigned long long seed,
+                                            const PlacementOptions& opt) {
+  if (requests.empty()) return {};
+  const double radius = vessel.nominal_radius(), length = vessel.length();
 
   double d_max = 0;
   for (const auto& r : requests) {
@@ -174,7 +196,7 @@ std::vector<PlacedParticle> place_particles(double radius, double length, double
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return requests[a].diameter > requests[b].diameter; });
 
-  Packing packing(radius, length, z0, d_max * (1 + opt.gap_fraction), opt.gap_fraction);
+  Packing packing(vessel, z0, d_max * (1 + opt.gap_fraction), opt.gap_fraction);
   std::mt19937_64 rng(seed);
   for (std::size_t o : order) {
     const auto& req = requests[o];

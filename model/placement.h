@@ -1,5 +1,6 @@
-// Initial positions: random, non-overlapping spheres inside the periodic cylinder
-// x^2 + y^2 < R^2, z in [z0, z0 + L). Every centre keeps radius + gap from the wall; every pair
+// Initial positions: random, non-overlapping spheres inside the periodic vessel, r < R(z)
+// (model/geometry.h; the straight tube x^2 + y^2 < R^2), z in [z0, z0 + L). Every centre keeps
+// radius + gap from the wall (its signed distance, on a shape that narrows); every pair
 // keeps r_i + r_j + gap. Random sequential addition, species by species; a species it cannot
 // place (it jams near a volume fraction of 0.3) is placed instead on a random subset of the
 // sites of a randomly turned close-packed lattice (0.51 in a 50 um vessel). Reproducible from
@@ -13,6 +14,7 @@
 
 #include "vec.h"
 
+#include <geometry.h>
 #include <scene.h>
 
 #include <stdexcept>
@@ -65,6 +67,12 @@ std::vector<PlacementRequest> placement_requests(const Scene& scene);
 
 // Places the particles, largest first; throws PlacementError naming the species, how many were
 // placed and the volume fraction when neither way finds room for a species.
+// The vessel's z origin is the shape's, shifted to z0. On a straight tube the same particles,
+// to the bit, as the overload of a radius and length.
+std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double z0,
+                                            const std::vector<PlacementRequest>& requests, unsigned long long seed,
+                                            const PlacementOptions& options = {});
+// In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,
                                             const PlacementOptions& options = {});

@@ -6,6 +6,7 @@
 
 #include "dem_step.h"
 #include "driving.h"
+#include "geometry.h"
 #include "hosts.h"
 #include "placement.h"
 #include "units.h"
@@ -368,6 +369,8 @@ namespace {
 
 // Cross-checks of a scene whose every value is valid on its own: the particles fit the vessel
 // and are smaller than its fluid cells (unresolved CFD-DEM), and the run is a sane amount of work.
+constexpr double kMinMeshWallSpan = 100 * units::um;
+
 void check_geometry_and_work(Reader& r, const Scene& s) {
   // Blame the key the file gives (the species' diameter if it sets one, else the vessel's).
   auto blame = [&](const std::string& own, const std::string& other) {
@@ -412,6 +415,23 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
                        sp->name, d / units::um, cell / units::um, d / cell));
     }
   }
+  if (const auto& shape = vessel_shape(s.vessel.shape); !shape.narrowing_key.empty()) {
+    const double throat = 2 * make_vessel_geometry(s.vessel)->throat_radius();
+    if (!(throat > s.rbc.diameter))
+      fail(shape.narrowing_key, r.value_text(shape.narrowing_key).empty()
+                                    ? fmt::format("{:g}", s.vessel.stenosis_area_reduction)
+                                    : r.value_text(shape.narrowing_key),
+           fmt::format("the throat is {:.3g} um across, narrower than a red cell (rbc.diameter_um {:g}): lower it "
+                       "or widen the vessel",
+                       throat / units::um, s.rbc.diameter / units::um));
+    // LIGGGHTS refuses a mesh whose coordinates span less than 1e-4 (its round-off guard).
+    const double R = s.vessel.radius(), span = std::max(s.vessel.length, R) + R;
+    if (!(span >= kMinMeshWallSpan))
+      fail("vessel.length_um", r.value_text("vessel.length_um"),
+           fmt::format("a vessel.shape that narrows has a LIGGGHTS mesh wall, which needs the vessel to span at "
+                       "least {:g} um (max(l, d/2) + d/2 is {:.3g} um): lengthen the vessel",
+                       kMinMeshWallSpan / units::um, span / units::um));
+  }
   if (std::max<long long>(1,
                           1LL * s.mesh.core_cells * s.mesh.core_cells + 4LL * s.mesh.core_cells * s.mesh.ring_cells) *
           s.mesh.axial_cells >
@@ -447,7 +467,7 @@ void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
   if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
   try {
-    pl::place_particles(s.vessel.radius(), s.vessel.length, 0.0, pl::placement_requests(s), s.run.seed);
+    pl::place_particles(*make_vessel_geometry(s.vessel), 0.0, pl::placement_requests(s), s.run.seed);
   } catch (const pl::PlacementError& e) {
     const Species* sp = e.species == pl::kRbc ? &s.rbc : e.species == pl::kPlatelet ? &s.platelet : nullptr;
     if (sp == nullptr) {  // not a species' (validation rules out such vessels and requests)
@@ -664,6 +684,34 @@ static void read_hosts(Reader& r, Scene& s) {
   }
 }
 
+// vessel.shape and its parameters (model/geometry.h); a shape ignores the parameters it does not
+// take.
+// Whether the vessel's radius is the same everywhere; a shape refused on its own counts as such.
+static bool uniform_vessel(const Vessel& v) {
+  try {
+    return make_vessel_geometry(v)->uniform();
+  } catch (const std::invalid_argument&) {
+    return true;
+  }
+}
+
+static void read_vessel_shape(Reader& r, Vessel& v) {
+  read_name(r, "vessel.shape", v.shape, vessel_shape_names());
+  r.read("vessel.stenosis_area_reduction", v.stenosis_area_reduction);
+  r.check(v.stenosis_area_reduction >= 0 && v.stenosis_area_reduction < 1, "vessel.stenosis_area_reduction",
+          "must be in [0, 1) (1 closes the vessel)");
+  r.read("vessel.stenosis_length_um", v.stenosis_length, units::um);
+  r.check(v.stenosis_length >= 0, "vessel.stenosis_length_um", "must not be negative");
+  const VesselShape* shape = nullptr;
+  for (const VesselShape& sh : vessel_shapes())
+    if (sh.name == v.shape) shape = &sh;
+  if (shape == nullptr) return;  // refused above
+  r.check(!shape->takes("vessel.stenosis_length_um") || v.stenosis_length > 0, "vessel.stenosis_length_um",
+          "must be positive for a vessel.shape that takes it");
+  r.check(!(v.stenosis_length > v.length) || !(v.length > 0), "vessel.stenosis_length_um",
+          "must not exceed vessel.length_um (the constriction fits in the periodic vessel)");
+}
+
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
                         SceneCheck check) {
   Scene s;
@@ -707,6 +755,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
       r.refuse_once(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
     r.check(*value > 0, key, "must be positive");
   }
+  read_vessel_shape(r, s.vessel);
 
   r.read("mesh.core_cells", s.mesh.core_cells);
   r.read("mesh.ring_cells", s.mesh.ring_cells);
@@ -783,6 +832,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_name(r, "dem.neighbour_rebuild", s.neighbour_rebuild, {"engine", "streaming"});
   r.check(s.neighbour_rebuild == "engine" || s.run.particle_ranks == 1, "dem.neighbour_rebuild",
           "\"streaming\" runs on one particle rank (run.particle_ranks = 1)");
+  r.check(s.neighbour_rebuild == "engine" || uniform_vessel(s.vessel), "dem.neighbour_rebuild",
+          "\"streaming\" predicts the straight tube's Poiseuille flow: use \"engine\" in a vessel.shape that narrows");
 
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");

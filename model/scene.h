@@ -13,9 +13,14 @@
 
 namespace hemo {
 
+// The vessel: periodic along z over [0, length), axisymmetric, its wall r = R(z) given by the
+// shape (model/geometry.h, where each shape and its parameters are registered and described).
 struct Vessel {
-  double diameter = 0;  // m
+  double diameter = 0;  // m, the nominal diameter 2 R0 (the whole length of a straight tube)
   double length = 0;    // m, periodic along z
+  std::string shape = "straight";
+  double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
+  double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   double radius() const { return diameter / 2; }
 };
 

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "cell_locator.h"
 
+#include <scene.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -83,17 +85,18 @@ std::vector<char> wall_faces(const mesh_t& mesh) {
 }
 
 // A wall face leaves a gap to the round vessel only when its corners lie on the vessel's
-// circle (a chord); other wall faces are taken as the vessel's true boundary.
+// wall, r = R(z) (a chord); other wall faces are taken as the vessel's true boundary.
 std::vector<char> chords(const mesh_t& mesh, const std::vector<Vec3>& points, const std::vector<char>& wall_face,
-                         double radius) {
+                         const VesselGeometry& geometry) {
   std::vector<char> on_circle(mesh.n_faces, 0);
   for (int f = mesh.n_internal_faces; f < mesh.n_faces; ++f) {
-    if (!wall_face[f] || !(radius > 0)) continue;
+    if (!wall_face[f]) continue;
     const int end = face_end(mesh, f);
     bool all = true;
     for (int k = mesh.face_offsets[f]; k < end && all; ++k) {
       const Vec3& p = points[mesh.face_points[k]];
-      all = std::abs(std::hypot(p.x(), p.y()) - radius) <= 1e-6 * radius;
+      const double radius = geometry.radius_at(p.z());
+      all = radius > 0 && std::abs(std::hypot(p.x(), p.y()) - radius) <= 1e-6 * radius;
     }
     on_circle[f] = all;
   }
@@ -111,16 +114,27 @@ struct CellLocator::Faces {
   Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
 };
 
-CellLocator::CellLocator(const mesh_t& mesh) {
+CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry) {
   check_counts(mesh);
   const std::vector<Vec3> points = read_points(mesh);
   read_cells(mesh);
   Faces faces = read_faces(mesh, points);
   const std::vector<char> wall_face = wall_faces(mesh);
   radius_ = mesh.vessel_diameter_m / 2;
+  if (geometry == nullptr) {
+    Vessel straight;
+    straight.diameter = mesh.vessel_diameter_m;
+    straight.length = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : faces.hi.z() - faces.lo.z();
+    // A mesh without a vessel (a unit test's box): no round wall, no gap.
+    if (straight.diameter > 0 && straight.length > 0) geometry = make_vessel_geometry(straight);
+  } else if (geometry->nominal_radius() != radius_) {
+    bad_mesh("its vessel diameter differs from the vessel shape's");
+  }
+  geometry_ = std::move(geometry);
   std::vector<char> wall_cell;
-  const std::vector<Vec3> plane_point =
-      build_planes(mesh, faces, wall_face, chords(mesh, points, wall_face, radius_), wall_cell);
+  const std::vector<char> on_wall =
+      geometry_ ? chords(mesh, points, wall_face, *geometry_) : std::vector<char>(mesh.n_faces, 0);
+  const std::vector<Vec3> plane_point = build_planes(mesh, faces, wall_face, on_wall, wall_cell);
   set_period(mesh, faces.lo, faces.hi);
   reach_into_wall_gap(wall_cell, faces);
   build_bins(faces);
@@ -209,7 +223,7 @@ std::vector<Vec3> CellLocator::build_planes(const mesh_t& mesh, const Faces& fac
       plane.beyond = plane.across;
       plane.gap = 0;
       if (on_circle[f] && std::abs(plane.normal.z()) < 0.5)  // a side wall of the vessel
-        plane.gap = std::max(0.0, radius_ * std::hypot(plane.normal.x(), plane.normal.y()) - plane.offset);
+        plane.gap = std::max(0.0, wall_reach(plane.normal, faces.cell_lo[c].z(), faces.cell_hi[c].z()) - plane.offset);
       if (plane.gap > 0) wall_cell[c] = 1;
       planes_.push_back(plane);
       plane_point.push_back(face.centroid);
@@ -217,6 +231,18 @@ std::vector<Vec3> CellLocator::build_planes(const mesh_t& mesh, const Faces& fac
     plane_start_[c + 1] = static_cast<int>(planes_.size());
   }
   return plane_point;
+}
+
+double CellLocator::wall_reach(const Vec3& normal, double z_lo, double z_hi) const {
+  // How far along `normal` the round wall reaches: R |n_xy| on a straight tube (the same
+  // operations as before shapes); on a shape, the most of R(z) |n_xy| + n_z z at the cell's ends
+  // and middle (the gap is a search margin: a little more than the true reach costs nothing).
+  const double across = std::hypot(normal.x(), normal.y());
+  if (geometry_->uniform()) return radius_ * across;
+  double reach = std::numeric_limits<double>::lowest();
+  for (double z : {z_lo, (z_lo + z_hi) / 2, z_hi})
+    reach = std::max(reach, geometry_->radius_at(z) * across + normal.z() * z);
+  return reach;
 }
 
 void CellLocator::set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi) {
@@ -329,7 +355,7 @@ int CellLocator::search_bins(const Vec3& x) const {
 
 int CellLocator::locate_in_wall_gap(const Vec3& x) const {
   const Vec3 w = wrap(x);
-  if (!(wall_gap_ > 0) || std::hypot(w.x(), w.y()) > radius_ * (1 + 1e-12)) return -1;
+  if (!(wall_gap_ > 0) || std::hypot(w.x(), w.y()) > wall_radius(w.z()) * (1 + 1e-12)) return -1;
   const int b = bin_of(w);
   if (b < 0) return -1;
   int best = -1;

@@ -19,14 +19,20 @@
 // thin gap between a wall face and the circle (up to R (1 - cos(pi / n)) deep for n faces
 // around). locate() says -1 there, exactly; locate_in_wall_gap() then finds the wall cell
 // whose wall face the point is behind, within that face's own gap, and inside the vessel
-// radius. Only wall faces whose corners lie on the vessel circle (chords) have a gap.
+// radius. Only wall faces whose corners lie on the vessel's wall (chords) have a gap.
+//
+// The vessel's wall is the shape's, r = R(z) (model/geometry.h): the mesh's z origin is the
+// shape's, its period the shape's length. A straight tube's answers are those of the fixed radius
+// the locator used before shapes, to the bit.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
 #include <vec.h>
 
+#include <geometry.h>
 #include <hemo/mesh_t.hpp>
 
+#include <memory>
 #include <vector>
 
 namespace hemo::particles {
@@ -44,7 +50,8 @@ struct LocateCache {
 class CellLocator {
  public:
   // Throws std::invalid_argument when the mesh is inconsistent (sizes, indices, empty cells).
-  explicit CellLocator(const mesh_t& mesh);
+  // `geometry` is the vessel's shape; none: the straight tube of the mesh's diameter and length.
+  explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry = nullptr);
 
   // The cell containing x (any z; wrapped first), or -1 when x is outside the mesh.
   // `hint` is a cell to try first (-1: none).
@@ -106,8 +113,8 @@ class CellLocator {
   // True when the (already wrapped) point is inside `cell` up to the tolerance.
   bool inside(int cell, const Vec3& x) const;
 
-  // Deepest wall gap of the mesh (m): max over wall chords of R - (distance of the face plane
-  // from the axis).
+  // Deepest wall gap of the mesh (m): max over wall chords of how far the round wall reaches
+  // behind the face plane.
   double wall_gap() const { return wall_gap_; }
 
   // x with z wrapped into [z0, z0 + L).
@@ -119,7 +126,10 @@ class CellLocator {
   const std::vector<double>& volumes() const { return volume_; }
   double z0() const { return z0_; }
   double length() const { return length_; }
-  double radius() const { return radius_; }
+  double radius() const { return radius_; }  // R0, the nominal radius (the widest a shape gets)
+  // The vessel's wall radius at axial coordinate z (any z), m.
+  double wall_radius(double z) const { return geometry_->radius_at(z); }
+  const VesselGeometry& geometry() const { return *geometry_; }
 
   // Statistics of the searches so far (not thread safe; for diagnostics and tests).
   struct Stats {
@@ -152,6 +162,8 @@ class CellLocator {
   std::vector<Vec3> build_planes(const mesh_t& mesh, const Faces& faces, const std::vector<char>& wall_face,
                                  const std::vector<char>& on_circle, std::vector<char>& wall_cell);
   void set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi);
+  // How far along the unit `normal` the vessel's wall reaches over z in [z_lo, z_hi].
+  double wall_reach(const Vec3& normal, double z_lo, double z_hi) const;
   // The deepest wall gap, and the wall cells' boxes widened by it for the bins.
   void reach_into_wall_gap(const std::vector<char>& wall_cell, Faces& faces);
   void build_bins(const Faces& faces);
@@ -166,6 +178,7 @@ class CellLocator {
   std::vector<double> tolerance_;  // per cell, absolute (m)
 
   double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
+  std::shared_ptr<const VesselGeometry> geometry_;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};
   std::vector<int> bin_start_;  // CSR: candidate cells per bin

@@ -54,7 +54,7 @@ std::vector<LiggghtsCheckpoint::Column> LiggghtsCheckpoint::carried_columns() co
       {liggghts_.atom().f, 3}, {liggghts_.atom().torque, 3}, {per_atom(fixes.impulse), values_per_atom(fixes.impulse)}};
   if (fixes.rotation) columns.push_back({per_atom(fixes.rotation), values_per_atom(fixes.rotation)});
   if (fixes.closures) columns.push_back({per_atom(fixes.closures), values_per_atom(fixes.closures)});
-  columns.push_back({fixes.wall_history->array_atom, fixes.wall_history->get_nvalues()});
+  if (fixes.wall_history) columns.push_back({fixes.wall_history->array_atom, fixes.wall_history->get_nvalues()});
   return columns;
 }
 
@@ -63,7 +63,7 @@ auto LiggghtsCheckpoint::carried_fields(State& state) const {
   std::vector<decltype(&state.force)> fields = {&state.force, &state.torque, &state.impulse};
   if (liggghts_.fixes().rotation) fields.push_back(&state.rotation);
   if (liggghts_.fixes().closures) fields.push_back(&state.closures);
-  fields.push_back(&state.wall_history);
+  if (liggghts_.fixes().wall_history) fields.push_back(&state.wall_history);
   return fields;
 }
 
@@ -190,7 +190,8 @@ void LiggghtsCheckpoint::check_atoms(const EngineState& s) const {
   for (const auto count : s.partner_count) partners += static_cast<std::size_t>(count);
   expect_size(s.partner, partners, "partner");
   // Pair and wall contacts have the same model, hence as many history values.
-  const int wall_values = liggghts_.fixes().wall_history->get_nvalues();
+  auto* wall_history = liggghts_.fixes().wall_history;
+  const int wall_values = wall_history ? wall_history->get_nvalues() : static_cast<int>(s.contact_values);
   if (s.contact_values != wall_values)
     throw std::invalid_argument(
         fmt::format("the checkpoint's contacts carry {} history values, LIGGGHTS's {}", s.contact_values, wall_values));

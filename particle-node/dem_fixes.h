@@ -15,8 +15,10 @@ constexpr const char* kImpulseFix = "hemo_impulse";
 constexpr const char* kRotationFix = "hemo_rotation";
 constexpr const char* kClosureFix = "hemo_closures";
 constexpr const char* kWallFix = "hemo_wall";
+constexpr const char* kWallMeshFix = "hemo_wall_mesh";  // a shape's wall as triangles (fix mesh/surface)
 // LIGGGHTS's name of the fix property/atom where fix wall/gran keeps a primitive wall's contact
-// history per atom (checkpoints save it).
+// history per atom (checkpoints save it). A mesh wall keeps its history elsewhere (fix
+// contacthistory/mesh), which checkpoints do not carry.
 constexpr const char* kWallHistoryFix = "history_hemo_wall";
 
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1, or

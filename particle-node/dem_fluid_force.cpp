@@ -181,6 +181,7 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
     flow.gradient = fluid.gradient(cell);
     flow.shear_rate = fluid.shear_rate(cell);
     flow.centreline_speed = centreline_speed_;
+    flow.vessel_diameter = 2 * locator_.wall_radius(p.x.z());
   }
   flow.axis = p.axis;
   // The plasma's stress on the particle's volume acts like its weight in the drag's exponential

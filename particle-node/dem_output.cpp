@@ -20,7 +20,6 @@ using namespace dem;
 EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
   EngineDiagnostics d;
   d.particles = liggghts_.particles();
-  const double core_r = 0.5 * locator_.radius();
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
   const int nlocal = atom.nlocal;
   const int* tag = atom.tag;
@@ -34,7 +33,7 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
     bool in_gap = false;
     const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
-    if (cell < 0 || std::hypot(xi.x(), xi.y()) >= core_r) continue;
+    if (cell < 0 || std::hypot(xi.x(), xi.y()) >= 0.5 * locator_.wall_radius(xi.z())) continue;  // the core
     sums[0] += 1;
     sums[1] += v[i][2];
     if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_.wrap(xi)).z();
@@ -62,7 +61,8 @@ double DemOutput::local_max_overlap() const {
   const int nlocal = lmp.atom->nlocal;
   double worst = 0;
   for (int i = 0; i < nlocal; ++i)
-    worst = std::max(worst, (std::hypot(x[i][0], x[i][1]) + r[i] - locator_.radius()) / (2 * r[i]));
+    // Radially, from the shape's R(z): within R'^2 / 2 of the overlap along the wall's normal.
+    worst = std::max(worst, (std::hypot(x[i][0], x[i][1]) + r[i] - locator_.wall_radius(x[i][2])) / (2 * r[i]));
   const LAMMPS_NS::NeighList* list = lmp.force->pair != nullptr ? lmp.force->pair->list : nullptr;
   if (list == nullptr || lmp.neighbor->ncalls == 0) return worst;
   for (int k = 0; k < list->inum; ++k) {

@@ -13,8 +13,12 @@
 #include <units.h>
 #include <update.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <random>
 #include <stdexcept>
 #include <tuple>
@@ -83,6 +87,15 @@ std::string zeros(int n) {
   return s;
 }
 
+// One file for all ranks: next to the log, or named by the first rank's process id.
+std::string wall_file_for(const std::string& log_path, MPI_Comm comm) {
+  namespace fs = std::filesystem;
+  if (log_path != "none") return (fs::path(log_path).parent_path() / "vessel_wall.stl").string();
+  long pid = ::getpid();
+  MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);
+  return (fs::temp_directory_path() / fmt::format("hemocosim-vessel-wall-{}.stl", pid)).string();
+}
+
 // The fluid force while the neighbour lists are rebuilt: none (the forces are thrown away).
 void no_force(void*, std::int64_t, int, int*, double**, double**) {}
 
@@ -95,6 +108,7 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
       locator_(locator),
       species_(species),
       log_path_(log_path),
+      wall_file_(wall_file_for(log_path, comm)),
       bookkeeping_(bookkeeping),
       comm_(comm) {
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
@@ -116,7 +130,13 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
   for (const auto& line : base_settings(bookkeeping_)) command(line);
 }
 
-LiggghtsSession::~LiggghtsSession() { delete lmp_; }
+LiggghtsSession::~LiggghtsSession() {
+  delete lmp_;
+  if (log_path_ == "none") {  // the wall's STL went to the temporary directory: nobody keeps it
+    std::error_code ignored;
+    std::filesystem::remove(wall_file_, ignored);
+  }
+}
 
 void LiggghtsSession::command(const std::string& line) { lmp_->input->one(line.c_str()); }
 
@@ -124,6 +144,12 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
                                  ForceCallback callback, void* target) {
   callback_ = callback;
   callback_target_ = target;
+  if (mesh_wall()) {
+    write_wall_surface();
+    // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
+    // it. LAMMPS closes its screen when it ends.
+    if (lmp_->screen == nullptr) lmp_->screen = std::fopen("/dev/null", "w");
+  }
   define_box_and_contacts(assign_atom_types(used));
   // A pair's tangential history is cleared when it separates, not at the next neighbour-list
   // rebuild: LIGGGHTS clears it only for pairs within this factor x the contact distance (and
@@ -173,16 +199,40 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool stream
       lines.push_back(line);
   const auto materials = material_fixes(contact_, n_types);
   lines.insert(lines.end(), materials.begin(), materials.end());
-  lines.insert(lines.end(), {
-                                "pair_style gran model hertz tangential history",
-                                "pair_coeff * *",
-                                "timestep 1e-7",
-                                fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} "
-                                            "zcylinder {:.17g} 0 0",
-                                            kWallFix, n_types, locator_.radius()),
-                                "fix hemo_integrate all nve/sphere",
-                            });
+  lines.insert(lines.end(), {"pair_style gran model hertz tangential history", "pair_coeff * *", "timestep 1e-7"});
+  const auto wall = wall_commands(n_types);
+  lines.insert(lines.end(), wall.begin(), wall.end());
+  lines.push_back("fix hemo_integrate all nve/sphere");
   return lines;
+}
+
+std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
+  if (!mesh_wall())
+    return {fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} 0 0",
+                        kWallFix, wall_type, locator_.radius())};
+  // The mesh's z origin is the shape's; LIGGGHTS takes the facets as they are in the box.
+  return {
+      fmt::format("fix {} all mesh/surface file {} type {}", kWallMeshFix, wall_file_, wall_type),
+      fmt::format("fix {} all wall/gran model hertz tangential history mesh n_meshes 1 meshes {}", kWallFix,
+                  kWallMeshFix),
+  };
+}
+
+void LiggghtsSession::write_wall_surface() const {
+  // Written by the first rank, read by every rank's LIGGGHTS; the error, if any, agreed on.
+  int rank = 0;
+  MPI_Comm_rank(comm_, &rank);
+  std::string error;
+  if (rank == 0) try {
+      const VesselGeometry& g = locator_.geometry();
+      const WallResolution res = dem_wall_resolution(g);
+      write_stl(wall_file_, wall_surface(g, res.around, res.along));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  int failed = error.empty() ? 0 : 1;
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, comm_);
+  if (failed) throw std::runtime_error(error.empty() ? "the first rank could not write the vessel wall" : error);
 }
 
 std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_file, double dt, long steps,
@@ -206,6 +256,7 @@ void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
   fixes_.impulse = find(kImpulseFix);
   if (rotation) fixes_.rotation = find(kRotationFix);
   if (held_closures) fixes_.closures = find(kClosureFix);
+  if (mesh_wall()) return;  // its history is the mesh's (dem_fixes.h)
   fixes_.wall_history = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
   if (fixes_.wall_history == nullptr)
     throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");

@@ -5,8 +5,10 @@
 // Particles are LIGGGHTS granular atoms (type 1 = RBC, 2 = platelet, 3 = the vessel wall's
 // material; LIGGGHTS wants types from 1 without holes, so a scene without RBCs has platelets
 // as type 1 and the wall as type 2) in SI units, Hertz–Mindlin contacts with tangential history
-// between all cells and with the wall (`pair gran` and a `wall/gran` zcylinder primitive), the
-// box periodic along z with the mesh's period. The fluid acts through `fix external
+// between all cells and with the wall (`pair gran` and `fix wall/gran`: the zcylinder primitive
+// for a straight tube; for any other shape a triangle mesh of the same VesselGeometry as the
+// fluid mesh, `fix mesh/surface` from an STL the session writes), the box periodic along z with
+// the mesh's period. The fluid acts through `fix external
 // pf/callback`, defined after the wall so that the callback sees each step's contact forces and
 // torques (DemFluidForce). Values that must move between ranks with their atom live in
 // `fix property/atom`s (dem_fixes.h).
@@ -47,6 +49,9 @@ struct DemBookkeeping {
   // vessel (dem_streaming_neighbours.h; one MPI rank).
   bool streaming_neighbours = false;
   double streaming_wall_shear_rate = 0;
+  // The vessel's wall as a triangle mesh even where the shape has LIGGGHTS's cylinder primitive
+  // (the straight tube): for hemocosim-dem-bench to measure what a mesh wall costs.
+  bool mesh_wall = false;
 };
 
 class LiggghtsSession {
@@ -61,6 +66,7 @@ class LiggghtsSession {
     LAMMPS_NS::Fix* rotation = nullptr;                  // orientations tracked
     LAMMPS_NS::Fix* closures = nullptr;                  // closures held between evaluations
     LAMMPS_NS::FixPropertyAtom* wall_history = nullptr;  // LIGGGHTS's own: the wall contacts' history
+                                                         // (a primitive wall's; null for a mesh wall)
   };
 
   // Starts LIGGGHTS with the settings that need no particles yet. Its log goes to `log_path`
@@ -127,12 +133,17 @@ class LiggghtsSession {
   // The neighbour lists, materials, contact model, wall and integrator for n_types atom types
   // (the wall's material the last).
   std::vector<std::string> contact_model(int n_types, bool streaming_neighbours) const;
+  // Whether the wall is a triangle mesh (fix mesh/surface), and the commands that define it.
+  bool mesh_wall() const { return bookkeeping_.mesh_wall || !locator_.geometry().uniform(); }
+  std::vector<std::string> wall_commands(int wall_type) const;
+  void write_wall_surface() const;
   void find_fixes(bool rotation, bool held_closures);
 
   const Contact contact_;
   const CellLocator& locator_;
   const DemSpecies& species_;
   const std::string log_path_;
+  const std::string wall_file_;  // the mesh wall's STL: next to the log (or in the temporary directory)
   const DemBookkeeping bookkeeping_;
   MPI_Comm comm_;
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;

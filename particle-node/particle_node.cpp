@@ -57,7 +57,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
     : scene_(scene),
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
-      locator_(mesh),
+      locator_(mesh, make_vessel_geometry(scene.vessel)),
       fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
       run_dir_(run_dir) {
@@ -97,7 +97,7 @@ void ParticleNode::log_particles() const {
 
 void ParticleNode::start() {
   const auto placed =
-      place_particles(locator_.radius(), locator_.length(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
+      place_particles(locator_.geometry(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);

@@ -209,6 +209,8 @@ int main(int argc, char** argv) {
   books->add_option("--neighbour-rebuild", o.neighbour_rebuild,
                     "When the neighbour lists are rebuilt (default: the scene's dem.neighbour_rebuild)")
       ->check(CLI::IsMember({"engine", "streaming"}));
+  books->add_flag("--mesh-wall", o.bookkeeping.mesh_wall,
+                  "The wall as a triangle mesh (fix mesh/surface), as a narrowing vessel has it, not zcylinder");
   books->add_flag("--shuffled-tags", o.bookkeeping.shuffled_tags,
                   "Create the particles in random order, as a run's order is long after its start");
   app.add_option("--cells", o.cells, "Box-mesh cells across the vessel")->capture_default_str()->check(CLI::Range(1, 256));
@@ -294,6 +296,7 @@ int main(int argc, char** argv) {
         {"skin_diameters", o.bookkeeping.skin_diameters},
         {"sort_every_steps", o.bookkeeping.sort_every_steps},
         {"shuffled_tags", o.bookkeeping.shuffled_tags},
+        {"mesh_wall", o.bookkeeping.mesh_wall},
         {"neighbour_rebuild", scene.neighbour_rebuild},
         {"setup_s", setup_s},
         {"intervals", {{"ns_per_particle_step", ns(intervals_s)},
@@ -335,10 +338,12 @@ int main(int argc, char** argv) {
       const auto& one = out["one_run"];
       if (!o.from_run.empty()) std::printf("particles of %s at t = %g s\n", o.from_run.c_str(), start_time_s);
       std::printf("%s: %zu particles on %d rank(s), %d coupling steps x %d DEM steps of %.3g s, closures every %d\n"
-                  "  skin %.3g diameters, sort every %ld steps%s, neighbour lists rebuilt by the %s criterion\n",
+                  "  skin %.3g diameters, sort every %ld steps%s, neighbour lists rebuilt by the %s criterion, "
+                  "wall %s\n",
                   out["scene"].get<std::string>().c_str(), placed.size(), size, o.steps, timing.substeps, timing.dt,
                   scene.time.closure_every_dem_steps, o.bookkeeping.skin_diameters, o.bookkeeping.sort_every_steps,
-                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "", scene.neighbour_rebuild.c_str());
+                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "", scene.neighbour_rebuild.c_str(),
+                  o.bookkeeping.mesh_wall ? "a triangle mesh" : "zcylinder");
       std::printf("  in %d runs of one interval: %.1f ns per particle-step (callback %.1f, LIGGGHTS %.1f); %ld "
                   "neighbour-list builds (%.1f per 1000 steps)\n",
                   o.steps, iv["ns_per_particle_step"].get<double>(), iv["callback_ns"].get<double>(),

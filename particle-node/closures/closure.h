@@ -52,6 +52,8 @@ struct ParticleFlow {
   double shear_rate = 0;         // sqrt(2 S:S), 1/s
   Vec3 axis = Vec3::UnitZ();     // symmetry axis n of an oblate platelet (unit, world frame)
   double centreline_speed = 0;   // |u_max| of the vessel flow, m/s
+  double vessel_diameter = 0;    // m, the vessel's local diameter 2 R(z) at the particle (its shape's,
+                                 // model/geometry.h; 0: not known, ClosureParams's nominal one)
   int cell = -1;                 // fluid cell holding the particle (-1: not known): a closure may
                                  // keep what depends only on the cell's values, per cell
 };
@@ -62,7 +64,7 @@ struct ClosureParams {
   double fluid_density = 0;    // kg/m^3
   double viscosity = 0;        // Pa s, dynamic
   double aspect_ratio = 1;     // lambda = c / a of an oblate platelet
-  double vessel_diameter = 0;  // m
+  double vessel_diameter = 0;  // m, nominal (the scene's)
   double kinematic_viscosity() const { return viscosity / fluid_density; }
   double reynolds(const Vec3& slip) const { return diameter * slip.norm() / kinematic_viscosity(); }
 };

@@ -12,8 +12,8 @@ ShearLift::ShearLift(const ClosureParams& p) : params_(p) {
   confinement_ = p.diameter / p.vessel_diameter;
 }
 
-double ShearLift::lift_coefficient(double s, double re) const {
-  return kA * confinement_ * s + kB * re * re * s * s + kC * confinement_ * s * s * s;
+double ShearLift::lift_coefficient(double s, double re, double confinement) const {
+  return kA * confinement * s + kB * re * re * s * s + kC * confinement * s * s * s;
 }
 
 Vec3 ShearLift::force(const ParticleFlow& flow) const {
@@ -23,9 +23,10 @@ Vec3 ShearLift::force(const ParticleFlow& flow) const {
   const Vec3 ga = flow.gradient * (flow.velocity / speed);
   const double ga_norm = ga.norm();
   if (!(ga_norm > 0)) return Vec3::Zero();
-  const double D = params_.vessel_diameter, d = params_.diameter;
+  // The vessel's local diameter where the shape gives one: the confinement of a narrowing vessel.
+  const double D = flow.vessel_diameter > 0 ? flow.vessel_diameter : params_.vessel_diameter, d = params_.diameter;
   const double s = D / (4 * u_max) * flow.shear_rate;
-  const double cl = lift_coefficient(s, params_.reynolds(flow.slip));
+  const double cl = lift_coefficient(s, params_.reynolds(flow.slip), d / D);
   const double magnitude = 0.125 * params_.fluid_density * u_max * u_max * std::pow(d, 4) / (D * D) * cl;
   return -magnitude / ga_norm * ga;
 }

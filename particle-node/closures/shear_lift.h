@@ -5,7 +5,7 @@
 //   C_L   = a beta s + b Re^2 s^2 + c beta s^3,   s = (D / (4 |u_max|)) gamma_dot
 //   a = 110.88, b = 0.00206, c = -302.345,  beta = d / D
 //
-// D the vessel diameter, u_max the centre-line velocity (the engine takes the largest cell
+// D the vessel's diameter at the particle (its local 2 R(z) on a shape that narrows), u_max the centre-line velocity (the engine takes the largest cell
 // velocity of the fluid state), gamma_dot the local shear rate, Re = d |u_r| / nu the particle
 // Reynolds number (our reading; at these Re the b term is negligible either way).
 // In Poiseuille flow s = r/R, and C_L > 0 for s < sqrt(a/|c|) = 0.606, < 0 beyond.
@@ -30,14 +30,15 @@ class ShearLift final : public LiftClosure {
   explicit ShearLift(const ClosureParams& p);
   Vec3 force(const ParticleFlow& flow) const override;
   bool needs_centreline_speed() const override { return true; }
-  // C_L at s and Re.
-  double lift_coefficient(double s, double re) const;
+  // C_L at s and Re, in the nominal vessel; and at confinement beta = d / D.
+  double lift_coefficient(double s, double re) const { return lift_coefficient(s, re, confinement_); }
+  double lift_coefficient(double s, double re, double confinement) const;
 
   static constexpr double kA = 110.88, kB = 0.00206, kC = -302.345;
 
  private:
   ClosureParams params_;
-  double confinement_;  // beta = d / D
+  double confinement_;  // beta = d / D in the nominal vessel
 };
 
 }  // namespace hemo::particles

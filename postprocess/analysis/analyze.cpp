@@ -11,6 +11,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <optional>
 
 namespace hemo {
 
@@ -122,6 +123,9 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   int margination_snapshots = 0;
   std::vector<std::vector<double>> window_platelet_r;
   bool stations_chosen = false;
+  a.shape = run.scene.vessel.shape;
+  const auto geometry = make_vessel_geometry(run.scene.vessel);
+  std::optional<AxialAccumulator> axial;  // a shape that narrows: along the vessel
   std::vector<double> end_platelet_r;  // of the last snapshot up to the window's end
   double end_time = first.time_s;
 
@@ -144,7 +148,18 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
       if (opt.slices > 0) a.stations.axial = opt.slices;
       if (opt.sectors > 0) a.stations.sectors = opt.sectors;
       stations_chosen = true;
+      if (!geometry->uniform()) {
+        // Along the vessel: the CFL stations, but at least one per R0 / 2 of length unless the
+        // slices are given, so that the constriction is resolved.
+        Stations along = a.stations;
+        if (opt.slices <= 0)
+          along.axial = std::max(along.axial, static_cast<int>(std::lround(2 * a.tube.length / a.tube.radius)));
+        axial.emplace(*geometry, along, a.rbc_diameter, a.rbc_volume, run.scene.platelet.diameter);
+        a.notes.push_back("the radial profiles, δ, margination and H_T above are of the nominal tube (R0 = d/2); "
+                          "along the vessel, each station is against its local radius R(z)");
+      }
     }
+    if (axial) axial->add(s);
     ++a.window_snapshots;
     rbc_n.push_back(a.frames.back().rbc);
     plt_n.push_back(a.frames.back().platelet);
@@ -194,6 +209,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   if (a.platelet_axis.start_total > 0 && a.platelet_axis.start_near == 0)
     a.notes.push_back(fmt::format("no platelet within {} R of the axis at the start: no axis enrichment", kAxisRegion));
 
+  if (axial) a.axial = axial->result();
   a.tube_hematocrit = hematocrit_sum / n;
   a.rbc_volume_flux = rbc_flux_sum / n;
   fluid_observables(a, run, cells_flux_sum / n);
@@ -235,6 +251,18 @@ std::string format_table(const Analysis& a) {
     if (o.detail) text = fmt::format("{:<14} [{}]", text, o.detail(a));
     line(std::string(o.label), text);
   }
+  if (!a.axial.z.empty()) {
+    t += fmt::format("  along the vessel ({}, {} stations; gaps to the local wall r = R(z)):\n", a.shape,
+                     a.axial.z.size());
+    t += fmt::format("    {:>7} {:>7} {:>8} {:>6} {:>6} {:>14} {:>16}\n", "z µm", "R µm", "CFL µm", "CFL/R", "Ht",
+                     "plt near wall", "wall contacts");
+    t += fmt::format("    {:>7} {:>7} {:>8} {:>6} {:>6} {:>14} {:>16}\n", "", "", "", "", "", "1/mm²", "1/(mm² s)");
+    for (std::size_t k = 0; k < a.axial.z.size(); ++k)
+      t += fmt::format("    {:>7} {:>7} {:>8} {:>6} {:>6} {:>14} {:>16}\n", fixed(a.axial.z[k], 1, kUm),
+                       fixed(a.axial.radius[k], 2, kUm), fixed(a.axial.cfl[k], 2, kUm),
+                       fixed(a.axial.cfl[k] / a.axial.radius[k], 3), fixed(a.axial.hematocrit[k], 3),
+                       fixed(a.axial.platelet_near_wall[k], 1, 1e6), fixed(a.axial.wall_contact_rate[k], 1, 1e6));
+  }
   for (const auto& n : a.notes) line("note", n);
   return t;
 }
@@ -244,7 +272,23 @@ std::string format_json(const Analysis& a) {
   nlohmann::ordered_json j;
   j["run_dir"] = a.run_dir;
   j["units"] = "SI (m, s, m^2/s, m^3/s, Pa)";
-  j["vessel"] = {{"radius_m", number(a.tube.radius)}, {"length_m", number(a.tube.length)}};
+  j["vessel"] = {{"radius_m", number(a.tube.radius)}, {"length_m", number(a.tube.length)}, {"shape", a.shape}};
+  if (!a.axial.z.empty()) {
+    auto series = [](const std::vector<double>& v) {
+      nlohmann::ordered_json out = nlohmann::ordered_json::array();
+      for (double x : v) out.push_back(number(x));
+      return out;
+    };
+    j["axial"] = {{"z_m", series(a.axial.z)},
+                  {"radius_m", series(a.axial.radius)},
+                  {"cfl_m", series(a.axial.cfl)},
+                  {"hematocrit", series(a.axial.hematocrit)},
+                  {"platelet_near_wall_per_m2", series(a.axial.platelet_near_wall)},
+                  {"wall_contact_rate_per_m2_s", series(a.axial.wall_contact_rate)},
+                  {"near_wall_gap_platelet_diameters", kNearWallDiameters},
+                  {"contact_gap_platelet_diameters", kWallContactDiameters},
+                  {"snapshots", a.axial.snapshots}};
+  }
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},

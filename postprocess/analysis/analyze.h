@@ -74,6 +74,8 @@ struct Analysis {
   std::vector<double> bin_edges;                                           // m
   std::vector<double> rbc_density, platelet_density, rbc_volume_fraction;  // window means
   std::vector<ProfileFrame> frames;
+  std::string shape;       // vessel.shape
+  AxialObservables axial;  // per axial station over the window; empty for a straight tube
 
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
 };

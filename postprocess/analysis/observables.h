@@ -3,8 +3,12 @@
 //
 // Geometry: the vessel is a straight tube of radius R along z through x = y = 0, periodic
 // over the length L; z is unwrapped by the particle node, so it is wrapped here where needed.
+// A vessel shape that narrows (model/geometry.h) adds the observables per axial station against
+// its local radius (AxialAccumulator); the radial ones stay those of the nominal tube.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
+
+#include <geometry.h>
 
 #include <cstdint>
 #include <string>
@@ -244,6 +248,50 @@ double in_vitro_relative_viscosity(double diameter, double discharge_hematocrit)
 // Tube over discharge hematocrit H_T / H_D in a glass tube (the Fåhræus effect), the in-vitro fit
 // of Pries, Secomb, Gaehtgens & Gross (1990, Circ. Res. 67:826). 1 in a wide tube.
 double in_vitro_fahraeus_ratio(double diameter, double discharge_hematocrit);
+
+// ---- Along a vessel shape (model/geometry.h) -------------------------------------------------
+
+// Per axial station of a vessel that narrows, each against the local wall r = R(z). A particle's
+// gap is the distance from its sphere to the wall, -signed_distance(x) - d/2 (on a straight tube
+// R - r - d/2). Stations are equal slices of [0, L) (z wrapped); angular sectors split each for
+// the cell-free layer as in the edge method (rbc_core_edges), which this is on a straight tube.
+inline constexpr double kNearWallDiameters = 1;     // "near the wall": a gap below one platelet diameter
+inline constexpr double kWallContactDiameters = 0.02;  // "touching": a gap below 2 % of it (contacts overlap ~1 %)
+struct AxialObservables {
+  std::vector<double> z;                   // m, station centres
+  std::vector<double> radius;              // m, R at the centre
+  std::vector<double> cfl;                 // m, mean over occupied (sector, snapshot) of the smallest RBC gap
+                                           // (NaN: no RBC in the station)
+  std::vector<double> hematocrit;          // the station's RBC volume over its volume (int pi R^2 dz), mean
+  std::vector<double> platelet_near_wall;  // platelets with a gap < kNearWallDiameters d_p, per wall area, 1/m^2
+  std::vector<double> wall_contact_rate;   // platelets arriving at the wall (gap < kWallContactDiameters d_p now,
+                                           // not at the snapshot before) per wall area and second, 1/(m^2 s):
+                                           // contacts shorter than the snapshot interval are missed
+  double wall_area_total = 0;              // m^2, the wall's area over the length (the stations' sum)
+  int snapshots = 0;
+};
+
+class AxialAccumulator {
+ public:
+  AxialAccumulator(const VesselGeometry& vessel, const Stations& stations, double rbc_diameter, double rbc_volume,
+                   double platelet_diameter);
+  // One snapshot; snapshots in time order (the contact rate compares each with the one before).
+  void add(const Snapshot& s);
+  AxialObservables result() const;
+
+ private:
+  int station_of(double z) const;
+  double gap(const double* x, double diameter) const;
+  const VesselGeometry& vessel_;
+  Stations stations_;
+  double rbc_diameter_, rbc_volume_, platelet_diameter_;
+  std::vector<double> volume_, area_;  // per station, m^3 and m^2
+  std::vector<double> edge_sum_, rbc_volume_sum_, near_wall_sum_, arrivals_;
+  std::vector<long> edge_samples_;
+  std::vector<std::int64_t> touching_;  // platelet ids touching the wall at the last snapshot, sorted
+  double first_time_ = 0, last_time_ = 0;
+  int snapshots_ = 0;
+};
 
 // ---- Margination -----------------------------------------------------------------------------
 

@@ -12,6 +12,9 @@
 #             <run>_msd.png       radial MSD of the platelets with the fitted line MSD = 2 D t
 #             <run>_balance.png   the momentum balance: tau_w / tau_w,imposed over time, with the band
 #                                 in which it holds and the averaging window (when the fluid reported tau_w)
+#             <run>_axial.png     a vessel shape that narrows: along the axis, the wall R(z) with the RBC
+#                                 core's edge R - CFL, the hematocrit, the platelets near the wall and
+#                                 their arrivals at it (analysis.json "axial")
 # Several:    sweep.png           the observables analysis.json declares for it (CFL thickness by the
 #                                 edge and profile methods, D, mu_app/mu) against the swept scene
 #                                 key (--key, or the one key whose value differs)
@@ -271,6 +274,31 @@ def plot_balance(run, out):
     plt.close(fig)
 
 
+def plot_axial(run, out):
+    ax_ = run.get("axial")
+    z = np.array([num(v) for v in ax_["z_m"]]) * 1e6
+    R = np.array([num(v) for v in ax_["radius_m"]]) * 1e6
+    cfl = np.array([num(v) for v in ax_["cfl_m"]]) * 1e6
+    fig, axes = plt.subplots(4, 1, figsize=(7, 9), sharex=True, constrained_layout=True)
+    axes[0].plot(z, R, "k-", lw=1.5, label="wall R(z)")
+    axes[0].plot(z, R - cfl, "o-", color="tab:red", ms=3, label="RBC core edge R - δ")
+    axes[0].set_ylabel("r (µm)")
+    axes[0].set_ylim(bottom=0)
+    axes[0].legend(fontsize=8)
+    axes[1].plot(z, [num(v) for v in ax_["hematocrit"]], "o-", color="tab:red", ms=3)
+    axes[1].set_ylabel("hematocrit")
+    axes[2].plot(z, [num(v) * 1e-6 for v in ax_["platelet_near_wall_per_m2"]], "o-", color="tab:blue", ms=3)
+    axes[2].set_ylabel("platelets near wall\n(1/mm²)")
+    axes[3].plot(z, [num(v) * 1e-6 for v in ax_["wall_contact_rate_per_m2_s"]], "o-", color="tab:blue", ms=3)
+    axes[3].set_ylabel("wall arrivals\n(1/(mm² s))")
+    axes[3].set_xlabel("z (µm)")
+    for a in axes:
+        a.grid(alpha=0.3)
+    axes[0].set_title(f"{run.name}: along the vessel ({run.get('vessel', 'shape')})")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
 def flatten(table, prefix=""):
     out = {}
     for k, v in table.items():
@@ -427,9 +455,12 @@ def main():
     stems = [f"{i + 1:02d}-{n}" if names.count(n) > 1 else n for i, n in enumerate(names)]
     written = []
     for run, stem in zip(runs, stems):
-        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd), ("balance", plot_balance)):
+        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd), ("balance", plot_balance),
+                           ("axial", plot_axial)):
             if kind == "balance" and not len(balance_points(run)[0]):
                 continue  # the fluid reported no wall shear stress
+            if kind == "axial" and run.get("axial") is None:
+                continue  # a straight tube
             path = os.path.join(args.out, f"{stem}_{kind}.png")
             draw(run, path)
             written.append(path)

@@ -40,12 +40,13 @@ bool up_to_date(const fs::path& file, const fs::path& than) {
 
 // An analysis.json that a reader of this version can use: it parses, declares its observables
 // (the plot script draws the sweep figure from that declaration) and has the momentum balance
-// over time (the balance figure).
+// over time (the balance figure) and names the vessel's shape (a narrowing one's "axial" figure).
 bool current_analysis(const fs::path& json) {
   std::ifstream in(json);
   try {
     const auto j = nlohmann::json::parse(in);
-    return j.contains("observables") && j.contains("momentum_balance") && j["momentum_balance"].contains("over_time");
+    return j.contains("observables") && j.contains("momentum_balance") && j["momentum_balance"].contains("over_time") &&
+           j.contains("vessel") && j["vessel"].contains("shape");
   } catch (const nlohmann::json::exception&) {
     return false;
   }

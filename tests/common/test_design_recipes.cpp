@@ -1,5 +1,5 @@
-// docs/design.md, "Extending hemocosim": the recipes for a message and a CLI command stay true,
-// and the closure recipe's "no CMake edit". (The rest of the closure recipe's check is
+// docs/design.md, "Extending hemocosim": the recipes for a message, a vessel shape and a CLI
+// command stay true, and the closure recipe's "no CMake edit". (The rest of the closure recipe's check is
 // tests/particles/test_closure_table.cpp, the observable's tests/studies/test_observables.cpp, the
 // scene keys' test_scene.cpp.)
 // SPDX-License-Identifier: GPL-3.0-or-later
@@ -8,13 +8,21 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "bus.h"
+#include "geometry.h"
+#include "minimal_scene.h"
 #include "run_command.h"
+#include "scene.h"
+
+#include <cmath>
+#include <regex>
 
 namespace fs = std::filesystem;
 
@@ -168,4 +176,125 @@ TEST(DesignRecipes, EveryCommandIsListedInTheReadme) {
         << "hemocosim " << name << " is not in README.md's \"Using it\"";
   }
   EXPECT_GE(commands, 10);
+}
+
+namespace {
+
+std::string shape_recipe() { return section(read_text(kSource / "docs" / "design.md"), "### A new vessel shape"); }
+
+// Step 1 of the shape recipe: the text from "1." to "2.".
+std::string shape_step_one() {
+  const std::string r = shape_recipe();
+  const auto one = r.find("\n1. "), two = r.find("\n2. ");
+  return one == std::string::npos || two == std::string::npos ? "" : r.substr(one, two - one);
+}
+
+// VesselGeometry's virtual members in model/geometry.h: name -> pure.
+std::map<std::string, bool> geometry_virtuals() {
+  const std::string h = read_text(kSource / "model" / "geometry.h");
+  const auto begin = h.find("class VesselGeometry"), end = h.find("\n};", begin);
+  std::map<std::string, bool> out;
+  const std::regex member(R"(virtual [^(]*?(\w+)\(.*\)\s*const\s*(= 0)?)");
+  const std::string body = h.substr(begin, end - begin);
+  for (std::sregex_iterator m(body.begin(), body.end(), member), e; m != e; ++m) out[(*m)[1]] = (*m)[2].matched;
+  return out;
+}
+
+// Every registered shape, as a scene with its example builds it (d = 100 um, l = 600 um).
+struct BuiltShape {
+  std::string name, scene_path;
+  std::unique_ptr<hemo::VesselGeometry> geometry;
+};
+std::vector<BuiltShape> built_shapes() {
+  std::vector<BuiltShape> out;
+  for (const auto& shape : hemo::vessel_shapes()) {
+    const std::string text = "[vessel]\ndiameter_um = 100\nlength_um = 600\nshape = \"" + shape.name + "\"\n" +
+                             shape.example + "\n[driving]\nwall_shear_rate_per_s = 799\n";
+    const std::string path = hemo::test::write_temp(text);
+    const hemo::Scene scene = hemo::load_scene(path);
+    out.push_back({shape.name, path, hemo::make_vessel_geometry(scene.vessel)});
+  }
+  return out;
+}
+
+}  // namespace
+
+// A vessel shape, step 1: the members it names are VesselGeometry's, the ones it must answer
+// its pure virtual ones, and every other virtual member is named as one to override or one that
+// follows from R(z).
+TEST(DesignRecipes, TheShapeRecipeNamesVesselGeometrysMembers) {
+  const std::string step = shape_step_one();
+  ASSERT_FALSE(step.empty()) << "docs/design.md has no \"### A new vessel shape\" with steps 1 and 2";
+  const auto virtuals = geometry_virtuals();
+  ASSERT_GE(virtuals.size(), 8u);
+  const auto override_at = step.find("Override");
+  ASSERT_NE(override_at, std::string::npos);
+  for (const auto& [name, pure] : virtuals) {
+    const auto at = step.find("`" + name + "`");
+    EXPECT_NE(at, std::string::npos) << name << " is not in the recipe's step 1";
+    if (pure) {
+      EXPECT_LT(at, override_at) << name << " is pure virtual: the recipe must say it is to be answered";
+    }
+  }
+  for (const char* name : {"wall_surface", "dem_wall_resolution", "axial"})
+    EXPECT_NE(read_text(kSource / "model" / "geometry.h").find(std::string(name) + "("), std::string::npos) << name;
+  const std::string recipe = shape_recipe();
+  for (const char* place : {"vessel_shapes()", "read_vessel_shape", "model/geometry.cpp", "model/scene.cpp"})
+    EXPECT_NE(recipe.find(place), std::string::npos) << place;
+  EXPECT_NE(read_text(kSource / "model" / "scene.cpp").find("read_vessel_shape("), std::string::npos);
+}
+
+// What the recipe says follows for every registered shape, built from its example: periodic and
+// continuous, its throat the narrowest radius, its volume the integral of pi R^2, its signed
+// distance zero on the wall and of the right sign on either side, its DEM wall surface on
+// r = R(z).
+TEST(DesignRecipes, EveryRegisteredShapeIsAVesselWall) {
+  const auto shapes = built_shapes();
+  ASSERT_GE(shapes.size(), 2u);
+  for (const auto& s : shapes) {
+    const hemo::VesselGeometry& g = *s.geometry;
+    const double R0 = g.nominal_radius(), L = g.length();
+    EXPECT_NEAR(g.radius_at(0), g.radius_at(L), 1e-12 * R0) << s.name;
+    constexpr int n = 20000;
+    double slope = 0, narrowest = R0, volume = 0;
+    for (int i = 0; i < n; ++i) slope = std::max(slope, std::abs(g.radius_slope(L * i / n)));
+    for (int i = 0; i < n; ++i) {
+      const double z = L * (i + 0.5) / n, R = g.radius_at(z);
+      narrowest = std::min(narrowest, R);
+      volume += 3.14159265358979323846 * R * R * L / n;
+      ASSERT_LE(std::abs(g.radius_at(z + L / n) - R), 1.01 * slope * L / n + 1e-15 * R0) << s.name << " jumps at " << z;
+      for (double theta : {0.0, 2.0}) {
+        const hemo::VesselGeometry::Point on(R * std::cos(theta), R * std::sin(theta), z);
+        ASSERT_NEAR(g.signed_distance(on), 0, 1e-12 * R0) << s.name << " at " << z;
+        ASSERT_LT(g.signed_distance(on * 0.5 + hemo::VesselGeometry::Point(0, 0, z / 2)), 0) << s.name;
+      }
+      ASSERT_GT(g.signed_distance(hemo::VesselGeometry::Point(1.01 * R0, 0, z)), 0) << s.name;
+    }
+    EXPECT_LE(g.throat_radius(), narrowest * (1 + 1e-12)) << s.name;
+    EXPECT_NEAR(g.throat_radius(), narrowest, 1e-6 * R0) << s.name;
+    EXPECT_NEAR(g.volume() / volume, 1, 1e-6) << s.name;
+    const auto res = hemo::dem_wall_resolution(g);
+    for (const auto& t : hemo::wall_surface(g, res.around, res.along))
+      for (const auto& v : t.vertex) ASSERT_NEAR(std::hypot(v.x(), v.y()), g.radius_at(v.z()), 1e-15 * R0) << s.name;
+  }
+}
+
+// ... and `hemocosim check` offers every shape's name (--keys) and accepts its example.
+TEST(DesignRecipes, HemocosimCheckOffersAndAcceptsEveryShape) {
+  const std::string hemocosim = hemo::test::bin("hemocosim");
+  const auto keys = hemo::test::run("timeout -s KILL 60 " + hemocosim + " check --keys 2>&1");
+  ASSERT_EQ(keys.exit_code, 0) << keys.output;
+  std::string row;
+  std::istringstream in(keys.output);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("| `vessel.shape`", 0) == 0) row = line;
+  ASSERT_FALSE(row.empty()) << keys.output;
+  for (const auto& s : built_shapes()) {
+    EXPECT_NE(row.find("\"" + s.name + "\""), std::string::npos) << s.name << " is not offered: " << row;
+    const auto r = hemo::test::run("timeout -s KILL 60 " + hemocosim + " check " + s.scene_path + " 2>&1");
+    EXPECT_EQ(r.exit_code, 0) << s.name << ": " << r.output;
+    if (!s.geometry->uniform()) {
+      EXPECT_NE(r.output.find("  shape       " + s.name + ":"), std::string::npos) << r.output;
+    }
+  }
 }

@@ -113,6 +113,8 @@ const std::set<std::string> kMayBeZero = {"run.seed",
                                           "run.bus_ttl",
                                           "hosts.relay_port",  // 0: a free port, chosen by the kernel
                                           "rbc.hematocrit",
+                                          "vessel.stenosis_area_reduction",  // 0: no constriction
+                                          "vessel.stenosis_length_um",       // taken by "stenosis" only
                                           "rbc.mass_scaling",
                                           "platelet.number_density_per_ul",
                                           "platelet.mass_scaling",

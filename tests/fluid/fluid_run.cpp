@@ -18,7 +18,7 @@ std::string SceneSpec::text() const {
   s << "[run]\nname = \"" << name << "\"\nnode_timeout_s = 30\n";
   if (!particle_command.empty()) s << "particle_command = \"" << particle_command << "\"\n";
   if (!fluid_command.empty()) s << "fluid_command = \"" << fluid_command << "\"\n";
-  s << "\n[vessel]\ndiameter_um = " << diameter_um << "\nlength_um = " << length_um << "\n"
+  s << "\n[vessel]\ndiameter_um = " << diameter_um << "\nlength_um = " << length_um << "\n" << vessel << "\n"
     << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial
     << "\nwall_polygon = \"" << wall_polygon << "\"\n"
     << "\n[driving]\n"

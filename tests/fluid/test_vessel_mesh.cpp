@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <hemo/mesh_t.hpp>
 
+#include "geometry.h"
 #include "vessel_mesh.h"
 
 #include <cmath>
@@ -218,6 +219,66 @@ TEST(VesselMesh, HashIsAFingerprintOfTheGeometry) {
   EXPECT_NE(h, hemo::mesh_hash(other.mesh));
   const auto longer = build(4, 3, 24, hemo::Vessel{100e-6, 601e-6});
   EXPECT_NE(h, hemo::mesh_hash(longer.mesh));
+}
+
+// The straight tube's mesh is the one generated before vessel shapes, to the bit: these are the
+// fingerprints of the generator as it was (main at 9dc7f7d), points, faces and patches.
+TEST(VesselMesh, StraightTubeIsTheMeshOfBeforeShapes) {
+  EXPECT_EQ(hemo::mesh_hash(build(4, 3, 24).mesh), "c5301aeaa803253b");
+  EXPECT_EQ(hemo::mesh_hash(build(4, 3, 24, paper_vessel(), "inscribed").mesh), "28ef864729be624c");
+  EXPECT_EQ(hemo::mesh_hash(build(8, 6, 10).mesh), "0788ba1ba1b2a304");
+  EXPECT_EQ(hemo::mesh_hash(build(8, 6, 10, paper_vessel(), "inscribed").mesh), "57aa143bd93d7b78");
+}
+
+hemo::Vessel stenosed_vessel() {
+  hemo::Vessel v{100e-6, 1200e-6};
+  v.shape = "stenosis";
+  v.stenosis_area_reduction = 0.5;
+  v.stenosis_length = 600e-6;
+  return v;
+}
+
+// Each axial station is the straight section scaled to the local radius: the wall polygon's
+// corners at R(z) / cos(pi/n) (its sides tangent to the station's circle), every point's radius
+// R(z)/R0 of the straight mesh's; the cells stay closed with positive volumes.
+TEST(VesselMesh, StenosisScalesEachStationToTheLocalRadius) {
+  const auto v = stenosed_vessel();
+  const auto g = hemo::make_vessel_geometry(v);
+  const auto straight = build(4, 3, 24, hemo::Vessel{100e-6, 1200e-6});
+  const auto b = build(4, 3, 24, v);
+  ASSERT_EQ(b.mesh.points.size(), straight.mesh.points.size());
+  EXPECT_EQ(b.mesh.faces, straight.mesh.faces);
+  for (std::size_t i = 0; i < b.mesh.points.size(); ++i) {
+    const auto& p = b.mesh.points[i];
+    const auto& q = straight.mesh.points[i];
+    EXPECT_EQ(p[2], q[2]);
+    EXPECT_NEAR(std::hypot(p[0], p[1]), std::hypot(q[0], q[1]) * g->radius_at(p[2]) / v.radius(), 1e-18);
+  }
+  const auto& wall = b.mesh.patch("wall");
+  for (int f = wall.start; f < wall.start + wall.size; ++f)
+    for (int p : b.mesh.faces[f]) {
+      const auto& x = b.mesh.points[p];
+      EXPECT_NEAR(std::hypot(x[0], x[1]), g->radius_at(x[2]) / std::cos(kPi / 16), 1e-15);
+    }
+  for (double vol : b.geo.cell_volumes) EXPECT_GT(vol, 0);
+}
+
+// The mesh's volume converges to the shape's, times the tangent polygon's area over the circle's,
+// as the stations get closer (second order: R^2 between stations is the chord of a smooth curve).
+TEST(VesselMesh, StenosisVolumeConvergesToTheShapesOnThePolygon) {
+  const auto v = stenosed_vessel();
+  const double polygon = 16 * std::tan(kPi / 16) / kPi;
+  const double exact = polygon * hemo::make_vessel_geometry(v)->volume();
+  double previous = 1;
+  for (int axial : {12, 24, 48, 96}) {
+    double total = 0;
+    for (double vol : build(4, 3, axial, v).geo.cell_volumes) total += vol;
+    const double error = std::abs(total / exact - 1);
+    std::printf("  axial %3d: mesh volume / shape's on the polygon - 1 = %.3e\n", axial, total / exact - 1);
+    EXPECT_LT(error, previous / 3.5) << axial;
+    previous = error;
+  }
+  EXPECT_LT(previous, 1e-4);
 }
 
 TEST(VesselMesh, MessageCarriesTheMesh) {

@@ -850,3 +850,53 @@ TEST(DemEngine, RunawayPlateletSpinStopsTheRunNamingIt) {
   EXPECT_NE(error.find("rad per DEM step"), std::string::npos) << error;
   EXPECT_EQ(error.find('\n'), std::string::npos);
 }
+
+// A vessel shape that narrows gets LIGGGHTS's mesh wall from its geometry: plasma streaming
+// radially outward (u = k r e_r) presses every cell onto it. Within 0.2 ms every particle's
+// centre stays inside r = R(z), its overlap with the wall below 10 % of its diameter; those
+// near the throat are held at its radius, not at the straight part's zcylinder radius R0.
+TEST(DemEngine, MeshWallOfANarrowingVesselHoldsTheCells) {
+  const double R0 = 25e-6, L = 100e-6;
+  hemo::Scene scene = blood_scene(2 * R0, L, 0.1);
+  scene.vessel.shape = "stenosis";
+  scene.vessel.stenosis_area_reduction = 0.5;
+  scene.vessel.stenosis_length = 60e-6;
+  const auto geometry = std::shared_ptr<const hemo::VesselGeometry>(hemo::make_vessel_geometry(scene.vessel));
+  const auto mesh = box_mesh(6, 6, 10, -R0, R0, -R0, R0, L, 2 * R0);
+  const CellLocator locator(mesh, geometry);
+  FluidSampler fluid(locator);
+  const double k = 2000;  // 1/s: 5 cm/s outward at R0
+  fluid.set_state(fluid_state(mesh, [&](const auto& x, auto& vel, auto& grad) {
+    vel = {k * x[0], k * x[1], 0};
+    grad = {k, 0, 0, 0, k, 0, 0, 0, 0};
+  }));
+  DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+  const auto placed = place_particles(*geometry, 0, placement_requests(scene), 5);
+  engine.create_particles(placed);
+  const DemTiming timing = derive_dem_timing(scene, 1e-5);
+  for (int step = 1; step <= 20; ++step) ASSERT_EQ(engine.run(step, timing.substeps, timing.dt, fluid), "");
+  const auto end = engine.snapshot(20, 2e-4);
+  ASSERT_EQ(end.size(), placed.size());
+  double deepest = -1, throat_max_r = 0;
+  int at_throat = 0;
+  for (std::size_t i = 0; i < end.size(); ++i) {
+    const double d = end.species[i] == kRbc ? scene.rbc.diameter : scene.platelet.diameter;
+    const hemo::VesselGeometry::Point x(end.position[3 * i], end.position[3 * i + 1],
+                                        geometry->axial(end.position[3 * i + 2]));
+    const double overlap = (geometry->signed_distance(x) + d / 2) / d;
+    deepest = std::max(deepest, overlap);
+    EXPECT_LT(geometry->signed_distance(x), 0) << "particle " << end.id[i];
+    EXPECT_LT(overlap, 0.1) << "particle " << end.id[i];
+    if (std::abs(x.z() - L / 2) < 3e-6) {
+      ++at_throat;
+      throat_max_r = std::max(throat_max_r, std::hypot(x.x(), x.y()) + d / 2);
+    }
+  }
+  std::printf("  %zu cells pressed outward: deepest overlap %.3g d; %d at the throat, their outer edge at most %.2f um "
+              "(throat radius %.2f um, R0 %.1f um)\n",
+              end.size(), deepest, at_throat, throat_max_r * 1e6, geometry->throat_radius() * 1e6, R0 * 1e6);
+  EXPECT_GT(deepest, 0);  // they did reach the wall
+  ASSERT_GT(at_throat, 0);
+  EXPECT_LT(throat_max_r, geometry->throat_radius() * 1.05);
+  EXPECT_EQ(engine.diagnostics(&fluid).outside_mesh, 0);
+}

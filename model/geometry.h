@@ -1,0 +1,121 @@
+// The vessel's shape, asked by every part that needs it (the fluid mesh, the DEM wall, the cell
+// locator, placement, the closures' wall distance, the analysis's profiles): one interface,
+// VesselGeometry, and one registration per shape (vessel_shapes()). Every shape is periodic
+// along z over [0, length) and axisymmetric about the z axis: its wall is r = R(z).
+//
+//   "straight"   R(z) = R0: today's tube, every answer in closed form.
+//   "stenosis"   a cosine constriction centred at z_c = length / 2, of axial length L_s:
+//                  R(z) = R0 (1 - s/2 (1 + cos(2 pi (z - z_c) / L_s)))   for |z - z_c| <= L_s / 2,
+//                  R(z) = R0                                            elsewhere,
+//                with the severity s = 1 - sqrt(1 - A) from the scene's area reduction A at the
+//                throat (vessel.stenosis_area_reduction; 0.5: the throat's cross-section is half
+//                the vessel's, R_throat = R0 sqrt(1 - A)). R is continuous with its slope; the
+//                curvature jumps at the constriction's ends.
+// Adding a shape: a class deriving from VesselGeometry and one entry in vessel_shapes()
+// (model/geometry.cpp); docs/design.md, "A new vessel shape".
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace hemo {
+
+struct Vessel;
+
+class VesselGeometry {
+ public:
+  using Point = Eigen::Vector3d;
+  virtual ~VesselGeometry() = default;
+
+  double nominal_radius() const { return radius_; }  // R0, m: the radius the scene's diameter gives
+  double length() const { return length_; }          // m, the periodic length along z
+  // The axial coordinate of a point, wrapped into [0, length).
+  double axial(double z) const;
+
+  // The wall's radius at axial coordinate z (any z: the shape is periodic), m, and its first and
+  // second derivatives along z.
+  virtual double radius_at(double z) const = 0;
+  virtual double radius_slope(double z) const = 0;
+  virtual double radius_curvature(double z) const = 0;
+  // The narrowest radius, m.
+  virtual double throat_radius() const = 0;
+  // Whether R(z) is the same everywhere (the DEM may then use its cylinder primitive).
+  virtual bool uniform() const { return false; }
+
+  // The vessel's volume, m^3: the integral of pi R(z)^2 over the length.
+  virtual double volume() const;
+  // The integral over one period of f(R(z)) dz, by composite Gauss-Legendre on each of the
+  // shape's smooth pieces (breakpoints()).
+  double axial_integral(const std::function<double(double)>& f) const;
+  // Where R(z) is not smooth, in [0, length], sorted, both ends included.
+  virtual std::vector<double> breakpoints() const { return {0, length_}; }
+
+  // The signed distance from x to the wall, m: negative inside, zero on the wall, positive
+  // outside; the exact Euclidean distance to the surface r = R(z).
+  virtual double signed_distance(const Point& x) const;
+  // The wall's outward unit normal at the wall point nearest x (at x itself when x is on the
+  // wall); the gradient of signed_distance wherever that is differentiable.
+  virtual Point outward_normal(const Point& x) const;
+  bool inside(const Point& x) const { return signed_distance(x) < 0; }
+
+ protected:
+  VesselGeometry(double radius, double length) : radius_(radius), length_(length) {}
+
+ private:
+  // The axial coordinate of the wall point nearest (r, z) in the meridian plane.
+  double nearest_wall_z(double r, double z) const;
+  double radius_, length_;
+};
+
+// The wall surface the DEM collides with: triangles on r = R(z), `around` vertices per station
+// (on the station's circle: the facets' chords lie R (1 - cos(pi / around)) inside it) at `along` + 1 equally spaced stations over [0, length], each
+// quad between stations split in two; normals point into the vessel.
+struct WallTriangle {
+  std::array<VesselGeometry::Point, 3> vertex;
+};
+std::vector<WallTriangle> wall_surface(const VesselGeometry& geometry, int around, int along);
+// The resolution the DEM's wall is made with: its facets within 2e-3 R0 of the wall r = R(z)
+// (1e-3 R0 from the chords around, as much from those along).
+struct WallResolution {
+  int around = 0, along = 0;
+};
+WallResolution dem_wall_resolution(const VesselGeometry& geometry);
+// The triangles as an ASCII STL file (LIGGGHTS's fix mesh/surface reads it); throws
+// std::runtime_error when the file cannot be written.
+void write_stl(const std::string& path, const std::vector<WallTriangle>& triangles);
+
+// One shape a scene may name (vessel.shape): its name, what it is in a few words, how to build
+// it from the scene's vessel, the scene keys of its parameters, the key that sets how narrow it
+// gets ("" when it does not narrow), which a throat too narrow for a red cell is blamed on, and
+// an example of its parameters, [vessel] lines a scene may hold (the recipe's test builds every
+// shape from it: docs/design.md, "A new vessel shape").
+struct VesselShape {
+  std::string name;
+  std::string description;
+  std::function<std::unique_ptr<VesselGeometry>(const Vessel&)> make;
+  std::vector<std::string> keys;
+  std::string narrowing_key;
+  std::string example;
+  bool takes(const std::string& key) const;
+};
+
+// Every shape, the default ("straight") first.
+const std::vector<VesselShape>& vessel_shapes();
+std::vector<std::string> vessel_shape_names();
+// The shape named `name`; throws std::invalid_argument naming the known ones when there is none.
+const VesselShape& vessel_shape(const std::string& name);
+
+// The geometry of a scene's vessel (vessel.shape and its parameters). Throws
+// std::invalid_argument on a vessel that is no such shape (load_scene refuses those first).
+std::unique_ptr<VesselGeometry> make_vessel_geometry(const Vessel& vessel);
+
+// The stenosis's severity s (R_throat = R0 (1 - s)) from the area reduction A at its throat.
+double stenosis_severity(double area_reduction);
+
+}  // namespace hemo
