@@ -19,6 +19,19 @@ namespace analysis {
 
 namespace {
 
+// tau_w = d dP / (4 l) is the balance of a wall parallel to the axis: a narrowing vessel's wall
+// takes part of the drop as pressure on its slopes, so there tau_w alone is not judged.
+BalanceVerdict judge_run_balance(const WallShearBalance& b, const Scene& scene) {
+  if (!make_vessel_geometry(scene.vessel)->uniform()) {
+    BalanceVerdict v;
+    v.why_not_judged = fmt::format("a {} vessel's wall takes part of the drop as pressure on its slopes, so the "
+                                   "wall shear stress alone does not balance it",
+                                   scene.vessel.shape);
+    return v;
+  }
+  return judge_balance(b, settling_time(scene.vessel.diameter, scene.plasma.kinematic_viscosity()));
+}
+
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
 constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
@@ -69,7 +82,7 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   a.balance = momentum_balance(tau, run.scene, a.window_start, a.window_end);
   a.wall_shear_stress = a.balance.mean;
   a.settling_time = settling_time(run.scene.vessel.diameter, run.scene.plasma.kinematic_viscosity());
-  a.balance_verdict = judge_balance(a.balance, a.settling_time);
+  a.balance_verdict = judge_run_balance(a.balance, run.scene);
   // The whole run, for `plot`: a point per 1/200 of it (the calibration run: every 0.01 s).
   for (const auto& p : binned_means(tau.time_s, tau.value, kBalancePoints))
     a.balance_over_time.push_back({p.time_s, p.value / a.balance.imposed});
@@ -93,7 +106,7 @@ std::string closing_balance_line(const std::string& run_dir, const Scene& scene)
   if (tau.empty()) return "";
   const auto [first, last] = std::minmax_element(tau.time_s.begin(), tau.time_s.end());
   const auto b = momentum_balance(tau, scene, *first + 0.5 * (*last - *first), *last);
-  return judge_balance(b, settling_time(scene.vessel.diameter, scene.plasma.kinematic_viscosity())).line;
+  return judge_run_balance(b, scene).line;
 }
 
 Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {

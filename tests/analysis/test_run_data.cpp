@@ -328,3 +328,22 @@ TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
       "note              momentum balance: wall shear stress 0.768 Pa is 0.800 of the imposed 0.960 Pa";
   EXPECT_NE(format_table(deficit).find(note), std::string::npos) << format_table(deficit);
 }
+
+// The closing line of `hemocosim run` judges tau_w = d dP / (4 l) only where the wall is parallel
+// to the axis: the same wall shear stress, 0.8 of the imposed one over a settled window, is named
+// for a straight vessel and not for a stenosis, whose wall takes part of the drop as pressure.
+TEST(Analyze, TheWallShearBalanceIsJudgedOnlyForAStraightVessel) {
+  const TempDir tmp("balance");
+  const std::string dir = tmp.str();
+  const std::string vessel = "[vessel]\ndiameter_um = 100\nlength_um = 600\n";
+  const std::string rest = "[driving]\nwall_shear_rate_per_s = 800\n";
+  write_text(dir + "/straight.toml", vessel + rest);
+  write_text(dir + "/stenosis.toml",
+             vessel + "shape = \"stenosis\"\nstenosis_area_reduction = 0.5\nstenosis_length_um = 300\n" + rest);
+  std::string csv = "step,time_s,node,name,value\n";
+  for (int k = 0; k <= 100; ++k) csv += fmt::format("{},{},fluid,wall_shear_stress_Pa,{}\n", k, 0.01 * k, 0.8 * 1.2e-3 * 800);
+  write_text(dir + "/metrics.csv", csv);
+  const std::string straight = closing_balance_line(dir, hemo::load_scene(dir + "/straight.toml"));
+  EXPECT_NE(straight.find("is 0.800 of the imposed"), std::string::npos) << straight;
+  EXPECT_EQ(closing_balance_line(dir, hemo::load_scene(dir + "/stenosis.toml")), "");
+}
