@@ -68,11 +68,11 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   const double mean_sup = time_mean(sup.time_s, sup.value, a.window_start, a.window_end);
   if (std::isfinite(mean_sup)) {
     a.total_volume_flux = total_volume_flux(mean_sup, mean_cells_flux, a.tube);
-    a.total_flux_source = "pi R^2 <alpha u_z> (superficial_velocity_m_s) + sum V_p v_z / L over all cells";
+    a.total_flux_source = "V/L <alpha u_z> (superficial_velocity_m_s) + sum V_p v_z / L over all cells";
   } else {
     // Without the plasma's superficial velocity, the blood is taken to move at the plasma's mean.
-    a.total_volume_flux = a.tube.cross_section() * mean_u;
-    a.total_flux_source = "pi R^2 U (superficial_velocity_m_s not reported)";
+    a.total_volume_flux = a.tube.mean_section() * mean_u;
+    a.total_flux_source = "V/L U (superficial_velocity_m_s not reported)";
   }
   a.discharge_hematocrit = discharge_hematocrit(a.rbc_volume_flux, a.total_volume_flux);
   // The paper's 8 U / d is built from the realised mean velocity of the blood, plasma and cells.
@@ -118,6 +118,8 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   Analysis a;
   a.run_dir = run.dir;
   a.tube = {run.scene.vessel.radius(), run.scene.vessel.length};
+  const auto geometry = make_vessel_geometry(run.scene.vessel);
+  if (!geometry->uniform()) a.tube.narrowed_section = geometry->volume() / run.scene.vessel.length;
   a.rbc_diameter = run.scene.rbc.diameter;
   a.rbc_volume = run.scene.rbc.volume;
   a.platelet_volume = run.scene.platelet.volume;
@@ -137,7 +139,6 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   std::vector<std::vector<double>> window_platelet_r;
   bool stations_chosen = false;
   a.shape = run.scene.vessel.shape;
-  const auto geometry = make_vessel_geometry(run.scene.vessel);
   std::optional<AxialAccumulator> axial;  // a shape that narrows: along the vessel
   std::vector<double> end_platelet_r;  // of the last snapshot up to the window's end
   double end_time = first.time_s;
@@ -168,8 +169,9 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
         if (opt.slices <= 0)
           along.axial = std::max(along.axial, static_cast<int>(std::lround(2 * a.tube.length / a.tube.radius)));
         axial.emplace(*geometry, along, a.rbc_diameter, a.rbc_volume, run.scene.platelet.diameter);
-        a.notes.push_back("the radial profiles, δ, margination and H_T above are of the nominal tube (R0 = d/2); "
-                          "along the vessel, each station is against its local radius R(z)");
+        a.notes.push_back("the radial profiles, δ and margination above are of the nominal tube (R0 = d/2; H_T, "
+                          "H_D and µ_app take the vessel's own volume and flux); along the vessel, each station "
+                          "is against its local radius R(z)");
       }
     }
     if (axial) axial->add(s);

@@ -72,7 +72,7 @@ double circle_overlap_area(double rho, double s, double c) {
 }  // namespace
 
 double Tube::cross_section() const { return kPi * radius * radius; }
-double Tube::volume() const { return cross_section() * length; }
+double Tube::volume() const { return mean_section() * length; }
 
 Cells select_species(const Snapshot& s, std::int8_t species) {
   Cells c;
@@ -453,7 +453,7 @@ double cell_volume_flux(const std::vector<double>& vz, double cell_volume, const
 }
 
 double total_volume_flux(double superficial_plasma_velocity, double cells_volume_flux, const Tube& tube) {
-  return tube.cross_section() * superficial_plasma_velocity + cells_volume_flux;
+  return tube.mean_section() * superficial_plasma_velocity + cells_volume_flux;
 }
 
 double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux) {

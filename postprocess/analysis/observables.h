@@ -20,10 +20,14 @@ inline constexpr std::int8_t kRbc = 0;  // species code in particles.h5
 inline constexpr std::int8_t kPlatelet = 1;
 
 struct Tube {
-  double radius = 0;  // m
+  double radius = 0;  // m, the nominal radius R0 (the radial profiles' and mu_app's)
   double length = 0;  // m, periodic along z
-  double cross_section() const;
-  double volume() const;
+  // m^2, the vessel's volume over its length where its shape narrows (model/geometry.h); 0: pi R^2.
+  double narrowed_section = 0;
+  double cross_section() const;  // pi R0^2
+  // The mean section: what a periodic vessel's volume flux and tube hematocrit are taken over.
+  double mean_section() const { return narrowed_section > 0 ? narrowed_section : cross_section(); }
+  double volume() const;  // mean_section() * length
 };
 
 // One particle snapshot as written by the particle node (3 doubles per particle).
@@ -230,8 +234,9 @@ double tube_hematocrit(std::size_t rbc_count, double rbc_volume, const Tube& tub
 // all sections is (1/L) sum_i V_i v_z,i: each cell crosses a section v_z,i / L times per second.
 double cell_volume_flux(const std::vector<double>& vz, double cell_volume, const Tube& tube);
 
-// Total (blood) volume flux Q = pi R^2 <alpha u_z> + Q_cells: the plasma's superficial flux from
-// the fluid node plus the cells' own flux.
+// Total (blood) volume flux Q = A <alpha u_z> + Q_cells: the plasma's superficial flux from the
+// fluid node (its volume mean times the mean section A = V/L, pi R^2 in a straight tube: in a
+// periodic vessel every section passes the same Q) plus the cells' own flux.
 double total_volume_flux(double superficial_plasma_velocity, double cells_volume_flux, const Tube& tube);
 
 // Discharge hematocrit H_D = Q_RBC / Q: the RBC share of the volume that flows through a

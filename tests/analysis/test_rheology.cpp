@@ -114,3 +114,17 @@ TEST(InVitroBlood, FahraeusRatioBelowOneInMicrovesselsAndOneInWideTubes) {
   // H_T/H_D = H_D + (1 - H_D) f(d): at H_D = 1 the tube is all cells, whatever d.
   EXPECT_NEAR(in_vitro_fahraeus_ratio(100 * kUm, 1.0), 1.0, 1e-12);
 }
+
+// A narrowing periodic vessel passes the same flux Q through every section, so the plasma's volume
+// mean velocity gives Q over its mean section V/L, not over pi R0^2; its tube hematocrit is over
+// its own volume. A straight tube's mean section is pi R^2.
+TEST(Hematocrit, ANarrowedVesselTakesItsMeanSection) {
+  const double section = kPi * 50e-6 * 50e-6;
+  EXPECT_DOUBLE_EQ(kTube.mean_section(), section);
+  Tube narrowed = kTube;
+  narrowed.narrowed_section = 0.8 * section;
+  EXPECT_NEAR(total_volume_flux(0.01, 2e-12, narrowed), 0.8 * section * 0.01 + 2e-12, 1e-24);
+  EXPECT_NEAR(total_volume_flux(0.01, 2e-12, kTube), section * 0.01 + 2e-12, 1e-24);
+  EXPECT_NEAR(tube_hematocrit(1000, 90e-18, narrowed), 1000 * 90e-18 / (0.8 * section * 600e-6), 1e-12);
+  EXPECT_NEAR(narrowed.cross_section(), section, 1e-24);  // mu_app's pi R0^2 stays the nominal one
+}
