@@ -128,7 +128,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   choose_window(a, run, opt.window_start, opt.window_end);
 
   const Snapshot first = run.load(0);
-  const Cells reference = select_species(first, kPlatelet);
+  const Cells reference = radii_at_nominal_wall(select_species(first, kPlatelet), *geometry);
   a.msd_reference_time = first.time_s;
 
   std::vector<StationEdges> edges;
@@ -148,7 +148,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
     const Cells rbc = select_species(s, kRbc), plt = select_species(s, kPlatelet);
     a.frames.push_back(
         {s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
-    if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, plt, s.time_s));
+    if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, radii_at_nominal_wall(plt, *geometry), s.time_s));
     if (s.time_s <= a.window_end) {
       end_platelet_r = plt.r;
       end_time = s.time_s;

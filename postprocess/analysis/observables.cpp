@@ -307,6 +307,14 @@ MsdPoint radial_msd(const Cells& reference, double t_reference, const Cells& now
   return p;
 }
 
+Cells radii_at_nominal_wall(const Cells& cells, const VesselGeometry& vessel) {
+  if (vessel.uniform()) return cells;
+  Cells out = cells;
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out.r[i] = cells.r[i] * vessel.nominal_radius() / vessel.radius_at(cells.z[i]);
+  return out;
+}
+
 DiffusionFit fit_diffusivity(const std::vector<MsdPoint>& msd, double t_fit) {
   DiffusionFit fit;
   fit.t_fit = t_fit;

@@ -140,6 +140,10 @@ struct MsdPoint {
 };
 // Cells absent from either snapshot are left out; no match gives msd NaN.
 MsdPoint radial_msd(const Cells& reference, double t_reference, const Cells& now, double t_now);
+// The cells with each radius taken relative to the local wall, in metres of the nominal tube:
+// r R0 / R(z). A particle that follows a streamline through a narrowing keeps it, so a radial MSD
+// of these counts dispersion, not the streamlines' convergence. Unchanged where R is uniform.
+Cells radii_at_nominal_wall(const Cells& cells, const VesselGeometry& vessel);
 
 struct DiffusionFit {
   double diffusivity = 0;  // D, m^2/s (NaN with no point in the window)

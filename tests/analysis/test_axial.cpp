@@ -120,3 +120,20 @@ TEST(AxialObservables, StraightTubeIsTheEdgeMethodPerStation) {
   EXPECT_NEAR(mean, cfl_thickness_edge({edges}, tube).thickness, 1e-15);
   EXPECT_NEAR(o.cfl.back(), 50e-6 - (10e-6 + 0.5e-6 * 59) - kRbcDiameter / 2, 1e-15);  // the outermost, last
 }
+
+// The platelets' radial MSD in a narrowing vessel: a platelet that follows its streamline from the
+// straight part (r = 0.5 R0) into the throat (r = 0.5 R_throat) has moved 0.5 (R0 - R_throat) in r
+// but not at all relative to the wall: taken at r R0 / R(z) its displacement is zero. A straight
+// tube's cells are left as they are, bit for bit.
+TEST(AxialObservables, RadialMsdFollowsTheLocalWall) {
+  const auto g = stenosis();
+  const double r0 = 50e-6, rt = g->throat_radius();
+  Snapshot before, after;
+  add_particle(before, 1, kPlatelet, 0.5 * r0, 0.3, 10e-6, 0.01);
+  add_particle(after, 1, kPlatelet, 0.5 * rt, 0.3, 300e-6 + 600e-6, 0.01);  // the throat, one period on
+  const Cells b = select_species(before, kPlatelet), a = select_species(after, kPlatelet);
+  EXPECT_NEAR(radial_msd(b, 0, a, 0.1).msd_m2, std::pow(0.5 * (r0 - rt), 2), 1e-24);
+  EXPECT_NEAR(radial_msd(radii_at_nominal_wall(b, *g), 0, radii_at_nominal_wall(a, *g), 0.1).msd_m2, 0, 1e-24);
+  const auto straight = hemo::make_vessel_geometry(hemo::Vessel{100e-6, 600e-6});
+  EXPECT_EQ(radii_at_nominal_wall(a, *straight).r, a.r);
+}
