@@ -47,6 +47,14 @@ class VesselGeometry {
   virtual double throat_radius() const = 0;
   // Whether R(z) is the same everywhere (the DEM may then use its cylinder primitive).
   virtual bool uniform() const { return false; }
+  // The centre-line speed at axial coordinate z of a flow whose fastest centre-line speed (at the
+  // throat) is `fastest`, m/s: every section passes the same flux, and a section's profile is
+  // Poiseuille's in lubrication theory (slopes << 1), so u_c(z) = fastest (R_throat / R(z))^2.
+  // Exactly `fastest` in a uniform vessel.
+  double centreline_speed_at(double z, double fastest) const {
+    const double ratio = throat_radius() / radius_at(z);
+    return fastest * ratio * ratio;
+  }
 
   // The vessel's volume, m^3: the integral of pi R(z)^2 over the length.
   virtual double volume() const;
@@ -74,8 +82,8 @@ class VesselGeometry {
 };
 
 // The wall surface the DEM collides with: triangles on r = R(z), `around` vertices per station
-// (on the station's circle: the facets' chords lie R (1 - cos(pi / around)) inside it) at `along` + 1 equally spaced stations over [0, length], each
-// quad between stations split in two; normals point into the vessel.
+// (on the station's circle: the facets' chords lie R (1 - cos(pi / around)) inside it) at `along` + 1 equally spaced
+// stations over [0, length], each quad between stations split in two; normals point into the vessel.
 struct WallTriangle {
   std::array<VesselGeometry::Point, 3> vertex;
 };

@@ -131,7 +131,8 @@ void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const 
     ff = held_fluid_force(step.held[i], vi, other, update_ == Update::held);
     step_cells_[i] = static_cast<int>(step.held[i][kCell]);
   }
-  if (cell_plasma_) cell_plasma_->add(step_cells_[i], step.duration * exchanged(ff), step.duration * ff.ratio * ff.beta);
+  if (cell_plasma_)
+    cell_plasma_->add(step_cells_[i], step.duration * exchanged(ff), step.duration * ff.ratio * ff.beta);
   if (rotation) orientation_.kick_and_store(step.spin, i, t, *rotation, spin, ff.torque);
 }
 
@@ -180,7 +181,8 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
   if (forces.needs_gradient()) {
     flow.gradient = fluid.gradient(cell);
     flow.shear_rate = fluid.shear_rate(cell);
-    flow.centreline_speed = centreline_speed_;
+    // The fastest cell is at the narrowest section: the local section's own centre-line speed.
+    flow.centreline_speed = locator_.geometry().centreline_speed_at(p.x.z(), centreline_speed_);
     flow.vessel_diameter = 2 * locator_.wall_radius(p.x.z());
   }
   flow.axis = p.axis;

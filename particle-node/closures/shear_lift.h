@@ -6,7 +6,7 @@
 //   a = 110.88, b = 0.00206, c = -302.345,  beta = d / D
 //
 // D the vessel's diameter at the particle (its local 2 R(z) on a shape that narrows), u_max the centre-line velocity (the engine takes the largest cell
-// velocity of the fluid state), gamma_dot the local shear rate, Re = d |u_r| / nu the particle
+// velocity of the fluid state, scaled to the local section in a vessel that narrows), gamma_dot the local shear rate, Re = d |u_r| / nu the particle
 // Reynolds number (our reading; at these Re the b term is negligible either way).
 // In Poiseuille flow s = r/R, and C_L > 0 for s < sqrt(a/|c|) = 0.606, < 0 beyond.
 // SIGN: C_L > 0 pushes the particle down the velocity gradient, toward slower plasma (toward

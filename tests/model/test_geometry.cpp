@@ -93,6 +93,21 @@ TEST(VesselGeometry, StenosisRadiusIsTheCosineConstriction) {
   }
 }
 
+// A section's centre-line speed follows from the fastest one at the throat: every section of a
+// Poiseuille-like flow passes the same flux pi R^2 u_c / 2. The straight tube's is the fastest.
+TEST(VesselGeometry, CentrelineSpeedKeepsEverySectionsFluxTheThroats) {
+  const auto straight = make_vessel_geometry(Vessel{100e-6, 600e-6});
+  EXPECT_EQ(straight->centreline_speed_at(123e-6, 0.02), 0.02);
+  const auto g = make_vessel_geometry(stenosis(0.5, 400));
+  const double fastest = 0.04, throat_flux = units::pi * std::pow(g->throat_radius(), 2) * fastest / 2;
+  EXPECT_NEAR(g->centreline_speed_at(600e-6, fastest), fastest, 1e-15);
+  EXPECT_NEAR(g->centreline_speed_at(100e-6, fastest), fastest / 2, 1e-15);  // A = 0.5: half the area
+  for (double z : {0.0, 420e-6, 500e-6, 560e-6, 700e-6, 1100e-6}) {
+    const double R = g->radius_at(z);
+    EXPECT_NEAR(units::pi * R * R * g->centreline_speed_at(z, fastest) / 2, throat_flux, 1e-12 * throat_flux) << z;
+  }
+}
+
 // V = pi R0^2 [(L - L_s) + L_s ((1 - s/2)^2 + (s/2)^2 / 2)]: the integral of pi R^2 over the
 // cosine, in closed form; for several severities and a constriction as long as the vessel.
 TEST(VesselGeometry, StenosisVolumeIsTheClosedFormIntegral) {
@@ -133,8 +148,8 @@ TEST(VesselGeometry, StenosisSignedDistanceAndNormalMatchFiniteDifferences) {
       }
       const Point n = g->outward_normal(x);
       EXPECT_NEAR(n.norm(), 1, 1e-14);
-      EXPECT_NEAR((grad - n).norm(), 0, 1e-5) << "A = " << A << " at " << x.transpose() << ": grad "
-                                               << grad.transpose() << ", normal " << n.transpose();
+      EXPECT_NEAR((grad - n).norm(), 0, 1e-5)
+          << "A = " << A << " at " << x.transpose() << ": grad " << grad.transpose() << ", normal " << n.transpose();
     }
     // A point on the wall is at distance 0.
     for (double z : {0.4e-3, 0.55e-3, 0.6e-3, 0.71e-3}) {
@@ -241,5 +256,6 @@ TEST(VesselGeometry, SceneRefusesWhatANarrowingVesselCannotHave) {
   EXPECT_EQ(small[0].key, "vessel.length_um");
   EXPECT_EQ(small[0].message.rfind("a vessel.shape that narrows has a LIGGGHTS mesh wall", 0), 0u) << small[0].message;
   EXPECT_TRUE(problems("[vessel]\ndiameter_um = 40\nlength_um = 80\n" + stenosis + driving).empty());  // spans 100 um
-  EXPECT_TRUE(problems("[vessel]\ndiameter_um = 40\nlength_um = 60\n" + driving).empty());  // the straight tube's zcylinder
+  EXPECT_TRUE(
+      problems("[vessel]\ndiameter_um = 40\nlength_um = 60\n" + driving).empty());  // the straight tube's zcylinder
 }
