@@ -1,7 +1,7 @@
 // What happens at the vessel's two ends along z (vessel.ends), and, for open ends, what the inlet
 // takes in (vessel.inlet): one registration each, read by the scene (names, refusals,
 // `hemocosim check`) and the fluid node's mesh and case (fluid-node/vessel_mesh.cpp,
-// fluid_case.cpp); docs/model.md §1.1, docs/design.md "Open ends".
+// fluid_case.cpp); docs/model.md §1.2, docs/design.md "Open ends".
 //
 //   vessel.ends  "periodic"  (default) z = 0 and z = length are one cyclic pair; the body force
 //                            G = dP / (rho l) drives the whole vessel.

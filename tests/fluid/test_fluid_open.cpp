@@ -1,4 +1,4 @@
-// Verification of open vessels (model/vessel_ends.h; docs/fluid-verification.md §6): the real
+// Verification of open vessels (model/vessel_ends.h; docs/fluid-verification.md §13): the real
 // hemocosim-fluid under the coordinator, plasma alone (hemocosim-prescribed-particles --mode none),
 // each open vessel against the periodic vessel on the same mesh. Every number asserted is printed.
 //

@@ -4,8 +4,11 @@
 #include <hemo/mesh_t.hpp>
 
 #include "geometry.h"
+#include "minimal_scene.h"
+#include "scene.h"
 #include "vessel_mesh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -398,6 +401,29 @@ TEST(VesselMesh, FeederIsADisconnectedPeriodicTubeTheInletSamples) {
     }
     EXPECT_EQ(nearest, expected) << "inlet face " << i;
     EXPECT_NEAR(sample[2], b.geo.cell_centres[expected][2], 1e-12);
+  }
+}
+
+// Every registered shape takes open ends and a feeder: its vessel region is the periodic
+// vessel's, cell by cell, and the feeder's radius is the shape's at the inlet.
+TEST(VesselMesh, EveryShapeOpensWithAFeederOfItsInletsRadius) {
+  for (const auto& shape : hemo::vessel_shapes()) {
+    const std::string text = "[vessel]\ndiameter_um = 100\nlength_um = 600\nshape = \"" + shape.name + "\"\n" +
+                             shape.example + "\n[driving]\nwall_shear_rate_per_s = 799\n";
+    hemo::Vessel v = hemo::load_scene(hemo::test::write_temp(text)).vessel;
+    const auto periodic = build(4, 3, 12, v);
+    v.ends = "open";
+    const auto open = build(4, 3, 12, v);
+    for (int c = 0; c < periodic.mesh.n_cells; ++c)
+      EXPECT_EQ(open.geo.cell_volumes[c], periodic.geo.cell_volumes[c]) << shape.name << " cell " << c;
+    ASSERT_EQ(open.mesh.cell_zones.size(), 1u) << shape.name;
+    // The feeder's wall: its faces' centres touch the circle of R(0) (the circumscribed polygon).
+    const auto& wall = open.mesh.patch("feeder_wall");
+    const double inlet_radius = hemo::make_vessel_geometry(v)->radius_at(0);
+    double nearest = 1e300;
+    for (int f = wall.start; f < wall.start + wall.size; ++f)
+      nearest = std::min(nearest, std::hypot(open.geo.face_centres[f][0] - 150e-6, open.geo.face_centres[f][1]));
+    EXPECT_NEAR(nearest, inlet_radius, 1e-3 * inlet_radius) << shape.name;
   }
 }
 
