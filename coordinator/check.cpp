@@ -75,7 +75,11 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
     fmt::print(
         "  ends        open: inlet {} at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate), outlet "
         "p = 0{}\n",
-        s.vessel.inlet, nominal_flow_rate(s), fed_by_feeder(s.vessel) ? "; a periodic feeder beside it" : "");
+        s.vessel.inlet, nominal_flow_rate(s),
+        fed_by_feeder(s.vessel)
+            ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
+                          s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))
+            : std::string());
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
              rbcs + platelets == 0 ? std::string()
              : placement_checked(s)

@@ -4,6 +4,9 @@
 #include "named_table.h"
 #include "scene.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace hemo {
 
 const std::vector<VesselEnds>& vessel_ends() {
@@ -41,5 +44,10 @@ bool fed_by_feeder(const Vessel& vessel) {
 double feeder_axis_x(const Vessel& vessel) { return 3 * vessel.radius(); }
 
 double feeder_length(const Vessel& vessel) { return vessel.diameter; }
+
+int feeder_axial_cells(const Vessel& vessel, int axial_cells) {
+  const double dz = vessel.length / axial_cells;
+  return std::max(2, static_cast<int>(std::lround(feeder_length(vessel) / dz)));
+}
 
 }  // namespace hemo

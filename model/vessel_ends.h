@@ -59,5 +59,8 @@ bool fed_by_feeder(const Vessel& vessel);
 // z, so its length matters only for the cells it will carry).
 double feeder_axis_x(const Vessel& vessel);
 double feeder_length(const Vessel& vessel);
+// The feeder's layers: as long as the vessel's cells (`axial_cells` over its length), at least two
+// (a cyclic pair of one layer would couple a cell to itself).
+int feeder_axial_cells(const Vessel& vessel, int axial_cells);
 
 }  // namespace hemo
