@@ -1,11 +1,13 @@
 // hemocosim check: validate a scene and say what it will run.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
+#include "driving.h"
 #include "geometry.h"
 #include "placement.h"
 #include "resource_estimate.h"
 #include "scene.h"
 #include "units.h"
+#include "vessel_ends.h"
 
 #include <fmt/format.h>
 
@@ -69,6 +71,15 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
                s.vessel.shape, 2 * g->throat_radius() / units::um);
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
+  if (open_ends(s.vessel))
+    fmt::print(
+        "  ends        open: inlet {} at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate), outlet "
+        "p = 0{}\n",
+        s.vessel.inlet, nominal_flow_rate(s),
+        fed_by_feeder(s.vessel)
+            ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
+                          s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))
+            : std::string());
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
              rbcs + platelets == 0 ? std::string()
              : placement_checked(s)

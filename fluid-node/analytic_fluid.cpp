@@ -71,6 +71,8 @@ int main(int argc, char** argv) {
 
   try {
     const hemo::FluidSettings fluid = hemo::fluid_settings(scene);
+    // Its flows are the periodic vessel's: an open one has a feeder region and an entrance.
+    if (fluid.open_ends) throw std::runtime_error("the analytic fluid runs periodic vessels only (vessel.ends)");
     const hemo::PolyMesh mesh = hemo::make_vessel_mesh(scene.vessel, scene.mesh);
     const hemo::MeshGeometry geometry = hemo::compute_geometry(mesh);
     hemo::mesh_t mesh_msg;

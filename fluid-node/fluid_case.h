@@ -9,6 +9,7 @@
 #include <momentum_forms.h>
 #include <scene.h>
 #include <suspension_viscosity.h>
+#include <vessel_ends.h>
 
 #include <optional>
 #include <string>
@@ -31,6 +32,9 @@ struct FluidSettings {
   bool publish_pressure_gradient = false;   // the form puts F_p on the particles: grad P goes with the state
   bool publish_viscous_force = false;       // the form puts F_v on the particles: div tau goes with the state
   bool publish_face_flux_velocity = false;  // coupling.plasma_velocity = "face_flux": U from the face fluxes
+  bool open_ends = false;                   // vessel.ends: an inlet and an outlet (vessel_ends.h)
+  double inlet_flow_rate = 0;               // m^3/s, open ends: Q = pi R0^3 gamma_w / 4 (driving.h)
+  VesselInlet::Profile inlet_profile = VesselInlet::Profile::feeder;  // open ends: vessel.inlet
 };
 
 FluidSettings fluid_settings(const Scene& scene);
@@ -46,7 +50,9 @@ std::optional<std::string> unresolved_mesh_problem(const MeshGeometry& geometry,
 enum class InitialFlow { rest, poiseuille };
 
 // Writes the case directory: system/{controlDict,fvSchemes,fvSolution}, constant/polyMesh,
-// 0/{U,p}. The time step is the coupling interval; the case writes nothing unless asked.
+// 0/{U,p}. The time step is the coupling interval; the case writes nothing unless asked. An open
+// vessel's boundary conditions: the inlet's velocity as vessel.inlet says, carrying
+// fluid.inlet_flow_rate, p zeroGradient there; the outlet p = 0, U inletOutlet.
 void write_case(const std::string& case_dir, const FluidSettings& fluid, const Vessel& vessel, const PolyMesh& mesh,
                 const MeshGeometry& geometry, InitialFlow initial);
 

@@ -30,6 +30,7 @@ Usage
 
 #include "fvCFD.H"
 #include "pisoControl.H"
+#include "constrainPressure.H"
 #include "fluidLink.H"
 #include "fluidCheckpoint.H"
 

@@ -3,6 +3,7 @@
 #include "vessel_mesh.h"
 
 #include <geometry.h>
+#include <vessel_ends.h>
 #include <hemo/mesh_t.hpp>
 
 #include <algorithm>
@@ -306,20 +307,95 @@ void add_boundary_faces(const Section& sec, const SectionEdges& edges, const Lay
   mesh.patches = {wall, inlet, outlet};
 }
 
-}  // namespace
-
-PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
-  check_mesh_request(vessel, spec, shape);
+// One periodic vessel region: the section of radius `vessel`'s R0 extruded over nz layers along
+// its shape, its ends a cyclic pair.
+PolyMesh vessel_region(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape, int nz) {
   const Section sec = make_section(vessel.radius(), vessel.radius() * spec.wall_corner_radius(), spec.core_cells,
                                    spec.ring_cells, shape);
   const Layers at{static_cast<int>(sec.nodes.size()), static_cast<int>(sec.quads.size())};
-  const int nz = spec.axial_cells;
   PolyMesh mesh;
   mesh.n_cells = at.quads * nz;
   extrude_points(sec, *make_vessel_geometry(vessel), nz, mesh);
   const SectionEdges edges = section_edges(sec);
   add_internal_faces(sec, edges, at, nz, mesh);
   add_boundary_faces(sec, edges, at, nz, vessel.length, mesh);
+  return mesh;
+}
+
+// `b` appended to `a` as a disconnected region, moved by `shift`: a's internal faces, b's, a's
+// boundary faces, b's (OpenFOAM's order: internal faces upper-triangular, then patch by patch);
+// b's patches named by `rename`, its cells the zone `zone`.
+PolyMesh append_region(const PolyMesh& a, const PolyMesh& b, const Vec3& shift,
+                       const std::map<std::string, std::string>& rename, const std::string& zone) {
+  PolyMesh m;
+  const int pa = static_cast<int>(a.points.size()), ca = a.n_cells;
+  const int ai = a.n_internal_faces(), bi = b.n_internal_faces();
+  m.points = a.points;
+  for (const auto& p : b.points) m.points.push_back(p + shift);
+  auto add_faces = [&](const PolyMesh& from, int begin, int end, int point_offset, int cell_offset) {
+    for (int f = begin; f < end; ++f) {
+      std::vector<int> face = from.faces[static_cast<std::size_t>(f)];
+      for (int& p : face) p += point_offset;
+      m.faces.push_back(std::move(face));
+      m.owner.push_back(from.owner[static_cast<std::size_t>(f)] + cell_offset);
+      if (f < from.n_internal_faces()) m.neighbour.push_back(from.neighbour[static_cast<std::size_t>(f)] + cell_offset);
+    }
+  };
+  add_faces(a, 0, ai, 0, 0);
+  add_faces(b, 0, bi, pa, ca);
+  add_faces(a, ai, a.n_faces(), 0, 0);
+  add_faces(b, bi, b.n_faces(), pa, ca);
+  for (PatchInfo p : a.patches) {
+    p.start += bi;
+    m.patches.push_back(p);
+  }
+  for (PatchInfo p : b.patches) {
+    p.start += a.n_faces();
+    p.name = rename.at(p.name);
+    if (!p.neighbour.empty()) p.neighbour = rename.at(p.neighbour);
+    m.patches.push_back(p);
+  }
+  m.cell_zones = a.cell_zones;
+  m.cell_zones.push_back({zone, ca, b.n_cells});
+  m.n_cells = ca + b.n_cells;
+  return m;
+}
+
+// An open vessel's ends: the inlet takes what vessel.inlet says, the outlet is a plain patch.
+// A feeder inlet samples, with OpenFOAM's mapped patch, the cell of the feeder's last layer that
+// holds the inlet face's centre moved onto the feeder's axis; the feeder's flow is the same in
+// every layer (periodic, uniform along z), so its end section is any one of them.
+void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape, PolyMesh& mesh) {
+  for (PatchInfo& p : mesh.patches) {
+    if (p.type != "cyclic") continue;
+    p.type = "patch";
+    p.neighbour.clear();
+    p.separation = {0, 0, 0};
+  }
+  if (!fed_by_feeder(vessel)) return;
+  const double inlet_radius = make_vessel_geometry(vessel)->radius_at(0);
+  Vessel feeder{2 * inlet_radius, feeder_length(vessel)};
+  const int nz = feeder_axial_cells(vessel, spec.axial_cells);
+  const PolyMesh region = vessel_region(feeder, spec, shape, nz);
+  const Vec3 shift{feeder_axis_x(vessel), 0, 0};
+  mesh = append_region(mesh, region, shift,
+                       {{patch_name::wall, patch_name::feeder_wall},
+                        {patch_name::inlet, patch_name::feeder_inlet},
+                        {patch_name::outlet, patch_name::feeder_outlet}},
+                       feeder_zone);
+  for (PatchInfo& p : mesh.patches)
+    if (p.name == patch_name::inlet) {
+      p.type = "mappedPatch";
+      p.sample_offset = {shift[0], 0, feeder.length * (1 - 0.5 / nz)};
+    }
+}
+
+}  // namespace
+
+PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
+  check_mesh_request(vessel, spec, shape);
+  PolyMesh mesh = vessel_region(vessel, spec, shape, spec.axial_cells);
+  if (open_ends(vessel)) open_the_ends(vessel, spec, shape, mesh);
   return mesh;
 }
 
@@ -412,6 +488,13 @@ std::string mesh_hash(const PolyMesh& mesh) {
     h.text(p.type);
     h.value(static_cast<std::int32_t>(p.start));
     h.value(static_cast<std::int32_t>(p.size));
+    if (p.type == "mappedPatch") h.bytes(p.sample_offset.data(), sizeof(double) * 3);
+  }
+  // (Only a mesh with zones hashes them: a periodic vessel's hash is what it always was.)
+  for (const auto& z : mesh.cell_zones) {
+    h.text(z.name);
+    h.value(static_cast<std::int32_t>(z.first));
+    h.value(static_cast<std::int32_t>(z.size));
   }
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h.h));
@@ -463,6 +546,13 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
       if (p.type == "cyclic") s += "        inGroups        1(cyclic);\n";
       s += "        nFaces          " + std::to_string(p.size) + ";\n";
       s += "        startFace       " + std::to_string(p.start) + ";\n";
+      if (p.type == "mappedPatch") {
+        // nearestCell: the value of the cell holding face centre + offset (no interpolation).
+        s += "        sampleMode      nearestCell;\n";
+        s += "        offsetMode      uniform;\n";
+        s += "        offset          (" + fmt_double(p.sample_offset[0]) + " " + fmt_double(p.sample_offset[1]) + " " +
+             fmt_double(p.sample_offset[2]) + ");\n";
+      }
       if (p.type == "cyclic") {
         s += "        matchTolerance  0.0001;\n";
         s += "        transform       translational;\n";
@@ -475,6 +565,20 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
     s += ")\n";
     write_file(dir / "boundary", s);
   }
+  if (mesh.cell_zones.empty()) {
+    fs::remove(dir / "cellZones");
+    return;
+  }
+  std::string s = foam_header("regIOobject", "cellZones");
+  s += std::to_string(mesh.cell_zones.size()) + "\n(\n";
+  for (const auto& z : mesh.cell_zones) {
+    s += z.name + "\n{\n    type            cellZone;\n    cellLabels      List<label> " + std::to_string(z.size) +
+         "\n(\n";
+    for (int c = z.first; c < z.first + z.size; ++c) s += std::to_string(c) + "\n";
+    s += ")\n;\n}\n";
+  }
+  s += ")\n";
+  write_file(dir / "cellZones", s);
 }
 
 void fill_mesh_message(const PolyMesh& mesh, const MeshGeometry& geometry, const Vessel& vessel, mesh_t& msg) {

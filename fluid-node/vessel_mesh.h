@@ -1,8 +1,10 @@
-// The fluid mesh of the periodic vessel: an O-grid disk (square core and four ring blocks)
-// extruded along z, each axial station's section scaled to the vessel shape's local radius R(z)
+// The fluid mesh of the vessel: an O-grid disk (square core and four ring blocks) extruded along
+// z, each axial station's section scaled to the vessel shape's local radius R(z)
 // (model/geometry.h; the wall polygon's sides tangent to, or corners on, that station's circle),
-// generated in plain C++ in OpenFOAM's polyMesh order, written as
-// constant/polyMesh and packed into the mesh message the particle node locates particles with.
+// generated in plain C++ in OpenFOAM's polyMesh order, written as constant/polyMesh and packed
+// into the mesh message the particle node locates particles with. A periodic vessel's ends are a
+// cyclic pair; an open vessel's are an inlet and an outlet, and a feeder inlet adds the feeder
+// vessel as a second, disconnected region of the same mesh (model/vessel_ends.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -27,11 +29,18 @@ struct OGridShape {
 
 struct PatchInfo {
   std::string name;
-  std::string type;          // "wall" or "cyclic"
-  int start = 0;             // first face
-  int size = 0;              // number of faces
-  std::string neighbour;     // cyclic partner patch
-  Vec3 separation{0, 0, 0};  // cyclic: neighbour face centre minus this face centre
+  std::string type;             // "wall", "cyclic", "patch" (open end) or "mappedPatch" (fed inlet)
+  int start = 0;                // first face
+  int size = 0;                 // number of faces
+  std::string neighbour;        // cyclic partner patch
+  Vec3 separation{0, 0, 0};     // cyclic: neighbour face centre minus this face centre
+  Vec3 sample_offset{0, 0, 0};  // mappedPatch: the point sampled (in the cell holding it) minus the face centre
+};
+
+// Cells [first, first + size) under a name (constant/polyMesh/cellZones).
+struct CellZone {
+  std::string name;
+  int first = 0, size = 0;
 };
 
 // An unstructured polyhedral mesh in OpenFOAM order: internal faces first, upper-triangular
@@ -43,6 +52,7 @@ struct PolyMesh {
   std::vector<int> owner;
   std::vector<int> neighbour;  // size = number of internal faces
   std::vector<PatchInfo> patches;
+  std::vector<CellZone> cell_zones;  // the feeder's cells; none in a periodic vessel
   int n_cells = 0;
 
   int n_internal_faces() const { return static_cast<int>(neighbour.size()); }
@@ -62,11 +72,19 @@ struct MeshGeometry {
 // Patch names of the vessel mesh.
 namespace patch_name {
 inline constexpr const char* wall = "wall";
-inline constexpr const char* inlet = "inlet";    // z = 0, cyclic partner of outlet
+inline constexpr const char* inlet = "inlet";    // z = 0: cyclic partner of outlet, or an open inlet
 inline constexpr const char* outlet = "outlet";  // z = length
+// The feeder of a fed open vessel: its wall and its own cyclic pair.
+inline constexpr const char* feeder_wall = "feeder_wall";
+inline constexpr const char* feeder_inlet = "feeder_inlet";
+inline constexpr const char* feeder_outlet = "feeder_outlet";
 }  // namespace patch_name
 
-// Generates the O-grid vessel mesh. Throws std::invalid_argument on impossible input.
+// The cell zone of the feeder's cells, the only ones the body force G drives in an open vessel.
+inline constexpr const char* feeder_zone = "feeder";
+
+// Generates the O-grid vessel mesh: the vessel's cells first (the same mesh, to the bit, whatever
+// its ends), then the feeder's when it has one. Throws std::invalid_argument on impossible input.
 PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape = {});
 
 MeshGeometry compute_geometry(const PolyMesh& mesh);

@@ -25,6 +25,8 @@ double driving_pressure_drop(const Scene& scene) {
   throw std::invalid_argument("driving: pressure_drop and wall_shear_rate must not be negative");
 }
 
+double nominal_flow_rate(const Scene& scene) { return flow_rate_of(scene.vessel.radius(), wall_shear_rate(scene)); }
+
 double vessel_volume(const Vessel& v) {
   if (!(v.diameter > 0) || !(v.length > 0)) return 0;
   return make_vessel_geometry(v)->volume();

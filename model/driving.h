@@ -22,6 +22,12 @@ inline double pressure_drop_of(double wall_shear_rate, double diameter, double v
   return 4 * viscosity * length * wall_shear_rate / diameter;
 }
 
+// Q = pi R^3 gamma_w / 4, m^3/s: the flow rate of Poiseuille flow with wall shear rate gamma_w in
+// a tube of radius R (m) — what an open vessel's inlet takes in (vessel_ends.h).
+inline double flow_rate_of(double radius, double wall_shear_rate) {
+  return units::pi * radius * radius * radius * wall_shear_rate / 4;
+}
+
 // tau_w = d dP / (4 l), Pa: the wall shear stress that balances the driving.
 inline double wall_shear_stress_of(double diameter, double pressure_drop, double length) {
   return diameter * pressure_drop / (4 * length);
@@ -35,6 +41,10 @@ double wall_shear_rate(const Scene& scene);
 // `driving.wall_shear_rate` (the pressure drop wins when both are set, as load_scene does).
 // Both zero: no driving, 0. Throws std::invalid_argument when either is negative.
 double driving_pressure_drop(const Scene& scene);
+
+// The flow rate the scene's driving gives in its nominal tube (radius R0, the scene's wall shear
+// rate), m^3/s: an open vessel's inlet flow rate.
+double nominal_flow_rate(const Scene& scene);
 
 // The vessel's volume, m^3: its shape's (model/geometry.h; pi R^2 l for the straight tube); 0 for a
 // vessel without a positive diameter and length.

@@ -10,6 +10,7 @@
 #include "hosts.h"
 #include "placement.h"
 #include "units.h"
+#include "vessel_ends.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -344,6 +345,24 @@ void read_species(Reader& r, Species& s, bool rbc) {
 }
 
 }  // namespace
+
+// vessel.ends and vessel.inlet (model/vessel_ends.h); periodic ends ignore the inlet, as a shape
+// ignores the parameters it does not take.
+static void read_vessel_ends(Reader& r, Vessel& v) {
+  read_name(r, "vessel.ends", v.ends, vessel_end_names());
+  read_name(r, "vessel.inlet", v.inlet, vessel_inlet_names());
+}
+
+// Cells in an open vessel need the inlet to hand developed cells over and the outlet to remove
+// them (issue #34's next slice): until then an open vessel carries plasma alone.
+static void refuse_cells_in_open_vessel(Reader& r, const Scene& s) {
+  const auto names = vessel_end_names();
+  if (std::find(names.begin(), names.end(), s.vessel.ends) == names.end()) return;  // refused as read
+  const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
+  r.refuse_once(!cells || !open_ends(s.vessel), "vessel.ends",
+                "an open vessel carries plasma alone for now (no inlet hand-over or outlet removal of cells yet): "
+                "remove rbc.hematocrit and platelet.number_density_per_ul, or use vessel.ends = \"periodic\"");
+}
 
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
                         SceneCheck check = SceneCheck::values);
@@ -756,6 +775,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
     r.check(*value > 0, key, "must be positive");
   }
   read_vessel_shape(r, s.vessel);
+  read_vessel_ends(r, s.vessel);
 
   r.read("mesh.core_cells", s.mesh.core_cells);
   r.read("mesh.ring_cells", s.mesh.ring_cells);
@@ -787,6 +807,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);
+  refuse_cells_in_open_vessel(r, s);
 
   auto& c = s.contact;
   r.read("contact.cell_youngs_modulus_Pa", c.cell_youngs_modulus);

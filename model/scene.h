@@ -13,12 +13,15 @@
 
 namespace hemo {
 
-// The vessel: periodic along z over [0, length), axisymmetric, its wall r = R(z) given by the
-// shape (model/geometry.h, where each shape and its parameters are registered and described).
+// The vessel: along z over [0, length), axisymmetric, its wall r = R(z) given by the shape
+// (model/geometry.h, where each shape and its parameters are registered and described); periodic
+// or open at its ends (model/vessel_ends.h).
 struct Vessel {
   double diameter = 0;  // m, the nominal diameter 2 R0 (the whole length of a straight tube)
-  double length = 0;    // m, periodic along z
+  double length = 0;    // m, along z (the period of a periodic vessel)
   std::string shape = "straight";
+  std::string ends = "periodic";  // vessel_ends.h
+  std::string inlet = "feeder";   // vessel_ends.h: what an open vessel's inlet takes in
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   double radius() const { return diameter / 2; }

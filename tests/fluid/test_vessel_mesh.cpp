@@ -4,8 +4,11 @@
 #include <hemo/mesh_t.hpp>
 
 #include "geometry.h"
+#include "minimal_scene.h"
+#include "scene.h"
 #include "vessel_mesh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -315,6 +318,132 @@ TEST(VesselMesh, WritesPolyMesh) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("neighbourPatch  outlet;"), std::string::npos);
   EXPECT_NE(text.find("transform       translational;"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+hemo::Vessel open_vessel(const std::string& inlet) {
+  hemo::Vessel v = paper_vessel();
+  v.ends = "open";
+  v.inlet = inlet;
+  return v;
+}
+
+// Open ends change the ends' patches only: the vessel's points, faces and cells are the periodic
+// vessel's, its inlet and outlet plain patches (the inlet a mapped one with a feeder).
+TEST(VesselMesh, OpenEndsAreTheVesselsMeshWithPatchesForEnds) {
+  const auto periodic = build(4, 3, 6);
+  for (const std::string inlet : {"poiseuille", "feeder"}) {
+    const auto open = build(4, 3, 6, open_vessel(inlet));
+    ASSERT_GE(open.mesh.n_cells, periodic.mesh.n_cells);
+    for (int c = 0; c < periodic.mesh.n_cells; ++c)
+      for (int d = 0; d < 3; ++d)
+        EXPECT_EQ(open.geo.cell_centres[c][d], periodic.geo.cell_centres[c][d]) << inlet << " cell " << c;
+    EXPECT_EQ(open.mesh.patch("inlet").type, inlet == "feeder" ? "mappedPatch" : "patch");
+    EXPECT_EQ(open.mesh.patch("outlet").type, "patch");
+    EXPECT_EQ(open.mesh.patch("inlet").size, periodic.mesh.patch("inlet").size);
+    EXPECT_NE(hemo::mesh_hash(open.mesh), hemo::mesh_hash(periodic.mesh));
+    int next = open.mesh.n_internal_faces();
+    for (const auto& p : open.mesh.patches) {
+      EXPECT_EQ(p.start, next) << p.name;
+      next += p.size;
+    }
+    EXPECT_EQ(next, open.mesh.n_faces());
+  }
+  EXPECT_TRUE(build(4, 3, 6, open_vessel("poiseuille")).mesh.cell_zones.empty());
+}
+
+// The feeder: a straight periodic tube of the inlet's radius beside the vessel, d long in layers
+// as long as the vessel's, its cells a zone after the vessel's and connected to none of them; the
+// point each inlet face samples lies in the feeder's last layer, in the cell of the same section
+// position as the face's own cell.
+TEST(VesselMesh, FeederIsADisconnectedPeriodicTubeTheInletSamples) {
+  const auto b = build(4, 3, 6, open_vessel("feeder"));
+  const auto& m = b.mesh;
+  // d = 100 um long in the vessel's layers of 100 um is one layer: at least two.
+  const int section = 64, vessel_cells = section * 6, feeder_layers = 2;
+  ASSERT_EQ(m.cell_zones.size(), 1u);
+  const auto& zone = m.cell_zones[0];
+  EXPECT_EQ(zone.name, hemo::feeder_zone);
+  EXPECT_EQ(zone.first, vessel_cells);
+  EXPECT_EQ(zone.size, section * feeder_layers);
+  EXPECT_EQ(m.n_cells, vessel_cells + zone.size);
+  for (int f = 0; f < m.n_internal_faces(); ++f)
+    EXPECT_EQ(m.owner[f] < vessel_cells, m.neighbour[f] < vessel_cells) << "face " << f << " joins the regions";
+  const auto& fi = m.patch("feeder_inlet");
+  const auto& fo = m.patch("feeder_outlet");
+  EXPECT_EQ(fi.type, "cyclic");
+  EXPECT_EQ(fi.neighbour, "feeder_outlet");
+  EXPECT_EQ(fo.neighbour, "feeder_inlet");
+  EXPECT_DOUBLE_EQ(fi.separation[2], 100e-6);
+  EXPECT_EQ(m.patch("feeder_wall").type, "wall");
+  const double axis = 150e-6;  // 3 R0
+  for (int c = zone.first; c < zone.first + zone.size; ++c)
+    EXPECT_LT(std::hypot(b.geo.cell_centres[c][0] - axis, b.geo.cell_centres[c][1]), 52e-6);
+  // Sampled points: in the last layer, above the inlet face's own cell's section position.
+  const auto& inlet = m.patch("inlet");
+  const int last_layer_first = zone.first + zone.size - section;
+  for (int i = 0; i < inlet.size; ++i) {
+    const int f = inlet.start + i;
+    const Vec3 sample{b.geo.face_centres[f][0] + inlet.sample_offset[0],
+                      b.geo.face_centres[f][1] + inlet.sample_offset[1],
+                      b.geo.face_centres[f][2] + inlet.sample_offset[2]};
+    const int expected = last_layer_first + m.owner[f];  // the inlet's cells are layer 0: q itself
+    // The nearest cell centre of the feeder is the expected one (the cells are convex prisms of the
+    // same section, the sample sits at mid-layer above a point inside the quad).
+    int nearest = -1;
+    double best = 1e300;
+    for (int c = zone.first; c < zone.first + zone.size; ++c) {
+      const double d = norm(sub(b.geo.cell_centres[c], sample));
+      if (d < best) {
+        best = d;
+        nearest = c;
+      }
+    }
+    EXPECT_EQ(nearest, expected) << "inlet face " << i;
+    EXPECT_NEAR(sample[2], b.geo.cell_centres[expected][2], 1e-12);
+  }
+}
+
+// Every registered shape takes open ends and a feeder: its vessel region is the periodic
+// vessel's, cell by cell, and the feeder's radius is the shape's at the inlet.
+TEST(VesselMesh, EveryShapeOpensWithAFeederOfItsInletsRadius) {
+  for (const auto& shape : hemo::vessel_shapes()) {
+    const std::string text = "[vessel]\ndiameter_um = 100\nlength_um = 600\nshape = \"" + shape.name + "\"\n" +
+                             shape.example + "\n[driving]\nwall_shear_rate_per_s = 799\n";
+    hemo::Vessel v = hemo::load_scene(hemo::test::write_temp(text)).vessel;
+    const auto periodic = build(4, 3, 12, v);
+    v.ends = "open";
+    const auto open = build(4, 3, 12, v);
+    for (int c = 0; c < periodic.mesh.n_cells; ++c)
+      EXPECT_EQ(open.geo.cell_volumes[c], periodic.geo.cell_volumes[c]) << shape.name << " cell " << c;
+    ASSERT_EQ(open.mesh.cell_zones.size(), 1u) << shape.name;
+    // The feeder's wall: its faces' centres touch the circle of R(0) (the circumscribed polygon).
+    const auto& wall = open.mesh.patch("feeder_wall");
+    const double inlet_radius = hemo::make_vessel_geometry(v)->radius_at(0);
+    double nearest = 1e300;
+    for (int f = wall.start; f < wall.start + wall.size; ++f)
+      nearest = std::min(nearest, std::hypot(open.geo.face_centres[f][0] - 150e-6, open.geo.face_centres[f][1]));
+    EXPECT_NEAR(nearest, inlet_radius, 1e-3 * inlet_radius) << shape.name;
+  }
+}
+
+TEST(VesselMesh, WritesTheMappedInletAndTheFeedersZone) {
+  const auto b = build(2, 1, 2, open_vessel("feeder"));
+  const auto dir = std::filesystem::temp_directory_path() / "hemocosim_test_polymesh_open";
+  std::filesystem::remove_all(dir);
+  hemo::write_polymesh(b.mesh, dir.string());
+  auto read = [&](const char* name) {
+    std::ifstream in(dir / "constant" / "polyMesh" / name);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string boundary = read("boundary"), zones = read("cellZones");
+  EXPECT_NE(boundary.find("type            mappedPatch;"), std::string::npos);
+  EXPECT_NE(boundary.find("sampleMode      nearestCell;"), std::string::npos);
+  EXPECT_NE(boundary.find("neighbourPatch  feeder_outlet;"), std::string::npos);
+  EXPECT_NE(zones.find("feeder\n{\n    type            cellZone;"), std::string::npos);
+  // A periodic mesh written over it takes the zones away.
+  hemo::write_polymesh(build(2, 1, 2).mesh, dir.string());
+  EXPECT_FALSE(std::filesystem::exists(dir / "constant" / "polyMesh" / "cellZones"));
   std::filesystem::remove_all(dir);
 }
 

@@ -39,6 +39,20 @@ TEST(Driving, PressureDropAndWallShearRateAreInverse) {
   EXPECT_NEAR(wall_shear_stress_of(d, 23.0112, l), mu * 799, 1e-12);
 }
 
+// An open vessel's inlet takes Poiseuille's flow rate of the scene's wall shear rate in the nominal
+// tube: the paper's 799 1/s in a 100 um tube is pi (50 um)^3 799 / 4 = 7.844e-11 m^3/s (4.7 uL/min),
+// and its mean velocity Q / (pi R^2) is gamma_w d / 8.
+TEST(Driving, TheOpenInletsFlowRateIsPoiseuillesOfTheWallShearRate) {
+  const double R = 50e-6;
+  EXPECT_NEAR(flow_rate_of(R, 799), 7.84416e-11, 1e-16);
+  EXPECT_NEAR(flow_rate_of(R, 799) / (units::pi * R * R), 799 * 2 * R / 8, 1e-15);
+  const Scene s = load_text(test::kMinimalScene);
+  EXPECT_EQ(nominal_flow_rate(s), flow_rate_of(s.vessel.radius(), s.driving.wall_shear_rate));
+  // The same through the pressure drop: Poiseuille's dP = 8 mu Q l / (pi R^4).
+  EXPECT_NEAR(8 * s.plasma.viscosity * nominal_flow_rate(s) * s.vessel.length / (units::pi * std::pow(R, 4)),
+              s.driving.pressure_drop, 1e-12 * s.driving.pressure_drop);
+}
+
 // load_scene fills the driving it was not given from the one it was, through these functions.
 TEST(Driving, SceneLoadingUsesTheRelation) {
   const Scene by_shear = load_text(test::kMinimalScene);

@@ -8,12 +8,14 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "minimal_scene.h"
 #include "momentum_forms.h"
-#include "suspension_viscosity.h"
 #include "scene.h"
+#include "suspension_viscosity.h"
 #include "units.h"
+#include "vessel_ends.h"
 
 using namespace hemo;
 
@@ -180,12 +182,65 @@ implicit_drag = "explicit"
   std::map<std::string, std::string> by_key;
   for (auto& p : ps) by_key[p.key] = p.message;
   EXPECT_NE(by_key["rbc.lift"].find("platelets"), std::string::npos) << by_key["rbc.lift"];
-  EXPECT_NE(by_key["platelet.drag"].find("known: oblate, rbc_fit, schiller_naumann, stokes)"), std::string::npos) << by_key["platelet.drag"];
+  EXPECT_NE(by_key["platelet.drag"].find("known: oblate, rbc_fit, schiller_naumann, stokes)"), std::string::npos)
+      << by_key["platelet.drag"];
   EXPECT_TRUE(by_key.count("platelet.semi_axis_c_um"));
   EXPECT_TRUE(by_key.count("coupling.solid_fraction"));
   EXPECT_NE(by_key["coupling.implicit_drag"].find("interval_response"), std::string::npos);
   EXPECT_NE(by_key["coupling.implicit_drag"].find("co_relaxed"), std::string::npos);
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
+}
+
+// vessel.ends (periodic by default) and vessel.inlet (the feeder by default; periodic ends ignore
+// it), each a registered name (model/vessel_ends.h).
+TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
+  const Scene plain = load_scene(test::write_temp(test::kMinimalScene));
+  EXPECT_EQ(plain.vessel.ends, "periodic");
+  EXPECT_FALSE(open_ends(plain.vessel));
+  EXPECT_FALSE(fed_by_feeder(plain.vessel));
+  auto with = [](const std::string& lines) {
+    return "[vessel]\ndiameter_um = 100\nlength_um = 600\n" + lines + "\n[driving]\nwall_shear_rate_per_s = 799\n";
+  };
+  const Scene fed = load_scene(test::write_temp(with("ends = \"open\"")));
+  EXPECT_TRUE(open_ends(fed.vessel));
+  EXPECT_EQ(fed.vessel.inlet, "feeder");
+  EXPECT_TRUE(fed_by_feeder(fed.vessel));
+  const Scene parabola = load_scene(test::write_temp(with("ends = \"open\"\ninlet = \"poiseuille\"")));
+  EXPECT_TRUE(open_ends(parabola.vessel));
+  EXPECT_FALSE(fed_by_feeder(parabola.vessel));
+  EXPECT_EQ(vessel_inlet(parabola.vessel.inlet).profile, VesselInlet::Profile::parabola);
+  EXPECT_TRUE(problems_of(with("inlet = \"uniform\"")).empty());  // ignored by periodic ends
+  EXPECT_TRUE(problems_of(with("ends = \"open\"\nshape = \"stenosis\"\nstenosis_length_um = 300")).empty());
+  for (const auto& [line, key, known] :
+       {std::tuple{"ends = \"closed\"", "vessel.ends", "known: periodic, open"},
+        std::tuple{"ends = \"open\"\ninlet = \"plug\"", "vessel.inlet", "known: feeder, poiseuille, uniform"}}) {
+    const auto ps = problems_of(with(line));
+    ASSERT_EQ(ps.size(), 1u) << line;
+    EXPECT_EQ(ps[0].key, key);
+    EXPECT_NE(ps[0].message.find(known), std::string::npos) << ps[0].message;
+  }
+}
+
+// An open vessel carries plasma alone until cells can be handed over at its inlet and removed at
+// its outlet (issue #34's next slice): red cells or platelets in it are one problem, on
+// vessel.ends, naming both ways out; the same cells in the periodic vessel are fine, and so are
+// species given at zero.
+TEST(Scene, AnOpenVesselWithCellsIsRefusedInOneLine) {
+  auto with = [](const std::string& ends, const std::string& cells) {
+    return "[vessel]\ndiameter_um = 100\nlength_um = 600\nends = \"" + ends +
+           "\"\n[driving]\nwall_shear_rate_per_s = 799\n" + cells;
+  };
+  for (const std::string cells : {"[rbc]\nhematocrit = 0.1\n", "[platelet]\nnumber_density_per_ul = 300000\n",
+                                  "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n"}) {
+    EXPECT_TRUE(problems_of(with("periodic", cells)).empty()) << cells;
+    const auto ps = problems_of(with("open", cells));
+    ASSERT_EQ(ps.size(), 1u) << cells;
+    EXPECT_EQ(ps[0].key, "vessel.ends");
+    EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
+    EXPECT_NE(ps[0].message.find("plasma alone"), std::string::npos) << ps[0].message;
+    EXPECT_NE(ps[0].message.find("vessel.ends = \"periodic\""), std::string::npos) << ps[0].message;
+  }
+  EXPECT_TRUE(problems_of(with("open", "[rbc]\nhematocrit = 0\n[platelet]\nnumber_density_per_ul = 0\n")).empty());
 }
 
 // dem.neighbour_rebuild = "streaming" is proven and tested on one particle rank only
@@ -305,8 +360,8 @@ TEST(Scene, MissingRequiredKeyIsOneProblem) {
 // whose it is; the key it replaced is refused with one line naming the new one.
 TEST(Scene, MomentumFormsAreTheTablesAndTheOldKeyPointsAtTheNewOne) {
   for (const MomentumForm& form : momentum_forms()) {
-    const Scene s =
-        load_scene(test::write_temp(std::string(test::kMinimalScene) + "[coupling]\nmomentum = \"" + form.name + "\"\n"));
+    const Scene s = load_scene(
+        test::write_temp(std::string(test::kMinimalScene) + "[coupling]\nmomentum = \"" + form.name + "\"\n"));
     EXPECT_EQ(s.momentum, form.name);
     bool listed = false;
     for (const auto& r : numerical_readings(s))

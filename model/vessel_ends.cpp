@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "vessel_ends.h"
+
+#include "named_table.h"
+#include "scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hemo {
+
+const std::vector<VesselEnds>& vessel_ends() {
+  static const std::vector<VesselEnds> all = {
+      {"periodic", "z = 0 and z = l are one cyclic pair, driven by the body force G = dP/(rho l)", false},
+      {"open", "an inlet at z = 0 takes the nominal tube's flow rate, the outlet at z = l holds p = 0", true},
+  };
+  return all;
+}
+
+std::vector<std::string> vessel_end_names() { return names_of(vessel_ends()); }
+
+const VesselEnds& vessel_end(const std::string& name) { return named_entry(vessel_ends(), name, "vessel ends"); }
+
+const std::vector<VesselInlet>& vessel_inlets() {
+  static const std::vector<VesselInlet> all = {
+      {"feeder", "the section of a periodic feeder vessel beside it (OpenFOAM's mapped inlet), scaled to Q",
+       VesselInlet::Profile::feeder},
+      {"poiseuille", "the parabolic profile of Q, fixed", VesselInlet::Profile::parabola},
+      {"uniform", "a flat profile of Q, fixed (the textbook entrance flow)", VesselInlet::Profile::flat},
+  };
+  return all;
+}
+
+std::vector<std::string> vessel_inlet_names() { return names_of(vessel_inlets()); }
+
+const VesselInlet& vessel_inlet(const std::string& name) { return named_entry(vessel_inlets(), name, "vessel inlet"); }
+
+bool open_ends(const Vessel& vessel) { return vessel_end(vessel.ends).open; }
+
+bool fed_by_feeder(const Vessel& vessel) {
+  return open_ends(vessel) && vessel_inlet(vessel.inlet).profile == VesselInlet::Profile::feeder;
+}
+
+double feeder_axis_x(const Vessel& vessel) { return 3 * vessel.radius(); }
+
+double feeder_length(const Vessel& vessel) { return vessel.diameter; }
+
+int feeder_axial_cells(const Vessel& vessel, int axial_cells) {
+  const double dz = vessel.length / axial_cells;
+  return std::max(2, static_cast<int>(std::lround(feeder_length(vessel) / dz)));
+}
+
+}  // namespace hemo
