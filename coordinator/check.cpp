@@ -64,6 +64,10 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   // The counts the particle node places (model/placement.h).
   const long rbcs = particles::rbc_count(s), platelets = particles::platelet_count(s);
   fmt::print("{}: ok\n", scene_path);
+  if (rbcs + platelets == 0 && s.run.particle_command.empty())
+    fmt::print(
+        "  particles   none: `hemocosim run` refuses it (the particle node has nothing to couple) unless "
+        "run.particle_command names a stand-in\n");
   fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
              s.vessel.length / units::um, s.mesh.cells());
   if (const auto g = make_vessel_geometry(s.vessel); !g->uniform())

@@ -3,6 +3,7 @@
 #include "analyze.h"
 #include "commands.h"
 #include "hosts.h"
+#include "placement.h"
 #include "relay.h"
 #include "run_driver.h"
 #include "run_files.h"
@@ -203,6 +204,13 @@ int run_command(const RunOptions& opt) {
   // Refused here, before the run directory and the nodes, what the particle node would refuse at
   // step 0: particles that cannot be placed (the same placement, SceneCheck::placement).
   Scene scene = load_scene(opt.scene, SceneCheck::placement);
+  // The particle node couples particles and nothing else: it would refuse a scene without any at
+  // its start, after the run directory and the fluid node. A plasma-only run brings a stand-in.
+  if (particles::rbc_count(scene) + particles::platelet_count(scene) == 0 && scene.run.particle_command.empty())
+    throw std::runtime_error(opt.scene +
+                             ": the scene has no particles (rbc.hematocrit and platelet.number_density_per_ul "
+                             "give none): the particle node has nothing to couple; a plasma-only run needs a "
+                             "stand-in particle node in run.particle_command");
   try {
     place_nodes(scene, opt);
   } catch (const std::invalid_argument& e) {

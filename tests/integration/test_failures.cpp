@@ -138,6 +138,23 @@ TEST(Failures, UnknownSceneKeyIsRefusedInOneLineNamingIt) {
   EXPECT_FALSE(std::filesystem::exists(dir)) << "a refused scene must not create a run";
 }
 
+// A scene without particles: `check` says what `run` will do, and `run` refuses it in one line
+// before it creates anything (the particle node would stop at its start, after the fluid node).
+TEST(Failures, SceneWithoutParticlesIsRefusedByRunInOneLine) {
+  const std::string dir = fresh_run_dir("no-particles");
+  const std::string path = dir + ".toml";
+  std::ofstream(path) << "[vessel]\ndiameter_um = 100\nlength_um = 600\n[driving]\nwall_shear_rate_per_s = 799\n";
+  const auto check = run(bin("hemocosim") + " check " + path);
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find("particles   none"), std::string::npos) << check.output;
+  const auto r = run(bin("hemocosim") + " run " + path + " --out " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  EXPECT_NE(r.output.find("no particles"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir)) << "a refused scene must not create a run";
+  std::filesystem::remove(path);
+}
+
 TEST(Failures, HelpWorksForEveryCommand) {
   for (const std::string cmd :
        {"hemocosim --help", "hemocosim run --help", "hemocosim check --help", "hemocosim monitor --help",
