@@ -109,19 +109,29 @@ bool H5Output::write(const ParticleSnapshot& s) {
   const std::string name = snapshot_name(s.step);
   const hid_t parent = static_cast<hid_t>(snapshots_);
   if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) > 0) return false;
-  hid_t g = H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  // The snapshot is built in a group with no name and linked under its name only when whole: a
+  // write the disk cuts short (ENOSPC) leaves no half snapshot for a reader or a resume to find.
+  hid_t g = H5Gcreate_anon(parent, H5P_DEFAULT, H5P_DEFAULT);
   if (g < 0) fail("cannot create group " + name);
-  hid_t scalar = H5Screate(H5S_SCALAR);
-  hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
-  H5Awrite(attr, H5T_NATIVE_DOUBLE, &s.time_s);
-  H5Aclose(attr);
-  H5Sclose(scalar);
-  write_dataset(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, s.id.data());
-  write_dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, s.species.data());
-  write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
-  write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
-  write_dataset(g, "orientation", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 4, s.orientation.data());
+  try {
+    hid_t scalar = H5Screate(H5S_SCALAR);
+    hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
+    const herr_t written = attr >= 0 ? H5Awrite(attr, H5T_NATIVE_DOUBLE, &s.time_s) : -1;
+    if (attr >= 0) H5Aclose(attr);
+    H5Sclose(scalar);
+    if (written < 0) fail("cannot write the time of " + name);
+    write_dataset(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, s.id.data());
+    write_dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, s.species.data());
+    write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.position.data());
+    write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, s.velocity.data());
+    write_dataset(g, "orientation", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 4, s.orientation.data());
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
+  const herr_t linked = H5Olink(g, parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT);
   H5Gclose(g);
+  if (linked < 0) fail("cannot link group " + name);
   if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0) fail("cannot flush " + path_);
   return true;
 }
