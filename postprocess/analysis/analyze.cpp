@@ -3,6 +3,7 @@
 
 #include "momentum_balance.h"
 #include "observable_table.h"
+#include "vessel_ends.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -21,12 +22,21 @@ namespace {
 
 // tau_w = d dP / (4 l) is the balance of a wall parallel to the axis: a narrowing vessel's wall
 // takes part of the drop as pressure on its slopes, so there tau_w alone is not judged.
+// An open vessel is driven by its inlet's flow rate, not by an imposed drop: its drop is the one
+// that flow needs on the mesh, and no wall stress is imposed to compare with.
 BalanceVerdict judge_run_balance(const WallShearBalance& b, const Scene& scene) {
+  if (open_ends(scene.vessel)) {
+    BalanceVerdict v;
+    v.why_not_judged =
+        "an open vessel takes its flow rate from the inlet, not an imposed drop: no wall shear stress is imposed";
+    return v;
+  }
   if (!make_vessel_geometry(scene.vessel)->uniform()) {
     BalanceVerdict v;
-    v.why_not_judged = fmt::format("a {} vessel's wall takes part of the drop as pressure on its slopes, so the "
-                                   "wall shear stress alone does not balance it",
-                                   scene.vessel.shape);
+    v.why_not_judged = fmt::format(
+        "a {} vessel's wall takes part of the drop as pressure on its slopes, so the "
+        "wall shear stress alone does not balance it",
+        scene.vessel.shape);
     return v;
   }
   return judge_balance(b, settling_time(scene.vessel.diameter, scene.plasma.kinematic_viscosity()));
@@ -34,7 +44,7 @@ BalanceVerdict judge_run_balance(const WallShearBalance& b, const Scene& scene) 
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kUm = 1e-6;
-constexpr int kFineBins = 4096;  // centre histogram behind the RBC volume fraction
+constexpr int kFineBins = 4096;      // centre histogram behind the RBC volume fraction
 constexpr int kBalancePoints = 200;  // τ_w / τ_w,imposed over time in analysis.json
 
 // The averaging window: the second half of the run unless asked otherwise (an end alone: the
@@ -48,11 +58,11 @@ void choose_window(Analysis& a, const RunData& run, double window_start, double 
     throw RunDataError(fmt::format("{}: window start {} s is after the last snapshot at {} s", run.particles_path,
                                    a.window_start, last));
   if (a.window_end > last)
-    throw RunDataError(fmt::format("{}: window end {} s is after the last snapshot at {} s", run.particles_path,
-                                   a.window_end, last));
+    throw RunDataError(
+        fmt::format("{}: window end {} s is after the last snapshot at {} s", run.particles_path, a.window_end, last));
   if (a.window_end < a.window_start)
-    throw RunDataError(fmt::format("{}: window end {} s is before its start {} s", run.particles_path, a.window_end,
-                                   a.window_start));
+    throw RunDataError(
+        fmt::format("{}: window end {} s is before its start {} s", run.particles_path, a.window_end, a.window_start));
 }
 
 // Window means of the fluid node's metrics, and what follows from them.
@@ -140,7 +150,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   bool stations_chosen = false;
   a.shape = run.scene.vessel.shape;
   std::optional<AxialAccumulator> axial;  // a shape that narrows: along the vessel
-  std::vector<double> end_platelet_r;  // of the last snapshot up to the window's end
+  std::vector<double> end_platelet_r;     // of the last snapshot up to the window's end
   double end_time = first.time_s;
 
   for (std::size_t i = 0; i < run.snapshots.size(); ++i) {
@@ -169,9 +179,10 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
         if (opt.slices <= 0)
           along.axial = std::max(along.axial, static_cast<int>(std::lround(2 * a.tube.length / a.tube.radius)));
         axial.emplace(*geometry, along, a.rbc_diameter, a.rbc_volume, run.scene.platelet.diameter);
-        a.notes.push_back("the radial profiles, δ and margination above are of the nominal tube (R0 = d/2; H_T, "
-                          "H_D and µ_app take the vessel's own volume and flux); along the vessel, each station "
-                          "is against its local radius R(z)");
+        a.notes.push_back(
+            "the radial profiles, δ and margination above are of the nominal tube (R0 = d/2; H_T, "
+            "H_D and µ_app take the vessel's own volume and flux); along the vessel, each station "
+            "is against its local radius R(z)");
       }
     }
     if (axial) axial->add(s);
@@ -329,12 +340,13 @@ std::string format_json(const Analysis& a) {
                     {"points", a.diffusion.points},
                     {"reference_time_s", number(a.msd_reference_time)},
                     {"msd", msd}};
-  j["rheology"] = {{"samples", a.velocity_samples},
-                   {"wall_shear_rate_per_s", number(a.rheology.wall_shear_rate)},
-                   {"apparent_wall_shear_rate_per_s", number(a.rheology.apparent_wall_shear_rate)},
-                   {"mean_velocity_source", "Q / (pi R^2), Q the blood's volume flux (hematocrit.total_volume_flux_m3_s)"},
-                   {"plasma_mean_velocity_m_s", number(a.plasma_mean_velocity)},
-                   {"wall_shear_stress_Pa", number(a.wall_shear_stress)}};
+  j["rheology"] = {
+      {"samples", a.velocity_samples},
+      {"wall_shear_rate_per_s", number(a.rheology.wall_shear_rate)},
+      {"apparent_wall_shear_rate_per_s", number(a.rheology.apparent_wall_shear_rate)},
+      {"mean_velocity_source", "Q / (pi R^2), Q the blood's volume flux (hematocrit.total_volume_flux_m3_s)"},
+      {"plasma_mean_velocity_m_s", number(a.plasma_mean_velocity)},
+      {"wall_shear_stress_Pa", number(a.wall_shear_stress)}};
   const auto& b = a.balance;
   j["momentum_balance"] = {
       {"relation", "tau_w,imposed = d dP / (4 l); realised gamma_w = tau_w / mu"},
@@ -356,14 +368,10 @@ std::string format_json(const Analysis& a) {
   }
   j["momentum_balance"]["over_time"] = {{"time_s", times}, {"ratio", ratios}};
   const auto& e = a.platelet_axis;
-  j["platelet_axis"] = {{"region_radius_fraction", kAxisRegion},
-                        {"start_time_s", number(e.start_time)},
-                        {"end_time_s", number(e.end_time)},
-                        {"start_platelets", e.start_total},
-                        {"end_platelets", e.end_total},
-                        {"start_near_axis", e.start_near},
-                        {"end_near_axis", e.end_near},
-                        {"start_fraction", number(e.start_fraction)},
+  j["platelet_axis"] = {{"region_radius_fraction", kAxisRegion}, {"start_time_s", number(e.start_time)},
+                        {"end_time_s", number(e.end_time)},      {"start_platelets", e.start_total},
+                        {"end_platelets", e.end_total},          {"start_near_axis", e.start_near},
+                        {"end_near_axis", e.end_near},           {"start_fraction", number(e.start_fraction)},
                         {"end_fraction", number(e.end_fraction)}};
   j["hematocrit"] = {{"rbc_volume_flux_m3_s", number(a.rbc_volume_flux)},
                      {"total_volume_flux_m3_s", number(a.total_volume_flux)},

@@ -329,7 +329,7 @@ TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
   EXPECT_NE(format_table(deficit).find(note), std::string::npos) << format_table(deficit);
 }
 
-// The closing line of `hemocosim run` judges tau_w = d dP / (4 l) only where the wall is parallel
+// The closing line of `hemocosim run` judges tau_w = d dP / (4 l) only in a periodic vessel whose wall is parallel
 // to the axis: the same wall shear stress, 0.8 of the imposed one over a settled window, is named
 // for a straight vessel and not for a stenosis, whose wall takes part of the drop as pressure.
 TEST(Analyze, TheWallShearBalanceIsJudgedOnlyForAStraightVessel) {
@@ -341,9 +341,13 @@ TEST(Analyze, TheWallShearBalanceIsJudgedOnlyForAStraightVessel) {
   write_text(dir + "/stenosis.toml",
              vessel + "shape = \"stenosis\"\nstenosis_area_reduction = 0.5\nstenosis_length_um = 300\n" + rest);
   std::string csv = "step,time_s,node,name,value\n";
-  for (int k = 0; k <= 100; ++k) csv += fmt::format("{},{},fluid,wall_shear_stress_Pa,{}\n", k, 0.01 * k, 0.8 * 1.2e-3 * 800);
+  for (int k = 0; k <= 100; ++k)
+    csv += fmt::format("{},{},fluid,wall_shear_stress_Pa,{}\n", k, 0.01 * k, 0.8 * 1.2e-3 * 800);
   write_text(dir + "/metrics.csv", csv);
   const std::string straight = closing_balance_line(dir, hemo::load_scene(dir + "/straight.toml"));
   EXPECT_NE(straight.find("is 0.800 of the imposed"), std::string::npos) << straight;
   EXPECT_EQ(closing_balance_line(dir, hemo::load_scene(dir + "/stenosis.toml")), "");
+  // Nor for an open vessel, driven by its inlet's flow rate rather than an imposed drop.
+  write_text(dir + "/open.toml", vessel + "ends = \"open\"\n" + rest);
+  EXPECT_EQ(closing_balance_line(dir, hemo::load_scene(dir + "/open.toml")), "");
 }
