@@ -67,6 +67,7 @@ struct FluidRun {
   std::vector<CellState> cells;  // every cell of the mesh, the vessel's first (vessel_mesh.h)
   std::vector<double> p;         // kinematic pressure per cell
   double seconds = 0;
+  std::string dir;  // the run directory (metrics.csv)
 };
 
 FluidRun solve(const SceneSpec& spec) {
@@ -78,6 +79,7 @@ FluidRun solve(const SceneSpec& spec) {
   out.cells = read_state(r.dir + "/state.csv");
   out.p = last_pressure(r.dir);
   out.seconds = r.command.seconds;
+  out.dir = r.dir;
   EXPECT_EQ(out.cells.size(), out.p.size());
   return out;
 }
@@ -193,6 +195,14 @@ TEST(FluidOpenTube, PoiseuilleInletKeepsTheProfileAndPoiseuillesPressureDrop) {
   // O-grid's error).
   EXPECT_GT(std::abs(scale - 1), 5e-3);  // the O-grid's error is there to be matched
   EXPECT_NEAR(dp / dp_poiseuille, scale, 0.01 * std::abs(scale - 1));
+  // What the run reports of its ends (metrics.csv): the flux in and out is Q, and the inlet's
+  // pressure is the drop (the outlet holds 0), here the first layer's extrapolated to the face.
+  const Metrics m = read_metrics(open.dir);
+  EXPECT_NEAR(last(m, "fluid", "inlet_plasma_flux_m3_s") / q, 1, 1e-6);
+  EXPECT_NEAR(last(m, "fluid", "outlet_plasma_flux_m3_s") / q, 1, 1e-6);
+  EXPECT_NEAR(last(m, "fluid", "inlet_pressure_Pa") / dp, 1, 1e-3);
+  const Metrics periodic_metrics = read_metrics(periodic.dir);
+  EXPECT_EQ(periodic_metrics.count({"fluid", "inlet_plasma_flux_m3_s"}), 0u);  // a periodic run's metrics as before
 }
 
 // (b) The feeder: the inlet maps the feeder's developed section, scaled to Q by OpenFOAM's
