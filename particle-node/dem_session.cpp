@@ -25,6 +25,7 @@
 #include <type_traits>
 
 #include "dem_fixes.h"
+#include "dem_fix_styles.h"
 #include "dem_streaming_neighbours.h"
 
 namespace hemo::particles {

@@ -23,7 +23,6 @@ namespace hemo::particles::dem {
 
 namespace {
 
-constexpr const char* kStyle = "hemo/streaming_neighbours";
 // LIGGGHTS's periodic check, replaced: `every` this many steps, never reached in a run.
 constexpr int kNeverEvery = 1000000000;
 
@@ -105,33 +104,17 @@ class FixStreamingNeighbours : public LAMMPS_NS::Fix {
   std::vector<double> u0_;  // u_s there (axial), per local atom
 };
 
-LAMMPS_NS::Fix* create_streaming_neighbours(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) {
-  return new FixStreamingNeighbours(lmp, narg, arg);
-}
-
-// LIGGGHTS keeps its fix styles in a private map of Modify (filled from its compiled-in style
-// list at start-up) and offers no call to add one. A style of ours goes into the same map, named
-// through an explicit instantiation (where C++ does not check access), so that `fix ... STYLE`
-// creates it as it creates LIGGGHTS's own: no copy of LIGGGHTS's sources, no change to them.
-using FixStyleMap = std::map<std::string, LAMMPS_NS::Fix* (*)(LAMMPS_NS::LAMMPS*, int, char**)>;
-using FixStyleMember = FixStyleMap* LAMMPS_NS::Modify::*;
-FixStyleMember fix_style_map();
-template <FixStyleMember M>
-struct FixStyleAccess {
-  friend FixStyleMember fix_style_map() { return M; }
-};
-template struct FixStyleAccess<&LAMMPS_NS::Modify::fix_map>;
-
 }  // namespace
 
-void register_fix_styles(LAMMPS_NS::LAMMPS& lmp) {
-  (*(lmp.modify->*fix_style_map()))[kStyle] = &create_streaming_neighbours;
+LAMMPS_NS::Fix* create_streaming_neighbours(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) {
+  return new FixStreamingNeighbours(lmp, narg, arg);
 }
 
 std::vector<std::string> streaming_neighbour_commands(double radius, double wall_shear_rate) {
   return {
       fmt::format("neigh_modify delay 0 every {} check no", kNeverEvery),
-      fmt::format("fix {} all {} {:.17g} {:.17g}", kStreamingNeighbourFix, kStyle, radius, wall_shear_rate),
+      fmt::format("fix {} all {} {:.17g} {:.17g}", kStreamingNeighbourFix, kStreamingNeighbourStyle, radius,
+                  wall_shear_rate),
   };
 }
 

@@ -48,14 +48,15 @@
 
 namespace LAMMPS_NS {
 class LAMMPS;
-}
+class Fix;
+}  // namespace LAMMPS_NS
 
 namespace hemo::particles::dem {
 
 constexpr const char* kStreamingNeighbourFix = "hemo_neighbours";
 
-// Makes our fix styles known to a LIGGGHTS instance (before its input names them).
-void register_fix_styles(LAMMPS_NS::LAMMPS& lmp);
+constexpr const char* kStreamingNeighbourStyle = "hemo/streaming_neighbours";
+LAMMPS_NS::Fix* create_streaming_neighbours(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
 
 // The input commands that hand the rebuild decision to the streaming criterion, for a vessel of
 // `radius` (m) with `wall_shear_rate` (1/s). After `neighbor` (the skin) and the pair style.

@@ -17,7 +17,7 @@
 // the callback's part and neighbour-list builds (also per 1000 DEM steps); printed, the ratio of
 // our DEM (the node's DEM phase, the deposition timed apart) to the floor.
 #include "dem_engine.h"
-#include "dem_streaming_neighbours.h"
+#include "dem_fix_styles.h"
 #include "dem_timing.h"
 #include "h5_output.h"
 #include "mpi_launch.h"

@@ -1,0 +1,122 @@
+// An open vessel's ends in the DEM: cells leave through the outlet, and enter through the inlet as
+// copies of the cells that cross the end of a periodic feeder tube beside the vessel (the practice
+// of resolved blood-flow codes: the inflow carries a developed suspension, its cell-free layer
+// and its orientations). A LIGGGHTS fix of ours, `hemo/open_ends` (docs/design.md, "Open ends").
+//
+// The box. LIGGGHTS has one box, periodic along z with period P; the vessel occupies
+// z in [zlo, outlet_z] (outlet_z = zlo + its length) at x < split_x, the feeder the whole period
+// at x >= split_x, its axis shift_x from the vessel's. P exceeds the vessel's length by a gap
+// wider than any pair's reach plus the neighbour skin, so no cell near the outlet sees, through
+// the periodic images, one near the inlet (the vessel's atoms never enter the gap: see below).
+//
+// Each DEM step, after the positions moved and before LIGGGHTS decides on a list build
+// (post_integrate), the fix asks for a build in this same step when a vessel atom is past the
+// outlet (z >= outlet_z) or before the inlet (z < zlo, a backflow), or a feeder atom is past the
+// feeder's end (z >= zlo + P, not yet wrapped): so every crossing is handled the step it happens,
+// before any force of that step is computed. At every build, before LIGGGHTS wraps and migrates
+// the atoms (pre_exchange), it
+//   - removes each vessel atom past the outlet (counted as left through the outlet) or before the
+//     inlet (counted as left through the inlet), and
+//   - inserts, for each feeder atom past the feeder's end, a copy at (x - shift_x, y, z - P): the
+//     same type, size, mass, velocity, angular velocity and the values of the per-atom fixes it is
+//     told to copy (orientation, impulse, held closures); no contact history (its contacts start
+//     afresh, as between a cell and a wall the first time it touches one).
+// The copies get the smallest tags free (a removed atom's tag is free again), in the order of
+// their sources' tags, so tags stay in 1..capacity, the insertions are the same whatever the
+// number of ranks, and per-tag arrays keep their size. The decision and the tags are agreed over
+// the ranks (one reduction a step; a gather of the crossings at a build that has any).
+//
+// Counts per atom type: inserted, left through the outlet, left through the inlet. Present =
+// created + inserted - left, at every step; a listener sees each build's events, the same on
+// every rank, in the order: removals (by tag), insertions (by new tag).
+//
+// Order among fixes: LIGGGHTS's pair contact history, made at its first set-up (after this fix),
+// moves its lists' histories onto the atoms in its own pre_exchange, by the lists' atom indices.
+// So no atom changes its index here: copies are appended (LIGGGHTS's own insertions do the same),
+// and a leaving atom is put beyond the box across x, where LIGGGHTS's exchange drops it right after
+// (the box is not periodic across x and has one rank across it).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <fix.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace hemo::particles::dem {
+
+constexpr const char* kOpenEndsFix = "hemo_open_ends";
+constexpr const char* kOpenEndsStyle = "hemo/open_ends";
+
+struct OpenEndsLayout {
+  double outlet_z = 0;  // m, the vessel's outlet plane (its inlet is the box's lower z bound)
+  double split_x = 0;   // m, atoms at x >= split_x are the feeder's
+  double shift_x = 0;   // m, the feeder's axis from the vessel's, along x
+};
+
+struct OpenEndsEvent {
+  enum class Kind { left_outlet, left_inlet, inserted };
+  Kind kind = Kind::inserted;
+  int tag = 0;         // the atom removed, or the copy's new tag
+  int type = 0;        // LIGGGHTS atom type
+  int source_tag = 0;  // an insertion's feeder atom (0 for a removal)
+};
+
+class FixOpenEnds : public LAMMPS_NS::Fix {
+ public:
+  // fix ID all hemo/open_ends OUTLET_Z SPLIT_X SHIFT_X
+  FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
+
+  int setmask() override;
+  void post_integrate() override;
+  void setup_pre_exchange() override {
+    if (!free_known_) find_free_tags();
+    hand_over();
+  }
+  void pre_exchange() override { hand_over(); }
+
+  // Counts since the run started, per atom type (index 0 unused), the same on every rank.
+  struct Counts {
+    std::vector<std::int64_t> inserted, left_outlet, left_inlet;
+  };
+  const Counts& counts() const { return counts_; }
+  void set_counts(const Counts& counts);  // a restored run's
+
+  // Tags in use are within 1..capacity (the largest tag ever given); the free ones are reused.
+  long tag_capacity() const { return capacity_; }
+  void set_tag_capacity(long capacity) {
+    capacity_ = capacity;
+    free_known_ = false;
+  }
+
+  // Per-atom fixes (fix property/atom) whose values an inserted copy takes from its source.
+  void copy_values_of(std::vector<LAMMPS_NS::Fix*> fixes) { copied_ = std::move(fixes); }
+  // Called at each build that moved any atom, with its events (on every rank).
+  void on_events(std::function<void(const std::vector<OpenEndsEvent>&)> listener) { listener_ = std::move(listener); }
+
+ private:
+  bool in_feeder(const double* x) const { return x[0] >= layout_.split_x; }
+  void hand_over();
+  void find_free_tags();
+  int take_free_tag();
+  void insert_copy(int source, int tag);
+
+  OpenEndsLayout layout_;
+  Counts counts_;
+  long capacity_ = 0;
+  bool free_known_ = false;
+  std::vector<int> free_;  // free tags, largest first (the smallest is taken from the back)
+  std::vector<LAMMPS_NS::Fix*> copied_;
+  std::function<void(const std::vector<OpenEndsEvent>&)> listener_;
+};
+
+// The command that defines the fix.
+std::string open_ends_command(const OpenEndsLayout& layout);
+
+// Makes the style known to a LIGGGHTS instance (dem_fix_styles.cpp).
+LAMMPS_NS::Fix* create_open_ends(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
+
+}  // namespace hemo::particles::dem

@@ -1,0 +1,208 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The open vessel's ends in the DEM (particle-node/dem_open_ends.h), in LIGGGHTS itself with no
+// fluid: cells streaming along z leave the vessel through its outlet the step they cross it, and
+// the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
+// per-atom values of their source, on the tags the leavers freed; present = created + inserted -
+// left at every step.
+#include "dem_fix_styles.h"
+#include "dem_open_ends.h"
+
+#include <atom.h>
+#include <domain.h>
+#include <fix_property_atom.h>
+#include <input.h>
+#include <lammps.h>
+#include <modify.h>
+#include <mpi.h>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+using namespace hemo::particles::dem;
+
+namespace {
+
+constexpr double kRadius = 20e-6;       // vessel and feeder
+constexpr double kOutlet = 80e-6;       // the vessel over z in [0, 80) um
+constexpr double kPeriod = 100e-6;      // the box, and the feeder's length
+constexpr double kShift = 3 * kRadius;  // the feeder's axis
+constexpr double kDiameter = 5.56e-6;   // a red cell's placeholder sphere
+constexpr double kSpeed = 0.5;          // m/s along z: 50 nm a DEM step
+constexpr double kDt = 1e-7;
+
+struct Atom {
+  int tag, type;
+  double x[3], v[3];
+  double value;  // the copied per-atom fix's first column
+};
+
+class OpenEndsBox {
+ public:
+  OpenEndsBox() {
+    std::vector<std::string> args = {"open-ends", "-screen", "none", "-log", "none"};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), MPI_COMM_WORLD);
+    register_fix_styles(*lmp_);
+    for (const std::string& line :
+         std::vector<std::string>{"units si",
+                                  "atom_style granular",
+                                  "atom_modify map array",
+                                  "boundary f f p",
+                                  "newton off",
+                                  "communicate single vel yes",
+                                  "soft_particles yes",
+                                  "processors 1 1 *",
+                                  "thermo_modify lost ignore",
+                                  fmt::format("region box block {} {} {} {} 0 {} units box", -1.5 * kRadius,
+                                              kShift + 1.5 * kRadius, -1.5 * kRadius, 1.5 * kRadius, kPeriod),
+                                  "create_box 2 box",
+                                  "neighbor 1.4e-6 bin",
+                                  "neigh_modify delay 0",
+                                  "fix m1 all property/global youngsModulus peratomtype 7.5e5 7.5e5",
+                                  "fix m2 all property/global poissonsRatio peratomtype 0.45 0.45",
+                                  "fix m3 all property/global coefficientRestitution peratomtypepair 2 0.5 0.5 0.5 0.5",
+                                  "fix m4 all property/global coefficientFriction peratomtypepair 2 0.1 0.1 0.1 0.1",
+                                  "pair_style gran model hertz tangential history",
+                                  "pair_coeff * *",
+                                  fmt::format("timestep {}", kDt),
+                                  "fix integrate all nve/sphere",
+                                  "fix values all property/atom hemoValues vector yes no no 0 0"})
+      command(line);
+  }
+  ~OpenEndsBox() { delete lmp_; }
+
+  void command(const std::string& line) { lmp_->input->one(line.c_str()); }
+  void create(int type, double x, double y, double z) {
+    command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type, x, y, z));
+  }
+  // Sizes, the common velocity, each atom's own value (its tag), LIGGGHTS's set-up and the fix.
+  void start() {
+    command(fmt::format("set group all diameter {} density 1100", kDiameter));
+    command(fmt::format("velocity all set 0 0 {} units box", kSpeed));
+    auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
+    for (int i = 0; i < lmp_->atom->nlocal; ++i) values->array_atom[i][0] = lmp_->atom->tag[i];
+    command("run 0 pre yes post no");  // LIGGGHTS makes its contact history fix (before ours)
+    command(open_ends_command({kOutlet, 1.5 * kRadius, kShift}));
+    open_ = static_cast<FixOpenEnds*>(fix(kOpenEndsFix));
+    open_->copy_values_of({values});
+    open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
+      for (const auto& e : events) {
+        if (e.kind == OpenEndsEvent::Kind::inserted) before_insertion_.push_back(feeder_atom(e.source_tag));
+        this->events.push_back(e);
+      }
+    });
+  }
+  void step(bool first) { command(fmt::format("run 1 pre {} post no", first ? "yes" : "no")); }
+
+  LAMMPS_NS::Fix* fix(const char* id) const {
+    const int i = lmp_->modify->find_fix(id);
+    EXPECT_GE(i, 0) << id;
+    return lmp_->modify->fix[i];
+  }
+  // The atoms LIGGGHTS holds now, by tag (one rank).
+  std::map<int, Atom> atoms() const {
+    std::map<int, Atom> all;
+    const auto& a = *lmp_->atom;
+    auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
+    for (int i = 0; i < a.nlocal; ++i) {
+      Atom at{a.tag[i],
+              a.type[i],
+              {a.x[i][0], a.x[i][1], a.x[i][2]},
+              {a.v[i][0], a.v[i][1], a.v[i][2]},
+              values->array_atom[i][0]};
+      EXPECT_TRUE(all.emplace(a.tag[i], at).second) << "tag " << a.tag[i] << " twice";
+    }
+    return all;
+  }
+  // A feeder atom by tag, while a hand-over is under way (a leaver and a copy may share a tag then).
+  Atom feeder_atom(int tag) const {
+    const auto& a = *lmp_->atom;
+    for (int i = 0; i < a.nlocal; ++i)
+      if (a.tag[i] == tag && a.x[i][0] >= 1.5 * kRadius && a.x[i][0] <= lmp_->domain->boxhi[0])
+        return {tag, a.type[i], {a.x[i][0], a.x[i][1], a.x[i][2]}, {a.v[i][0], a.v[i][1], a.v[i][2]}, 0};
+    ADD_FAILURE() << "no feeder atom " << tag;
+    return {};
+  }
+  long natoms() const { return static_cast<long>(lmp_->atom->natoms); }
+  const FixOpenEnds& open() const { return *open_; }
+
+  std::vector<OpenEndsEvent> events;
+  std::vector<Atom> before_insertion_;  // each insertion's source as the listener saw it
+
+ private:
+  LAMMPS_NS::LAMMPS* lmp_ = nullptr;
+  FixOpenEnds* open_ = nullptr;
+};
+
+long sum(const std::vector<std::int64_t>& v) {
+  long s = 0;
+  for (auto x : v) s += x;
+  return s;
+}
+
+}  // namespace
+
+TEST(OpenEnds, CellsLeaveAtTheOutletAndEnterAsTheFeedersCopiesAndEveryStepCountsBalance) {
+  OpenEndsBox box;
+  // The vessel: a column of cells 8 um apart (out of reach of each other), the first to leave at
+  // 79 um; the feeder: cells the same, its first to cross the end at 99 um, 1 um after the
+  // vessel's first left (20 DEM steps later).
+  const int vessel = 9, feeder = 11;
+  for (int k = 0; k < vessel; ++k) box.create(1, 0.3 * kRadius, 0, 79e-6 - 8e-6 * k);
+  for (int k = 0; k < feeder; ++k) box.create(2, kShift - 0.4 * kRadius, 0.1 * kRadius, 99e-6 - 8e-6 * k);
+  box.start();
+  const long created = vessel + feeder;
+  const int steps = 400;  // 20 um: the first three of each leave or cross, by the positions above
+  for (int s = 0; s < steps; ++s) {
+    box.step(s == 0);
+    const auto& c = box.open().counts();
+    const long present = created + sum(c.inserted) - sum(c.left_outlet) - sum(c.left_inlet);
+    ASSERT_EQ(box.natoms(), present) << "step " << s;
+    const auto atoms = box.atoms();
+    ASSERT_EQ(static_cast<long>(atoms.size()), present) << "step " << s;
+    for (const auto& [tag, a] : atoms) {
+      ASSERT_LE(tag, box.open().tag_capacity());
+      if (a.x[0] < 1.5 * kRadius) {
+        ASSERT_LT(a.x[2], kOutlet) << "a vessel cell past the outlet at step " << s;
+      }
+    }
+  }
+  const auto& c = box.open().counts();
+  // The vessel's cells at 79, 71, 63 um move 20 um: three leave; the feeder's at 99, 91, 83 um
+  // cross its end, their copies entering at 0..1, 0..9, 0..17 um (none reaches the outlet).
+  EXPECT_EQ(c.left_outlet[1], 3);
+  EXPECT_EQ(c.left_inlet[1] + c.left_inlet[2] + c.left_outlet[2], 0);
+  EXPECT_EQ(c.inserted[2], 3);
+  EXPECT_EQ(box.natoms(), created);
+  // The copies took the tags the leavers freed, smallest first, in their crossing order.
+  std::vector<int> left, inserted;
+  for (const auto& e : box.events) (e.kind == OpenEndsEvent::Kind::inserted ? inserted : left).push_back(e.tag);
+  ASSERT_EQ(left.size(), 3u);
+  ASSERT_EQ(inserted.size(), 3u);
+  EXPECT_EQ(std::set<int>(left.begin(), left.end()), std::set<int>(inserted.begin(), inserted.end()));
+  EXPECT_EQ(box.open().tag_capacity(), created);
+  // Each copy now: where its source was at the hand-over, moved by the feeder's offset and one
+  // period, then streamed with it; the same velocity and per-atom value as its source.
+  const auto now = box.atoms();
+  for (const auto& e : box.events) {
+    if (e.kind != OpenEndsEvent::Kind::inserted) continue;
+    const Atom& copy = now.at(e.tag);
+    const Atom& source = now.at(e.source_tag);
+    EXPECT_EQ(copy.type, 2);
+    EXPECT_NEAR(copy.x[0], source.x[0] - kShift, 1e-15);
+    EXPECT_NEAR(copy.x[1], source.x[1], 1e-15);
+    EXPECT_NEAR(copy.x[2], source.x[2], 1e-12);  // the source wrapped by one period, as the copy
+    EXPECT_EQ(copy.v[2], source.v[2]);
+    EXPECT_EQ(copy.value, source.value);  // the source's tag, its value since the start
+    EXPECT_NE(copy.value, copy.tag);
+  }
+  for (const Atom& source : box.before_insertion_) EXPECT_GE(source.x[2], kPeriod);  // crossed, not yet wrapped
+}
