@@ -374,7 +374,7 @@ void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape&
   }
   if (!fed_by_feeder(vessel)) return;
   const double inlet_radius = make_vessel_geometry(vessel)->radius_at(0);
-  Vessel feeder{2 * inlet_radius, feeder_length(vessel)};
+  Vessel feeder{2 * inlet_radius, feeder_length(vessel, spec.axial_cells)};
   const int nz = feeder_axial_cells(vessel, spec.axial_cells);
   const PolyMesh region = vessel_region(feeder, spec, shape, nz);
   const Vec3 shift{feeder_axis_x(vessel), 0, 0};

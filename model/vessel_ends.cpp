@@ -43,11 +43,14 @@ bool fed_by_feeder(const Vessel& vessel) {
 
 double feeder_axis_x(const Vessel& vessel) { return 3 * vessel.radius(); }
 
-double feeder_length(const Vessel& vessel) { return vessel.diameter; }
-
 int feeder_axial_cells(const Vessel& vessel, int axial_cells) {
   const double dz = vessel.length / axial_cells;
-  return std::max(2, static_cast<int>(std::lround(feeder_length(vessel) / dz)));
+  const int gap = static_cast<int>(std::ceil(vessel.diameter / dz * (1 - 1e-12)));
+  return axial_cells + std::max(gap, 1);
+}
+
+double feeder_length(const Vessel& vessel, int axial_cells) {
+  return vessel.length / axial_cells * feeder_axial_cells(vessel, axial_cells);
 }
 
 }  // namespace hemo

@@ -55,12 +55,13 @@ bool fed_by_feeder(const Vessel& vessel);
 
 // The feeder of an open vessel: a straight tube of the inlet's radius R(0), its axis parallel to
 // z at x = feeder_axis_x (m; 3 R0: clear of the vessel's wall polygon by about R0), over
-// z in [0, feeder_length) (m; the vessel's nominal diameter: the feeder's flow is uniform along
-// z, so its length matters only for the cells it will carry).
+// z in [0, feeder_length) (m). Its layers are as thick as the vessel's (`axial_cells` over its
+// length), and it is longer than the vessel by whole layers over at least one nominal diameter:
+// the DEM's box is periodic along z with the feeder's length, and that gap beyond the vessel's
+// outlet keeps the cells near the outlet out of reach of those near the inlet (particle-node/
+// dem_open_ends.h); the feeder's flow is uniform along z, so its length changes nothing else.
 double feeder_axis_x(const Vessel& vessel);
-double feeder_length(const Vessel& vessel);
-// The feeder's layers: as long as the vessel's cells (`axial_cells` over its length), at least two
-// (a cyclic pair of one layer would couple a cell to itself).
+double feeder_length(const Vessel& vessel, int axial_cells);
 int feeder_axial_cells(const Vessel& vessel, int axial_cells);
 
 }  // namespace hemo

@@ -214,10 +214,11 @@ TEST(FluidOpenTube, FeederInletGivesThePeriodicTubesFlowAtQ) {
   const FluidRun open = solve(tube("ends = \"open\""));  // inlet = "feeder", the default
   const double q = nominal_q(), q_per = flow_rate(periodic, at), q_open = flow_rate(open, at);
   const double scale = q / q_per;
-  // The feeder's cells follow the vessel's: d long (vessel_ends.h), in layers as long as the vessel's.
+  // The feeder's cells follow the vessel's: in layers as long as the vessel's (vessel_ends.h).
   const int feeder_cells = static_cast<int>(open.cells.size()) - at.section * at.axial;
   ASSERT_EQ(feeder_cells % at.section, 0);
-  const Layout feeder{at.section, feeder_cells / at.section, 100e-6};
+  const int feeder_layers = feeder_cells / at.section;
+  const Layout feeder{at.section, feeder_layers, at.length / at.axial * feeder_layers};
   const double q_feeder = flow_rate(open, feeder, at.section * at.axial);
   double worst = 0;
   for (int k = 0; k < at.axial; ++k) worst = std::max(worst, profile_difference(open, periodic, at, k, scale));

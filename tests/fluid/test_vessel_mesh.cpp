@@ -352,15 +352,15 @@ TEST(VesselMesh, OpenEndsAreTheVesselsMeshWithPatchesForEnds) {
   EXPECT_TRUE(build(4, 3, 6, open_vessel("poiseuille")).mesh.cell_zones.empty());
 }
 
-// The feeder: a straight periodic tube of the inlet's radius beside the vessel, d long in layers
-// as long as the vessel's, its cells a zone after the vessel's and connected to none of them; the
+// The feeder: a straight periodic tube of the inlet's radius beside the vessel, in layers as long
+// as the vessel's, the vessel's length and the fewest whole layers spanning d beyond it, its cells a zone after the vessel's and connected to none of them; the
 // point each inlet face samples lies in the feeder's last layer, in the cell of the same section
 // position as the face's own cell.
 TEST(VesselMesh, FeederIsADisconnectedPeriodicTubeTheInletSamples) {
   const auto b = build(4, 3, 6, open_vessel("feeder"));
   const auto& m = b.mesh;
-  // d = 100 um long in the vessel's layers of 100 um is one layer: at least two.
-  const int section = 64, vessel_cells = section * 6, feeder_layers = 2;
+  // The vessel's 6 layers of 100 um and one more, spanning d = 100 um.
+  const int section = 64, vessel_cells = section * 6, feeder_layers = 7;
   ASSERT_EQ(m.cell_zones.size(), 1u);
   const auto& zone = m.cell_zones[0];
   EXPECT_EQ(zone.name, hemo::feeder_zone);
@@ -374,7 +374,7 @@ TEST(VesselMesh, FeederIsADisconnectedPeriodicTubeTheInletSamples) {
   EXPECT_EQ(fi.type, "cyclic");
   EXPECT_EQ(fi.neighbour, "feeder_outlet");
   EXPECT_EQ(fo.neighbour, "feeder_inlet");
-  EXPECT_DOUBLE_EQ(fi.separation[2], 100e-6);
+  EXPECT_NEAR(fi.separation[2], 700e-6, 1e-18);
   EXPECT_EQ(m.patch("feeder_wall").type, "wall");
   const double axis = 150e-6;  // 3 R0
   for (int c = zone.first; c < zone.first + zone.size; ++c)

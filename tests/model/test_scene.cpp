@@ -191,6 +191,28 @@ implicit_drag = "explicit"
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
 }
 
+// The feeder is the vessel's length and whole layers of the same thickness beyond, the fewest
+// that span a nominal diameter: the gap that keeps the DEM's cells at the outlet out of reach of
+// those at the inlet through the box's period.
+TEST(Scene, TheFeederOutgrowsTheVesselByTheFewestWholeLayersSpanningADiameter) {
+  Vessel v;
+  v.diameter = 100e-6;
+  v.length = 600e-6;
+  EXPECT_EQ(feeder_axial_cells(v, 24), 28);  // 25 um layers: 4 span 100 um
+  EXPECT_DOUBLE_EQ(feeder_length(v, 24), 700e-6);
+  EXPECT_EQ(feeder_axial_cells(v, 30), 35);  // 20 um: 5
+  EXPECT_EQ(feeder_axial_cells(v, 7), 9);    // 85.7 um: 2 (one falls short)
+  v.length = 100e-6;
+  EXPECT_EQ(feeder_axial_cells(v, 2), 4);  // 50 um: 2
+  for (int n : {2, 7, 24, 30, 64}) {
+    v.length = 600e-6;
+    const double dz = v.length / n;
+    const double gap = feeder_length(v, n) - v.length;
+    EXPECT_GE(gap, v.diameter * (1 - 1e-12)) << n;
+    EXPECT_LT(gap - dz, v.diameter) << n;
+  }
+}
+
 // vessel.ends (periodic by default) and vessel.inlet (the feeder by default; periodic ends ignore
 // it), each a registered name (model/vessel_ends.h).
 TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
