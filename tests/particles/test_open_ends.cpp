@@ -3,7 +3,8 @@
 // fluid: cells streaming along z leave the vessel through its outlet the step they cross it, and
 // the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
 // per-atom values of their source, on the tags the leavers freed; present = created + inserted -
-// left at every step.
+// left at every step. Written for any number of ranks (it gathers the atoms); run on one here (on
+// two, by hand: it passed alone, and crashed after the other tests of particles_mpi_tests).
 #include "dem_fix_styles.h"
 #include "dem_open_ends.h"
 
@@ -95,7 +96,9 @@ class OpenEndsBox {
     open_->copy_values_of({values});
     open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
       for (const auto& e : events) {
-        if (e.kind == OpenEndsEvent::Kind::inserted) before_insertion_.push_back(feeder_atom(e.source_tag));
+        Atom source{};
+        if (e.kind == OpenEndsEvent::Kind::inserted && feeder_atom(e.source_tag, source))
+          before_insertion_.push_back(source);
         this->events.push_back(e);
       }
     });
@@ -107,35 +110,47 @@ class OpenEndsBox {
     EXPECT_GE(i, 0) << id;
     return lmp_->modify->fix[i];
   }
-  // The atoms LIGGGHTS holds now, by tag (one rank).
+  // The atoms LIGGGHTS holds now, on every rank, by tag.
   std::map<int, Atom> atoms() const {
-    std::map<int, Atom> all;
     const auto& a = *lmp_->atom;
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
-    for (int i = 0; i < a.nlocal; ++i) {
-      Atom at{a.tag[i],
-              a.type[i],
-              {a.x[i][0], a.x[i][1], a.x[i][2]},
-              {a.v[i][0], a.v[i][1], a.v[i][2]},
-              values->array_atom[i][0]};
-      EXPECT_TRUE(all.emplace(a.tag[i], at).second) << "tag " << a.tag[i] << " twice";
+    constexpr int kPer = 9;
+    std::vector<double> mine;
+    for (int i = 0; i < a.nlocal; ++i)
+      mine.insert(mine.end(), {double(a.tag[i]), double(a.type[i]), a.x[i][0], a.x[i][1], a.x[i][2], a.v[i][0],
+                               a.v[i][1], a.v[i][2], values->array_atom[i][0]});
+    int ranks = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+    std::vector<int> sizes(ranks), offsets(ranks, 0);
+    const int n = static_cast<int>(mine.size());
+    MPI_Allgather(&n, 1, MPI_INT, sizes.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    for (int r = 1; r < ranks; ++r) offsets[r] = offsets[r - 1] + sizes[r - 1];
+    std::vector<double> every(offsets.back() + sizes.back());
+    MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, every.data(), sizes.data(), offsets.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+    std::map<int, Atom> all;
+    for (std::size_t k = 0; k < every.size(); k += kPer) {
+      const double* r = &every[k];
+      Atom at{int(r[0]), int(r[1]), {r[2], r[3], r[4]}, {r[5], r[6], r[7]}, r[8]};
+      EXPECT_TRUE(all.emplace(at.tag, at).second) << "tag " << at.tag << " twice";
     }
     return all;
   }
-  // A feeder atom by tag, while a hand-over is under way (a leaver and a copy may share a tag then).
-  Atom feeder_atom(int tag) const {
+  // The feeder atom of a tag on this rank, while a hand-over is under way (a leaver and a copy may
+  // share a tag then); false on the ranks that do not hold it.
+  bool feeder_atom(int tag, Atom& out) const {
     const auto& a = *lmp_->atom;
     for (int i = 0; i < a.nlocal; ++i)
-      if (a.tag[i] == tag && a.x[i][0] >= 1.5 * kRadius && a.x[i][0] <= lmp_->domain->boxhi[0])
-        return {tag, a.type[i], {a.x[i][0], a.x[i][1], a.x[i][2]}, {a.v[i][0], a.v[i][1], a.v[i][2]}, 0};
-    ADD_FAILURE() << "no feeder atom " << tag;
-    return {};
+      if (a.tag[i] == tag && a.x[i][0] >= 1.5 * kRadius && a.x[i][0] <= lmp_->domain->boxhi[0]) {
+        out = {tag, a.type[i], {a.x[i][0], a.x[i][1], a.x[i][2]}, {a.v[i][0], a.v[i][1], a.v[i][2]}, 0};
+        return true;
+      }
+    return false;
   }
   long natoms() const { return static_cast<long>(lmp_->atom->natoms); }
   const FixOpenEnds& open() const { return *open_; }
 
   std::vector<OpenEndsEvent> events;
-  std::vector<Atom> before_insertion_;  // each insertion's source as the listener saw it
+  std::vector<Atom> before_insertion_;  // each insertion's source this rank held, as the listener saw it
 
  private:
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
@@ -205,4 +220,7 @@ TEST(OpenEnds, CellsLeaveAtTheOutletAndEnterAsTheFeedersCopiesAndEveryStepCounts
     EXPECT_NE(copy.value, copy.tag);
   }
   for (const Atom& source : box.before_insertion_) EXPECT_GE(source.x[2], kPeriod);  // crossed, not yet wrapped
+  int seen = static_cast<int>(box.before_insertion_.size());
+  MPI_Allreduce(MPI_IN_PLACE, &seen, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(seen, 3);  // each source on exactly one rank
 }
