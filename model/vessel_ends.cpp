@@ -46,7 +46,7 @@ double feeder_axis_x(const Vessel& vessel) { return 3 * vessel.radius(); }
 int feeder_axial_cells(const Vessel& vessel, int axial_cells) {
   const double dz = vessel.length / axial_cells;
   const int gap = static_cast<int>(std::ceil(vessel.diameter / dz * (1 - 1e-12)));
-  return axial_cells + std::max(gap, 1);
+  return axial_cells + gap;
 }
 
 double feeder_length(const Vessel& vessel, int axial_cells) {

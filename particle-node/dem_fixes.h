@@ -8,6 +8,9 @@
 #include <fix.h>
 #include <mpi.h>
 
+#include <type_traits>
+#include <vector>
+
 namespace hemo::particles::dem {
 
 constexpr const char* kFluidFix = "hemo_fluid";
@@ -50,6 +53,22 @@ inline double sum_all(double v, MPI_Comm comm) {
 inline double max_all(double v, MPI_Comm comm) {
   MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, comm);
   return v;
+}
+
+// Every rank's values (int or double), in rank order, on every rank.
+template <class T>
+std::vector<T> gather_all(const std::vector<T>& mine, MPI_Comm comm) {
+  static_assert(std::is_same_v<T, int> || std::is_same_v<T, double>);
+  const MPI_Datatype type = std::is_same_v<T, int> ? MPI_INT : MPI_DOUBLE;
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  std::vector<int> sizes(ranks), offsets(ranks, 0);
+  const int n = static_cast<int>(mine.size());
+  MPI_Allgather(&n, 1, MPI_INT, sizes.data(), 1, MPI_INT, comm);
+  for (int r = 1; r < ranks; ++r) offsets[r] = offsets[r - 1] + sizes[r - 1];
+  std::vector<T> all(offsets.back() + sizes.back());
+  MPI_Allgatherv(mine.data(), n, type, all.data(), sizes.data(), offsets.data(), type, comm);
+  return all;
 }
 
 }  // namespace hemo::particles::dem

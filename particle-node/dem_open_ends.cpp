@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_open_ends.h"
 
+#include "dem_fixes.h"
+
 #include <atom.h>
 #include <atom_vec.h>
 #include <domain.h>
@@ -18,25 +20,6 @@
 #include <functional>
 
 namespace hemo::particles::dem {
-
-namespace {
-
-constexpr int kRemoveOutlet = 0, kRemoveInlet = 1, kInsert = 2;
-
-// Every rank's rows of `per` ints, in rank order (collective).
-std::vector<int> gather_all(const std::vector<int>& mine, MPI_Comm comm) {
-  int ranks = 1;
-  MPI_Comm_size(comm, &ranks);
-  std::vector<int> sizes(ranks), offsets(ranks, 0);
-  const int n = static_cast<int>(mine.size());
-  MPI_Allgather(&n, 1, MPI_INT, sizes.data(), 1, MPI_INT, comm);
-  for (int r = 1; r < ranks; ++r) offsets[r] = offsets[r - 1] + sizes[r - 1];
-  std::vector<int> all(offsets.back() + sizes.back());
-  MPI_Allgatherv(mine.data(), n, MPI_INT, all.data(), sizes.data(), offsets.data(), MPI_INT, comm);
-  return all;
-}
-
-}  // namespace
 
 FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp, narg, arg) {
   if (narg != 6) error->all(FLERR, "fix hemo/open_ends needs OUTLET_Z SPLIT_X SHIFT_X");
@@ -56,58 +39,48 @@ FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp
 
 int FixOpenEnds::setmask() { return LAMMPS_NS::FixConst::POST_INTEGRATE | LAMMPS_NS::FixConst::PRE_EXCHANGE; }
 
-void FixOpenEnds::set_counts(const Counts& counts) {
-  const std::size_t types = counts_.inserted.size();
-  if (counts.inserted.size() != types || counts.left_outlet.size() != types || counts.left_inlet.size() != types)
-    error->all(FLERR, "fix hemo/open_ends: counts for another number of atom types");
-  counts_ = counts;
+FixOpenEnds::Crossing FixOpenEnds::crossing(const double* x) const {
+  if (x[0] >= layout_.split_x) return x[2] >= domain->boxhi[2] ? Crossing::feeder_end : Crossing::none;
+  if (x[2] >= layout_.outlet_z) return Crossing::outlet;
+  return x[2] < domain->boxlo[2] ? Crossing::inlet : Crossing::none;
 }
 
 void FixOpenEnds::post_integrate() {
-  const double zlo = domain->boxlo[2], zhi = domain->boxhi[2];
   double** x = atom->x;
   int crossed = 0;
-  for (int i = 0; i < atom->nlocal && !crossed; ++i)
-    crossed = in_feeder(x[i]) ? x[i][2] >= zhi : (x[i][2] >= layout_.outlet_z || x[i][2] < zlo);
+  for (int i = 0; i < atom->nlocal && !crossed; ++i) crossed = crossing(x[i]) != Crossing::none;
   MPI_Allreduce(MPI_IN_PLACE, &crossed, 1, MPI_INT, MPI_MAX, world);
   if (crossed) next_reneighbor = update->ntimestep;
 }
 
 void FixOpenEnds::hand_over() {
-  const double zlo = domain->boxlo[2], zhi = domain->boxhi[2];
-  // This rank's crossings, as (what, tag, type) rows; an insertion names its source.
+  // This rank's crossings, as (crossing, tag, type) rows; an insertion names its source.
   std::vector<int> mine;
   std::vector<int> leaving;                  // local indices
   std::vector<std::array<int, 2>> spawning;  // (tag, local index) of this rank's feeder atoms crossing
   double** x = atom->x;
   for (int i = 0; i < atom->nlocal; ++i) {
-    int what = -1;
-    if (in_feeder(x[i]))
-      what = x[i][2] >= zhi ? kInsert : -1;
-    else if (x[i][2] >= layout_.outlet_z)
-      what = kRemoveOutlet;
-    else if (x[i][2] < zlo)
-      what = kRemoveInlet;
-    if (what < 0) continue;
-    mine.insert(mine.end(), {what, atom->tag[i], atom->type[i]});
-    if (what == kInsert)
+    const Crossing what = crossing(x[i]);
+    if (what == Crossing::none) continue;
+    mine.insert(mine.end(), {static_cast<int>(what), atom->tag[i], atom->type[i]});
+    if (what == Crossing::feeder_end)
       spawning.push_back({atom->tag[i], i});
     else
       leaving.push_back(i);
   }
   const std::vector<int> all = gather_all(mine, world);
   if (all.empty()) return;
-  if (!free_known_) find_free_tags();
 
   std::vector<OpenEndsEvent> events;
   std::vector<std::array<int, 2>> sources;  // (source tag, type) of the insertions
   for (std::size_t k = 0; k < all.size(); k += 3) {
-    const int what = all[k], tag = all[k + 1], type = all[k + 2];
-    if (what == kInsert) {
+    const auto what = static_cast<Crossing>(all[k]);
+    const int tag = all[k + 1], type = all[k + 2];
+    if (what == Crossing::feeder_end) {
       sources.push_back({tag, type});
       continue;
     }
-    const bool outlet = what == kRemoveOutlet;
+    const bool outlet = what == Crossing::outlet;
     events.push_back({outlet ? OpenEndsEvent::Kind::left_outlet : OpenEndsEvent::Kind::left_inlet, tag, type, 0});
     ++(outlet ? counts_.left_outlet : counts_.left_inlet)[type];
     free_.push_back(tag);
@@ -152,7 +125,6 @@ void FixOpenEnds::find_free_tags() {
   free_.clear();
   for (long t = capacity_; t >= 1; --t)
     if (!present[t]) free_.push_back(static_cast<int>(t));
-  free_known_ = true;
 }
 
 int FixOpenEnds::take_free_tag() {

@@ -24,7 +24,7 @@
 // The copies get the smallest tags free (a removed atom's tag is free again), in the order of
 // their sources' tags, so tags stay in 1..capacity, the insertions are the same whatever the
 // number of ranks, and per-tag arrays keep their size. The decision and the tags are agreed over
-// the ranks (one reduction a step; a gather of the crossings at a build that has any).
+// the ranks (one reduction a step, one gather of the crossings at each list build).
 //
 // Counts per atom type: inserted, left through the outlet, left through the inlet. Present =
 // created + inserted - left, at every step; a listener sees each build's events, the same on
@@ -72,8 +72,9 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
 
   int setmask() override;
   void post_integrate() override;
+  // A run's set-up: which tags are free, from the atoms as they are; then any crossing.
   void setup_pre_exchange() override {
-    if (!free_known_) find_free_tags();
+    find_free_tags();
     hand_over();
   }
   void pre_exchange() override { hand_over(); }
@@ -83,14 +84,9 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
     std::vector<std::int64_t> inserted, left_outlet, left_inlet;
   };
   const Counts& counts() const { return counts_; }
-  void set_counts(const Counts& counts);  // a restored run's
 
   // Tags in use are within 1..capacity (the largest tag ever given); the free ones are reused.
   long tag_capacity() const { return capacity_; }
-  void set_tag_capacity(long capacity) {
-    capacity_ = capacity;
-    free_known_ = false;
-  }
 
   // Per-atom fixes (fix property/atom) whose values an inserted copy takes from its source.
   void copy_values_of(std::vector<LAMMPS_NS::Fix*> fixes) { copied_ = std::move(fixes); }
@@ -98,7 +94,10 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   void on_events(std::function<void(const std::vector<OpenEndsEvent>&)> listener) { listener_ = std::move(listener); }
 
  private:
-  bool in_feeder(const double* x) const { return x[0] >= layout_.split_x; }
+  // Where an atom at x is past: the feeder's end (a feeder atom), the outlet or the inlet (a
+  // vessel atom), or none.
+  enum class Crossing { none, outlet, inlet, feeder_end };
+  Crossing crossing(const double* x) const;
   void hand_over();
   void find_free_tags();
   int take_free_tag();
@@ -107,7 +106,6 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   OpenEndsLayout layout_;
   Counts counts_;
   long capacity_ = 0;
-  bool free_known_ = false;
   std::vector<int> free_;  // free tags, largest first (the smallest is taken from the back)
   std::vector<LAMMPS_NS::Fix*> copied_;
   std::function<void(const std::vector<OpenEndsEvent>&)> listener_;

@@ -7,7 +7,6 @@
 #include <fix.h>
 #include <fmt/format.h>
 #include <lammps.h>
-#include <modify.h>
 #include <mpi.h>
 #include <neighbor.h>
 #include <update.h>
@@ -15,7 +14,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <map>
 #include <string>
 #include <vector>
 

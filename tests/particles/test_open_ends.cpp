@@ -3,9 +3,10 @@
 // fluid: cells streaming along z leave the vessel through its outlet the step they cross it, and
 // the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
 // per-atom values of their source, on the tags the leavers freed; present = created + inserted -
-// left at every step. Written for any number of ranks (it gathers the atoms); run on one here (on
-// two, by hand: it passed alone, and crashed after the other tests of particles_mpi_tests).
+// left at every step; on one rank and on two (ctest particles.OpenEnds.ranks2: the box split along
+// z, the copies made on the rank of their source and owned by the rank of the inlet).
 #include "dem_fix_styles.h"
+#include "dem_fixes.h"
 #include "dem_open_ends.h"
 
 #include <atom.h>
@@ -119,14 +120,7 @@ class OpenEndsBox {
     for (int i = 0; i < a.nlocal; ++i)
       mine.insert(mine.end(), {double(a.tag[i]), double(a.type[i]), a.x[i][0], a.x[i][1], a.x[i][2], a.v[i][0],
                                a.v[i][1], a.v[i][2], values->array_atom[i][0]});
-    int ranks = 1;
-    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-    std::vector<int> sizes(ranks), offsets(ranks, 0);
-    const int n = static_cast<int>(mine.size());
-    MPI_Allgather(&n, 1, MPI_INT, sizes.data(), 1, MPI_INT, MPI_COMM_WORLD);
-    for (int r = 1; r < ranks; ++r) offsets[r] = offsets[r - 1] + sizes[r - 1];
-    std::vector<double> every(offsets.back() + sizes.back());
-    MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, every.data(), sizes.data(), offsets.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+    const std::vector<double> every = gather_all(mine, MPI_COMM_WORLD);
     std::map<int, Atom> all;
     for (std::size_t k = 0; k < every.size(); k += kPer) {
       const double* r = &every[k];
