@@ -2,10 +2,12 @@
 #include "vessel_ends.h"
 
 #include "named_table.h"
+#include "geometry.h"
 #include "scene.h"
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace hemo {
 
@@ -51,6 +53,17 @@ int feeder_axial_cells(const Vessel& vessel, int axial_cells) {
 
 double feeder_length(const Vessel& vessel, int axial_cells) {
   return vessel.length / axial_cells * feeder_axial_cells(vessel, axial_cells);
+}
+
+FeederLayout feeder_layout(const Vessel& vessel, int axial_cells) {
+  if (!fed_by_feeder(vessel)) throw std::invalid_argument("the vessel has no feeder (vessel.ends, vessel.inlet)");
+  FeederLayout layout;
+  layout.vessel_length = vessel.length;
+  layout.period = feeder_length(vessel, axial_cells);
+  layout.axis_x = feeder_axis_x(vessel);
+  layout.radius = make_vessel_geometry(vessel)->radius_at(0);
+  layout.split_x = 0.5 * (vessel.radius() + layout.axis_x - layout.radius);
+  return layout;
 }
 
 }  // namespace hemo

@@ -64,4 +64,30 @@ double feeder_axis_x(const Vessel& vessel);
 double feeder_length(const Vessel& vessel, int axial_cells);
 int feeder_axial_cells(const Vessel& vessel, int axial_cells);
 
+// Where an open vessel and its feeder lie in the space both nodes share (the fluid mesh's two
+// regions, the DEM's one box): the vessel over z in [0, vessel_length] around the z axis, the
+// feeder over the whole period beside it. A point at x >= split_x is the feeder's; the feeder is
+// the inlet's section repeated, so a feeder point stands for the point at the same offset from the
+// vessel's axis in the inlet plane (in_vessel_frame).
+struct FeederLayout {
+  double vessel_length = 0;  // m, the outlet plane's z
+  double period = 0;         // m, the feeder's length: the period along z of its cells and the DEM box
+  double axis_x = 0;         // m, the feeder's axis (y = 0)
+  double split_x = 0;        // m, midway between the vessel's widest wall (R0) and the feeder's (axis_x - R(0))
+  double radius = 0;         // m, the feeder's radius: the inlet's, R(0)
+
+  bool in_feeder(double x) const { return x >= split_x; }
+  // (x, y, z) of a feeder point moved onto the vessel's inlet plane; a vessel point as it is.
+  template <class V>
+  V in_vessel_frame(const V& p) const {
+    if (!in_feeder(p.x())) return p;
+    V q = p;
+    q.x() -= axis_x;
+    q.z() = 0;
+    return q;
+  }
+};
+// The layout of a vessel fed by a feeder (fed_by_feeder); throws std::invalid_argument otherwise.
+FeederLayout feeder_layout(const Vessel& vessel, int axial_cells);
+
 }  // namespace hemo

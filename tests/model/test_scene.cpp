@@ -13,6 +13,7 @@
 #include "minimal_scene.h"
 #include "momentum_forms.h"
 #include "scene.h"
+#include "vec.h"
 #include "suspension_viscosity.h"
 #include "units.h"
 #include "vessel_ends.h"
@@ -211,6 +212,31 @@ TEST(Scene, TheFeederOutgrowsTheVesselByTheFewestWholeLayersSpanningADiameter) {
     EXPECT_GE(gap, v.diameter * (1 - 1e-12)) << n;
     EXPECT_LT(gap - dz, v.diameter) << n;
   }
+}
+
+// The feeder lies beside the vessel, clear of it: the split between them is midway between the
+// vessel's widest wall and the feeder's, and a feeder point stands for the inlet-plane point at
+// the same offset from the axis.
+TEST(Scene, TheFeederLayoutSplitsTheBoxBetweenTheTwoWalls) {
+  Vessel v;
+  v.diameter = 100e-6;
+  v.length = 600e-6;
+  v.ends = "open";
+  const FeederLayout straight = feeder_layout(v, 24);
+  EXPECT_DOUBLE_EQ(straight.period, 700e-6);
+  EXPECT_DOUBLE_EQ(straight.axis_x, 150e-6);
+  EXPECT_DOUBLE_EQ(straight.radius, 50e-6);
+  EXPECT_DOUBLE_EQ(straight.split_x, 75e-6);
+  const particles::Vec3 p(160e-6, 20e-6, 300e-6);
+  EXPECT_TRUE(straight.in_feeder(p.x()));
+  const particles::Vec3 q = straight.in_vessel_frame(p);
+  EXPECT_NEAR(q.x(), 10e-6, 1e-18);
+  EXPECT_EQ(q.y(), 20e-6);
+  EXPECT_EQ(q.z(), 0.0);
+  const particles::Vec3 inside(40e-6, 0, 300e-6);
+  EXPECT_EQ(straight.in_vessel_frame(inside), inside);
+  v.inlet = "poiseuille";
+  EXPECT_THROW(feeder_layout(v, 24), std::invalid_argument);
 }
 
 // vessel.ends (periodic by default) and vessel.inlet (the feeder by default; periodic ends ignore
