@@ -168,6 +168,19 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
 
 }  // namespace
 
+std::vector<PlacedParticle> place_feeder_particles(const Scene& scene, const FeederLayout& feeder, double z0,
+                                                   unsigned long long seed, const PlacementOptions& options) {
+  Scene tube = scene;
+  tube.vessel = Vessel{};
+  tube.vessel.diameter = 2 * feeder.radius;
+  tube.vessel.length = feeder.period;
+  constexpr unsigned long long kFeederStream = 0x9E3779B97F4A7C15ULL;  // 2^64 / golden ratio: far from seed + 1
+  std::vector<PlacedParticle> placed =
+      place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed + kFeederStream, options);
+  for (PlacedParticle& p : placed) p.position.x() += feeder.axis_x;
+  return placed;
+}
+
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,
                                             const PlacementOptions& opt) {

@@ -16,6 +16,7 @@
 
 #include <geometry.h>
 #include <scene.h>
+#include <vessel_ends.h>
 
 #include <stdexcept>
 #include <string>
@@ -72,6 +73,13 @@ std::vector<PlacementRequest> placement_requests(const Scene& scene);
 std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,
                                             const PlacementOptions& options = {});
+// An open vessel's feeder (model/vessel_ends.h) at the scene's hematocrit and platelet density:
+// placed as in a straight periodic vessel of its radius and length from z0, moved onto its axis,
+// from a random stream of its own (derived from `seed`, so the vessel's particles are those of
+// place_particles with `seed`).
+std::vector<PlacedParticle> place_feeder_particles(const Scene& scene, const FeederLayout& feeder, double z0,
+                                                   unsigned long long seed, const PlacementOptions& options = {});
+
 // In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,

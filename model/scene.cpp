@@ -353,15 +353,21 @@ static void read_vessel_ends(Reader& r, Vessel& v) {
   read_name(r, "vessel.inlet", v.inlet, vessel_inlet_names());
 }
 
-// Cells in an open vessel need the inlet to hand developed cells over and the outlet to remove
-// them (issue #34's next slice): until then an open vessel carries plasma alone.
-static void refuse_cells_in_open_vessel(Reader& r, const Scene& s) {
-  const auto names = vessel_end_names();
-  if (std::find(names.begin(), names.end(), s.vessel.ends) == names.end()) return;  // refused as read
+// Whether vessel.ends and vessel.inlet are names the scene knows (unknown ones are refused as read).
+static bool known_ends(const Vessel& v) {
+  const auto ends = vessel_end_names(), inlets = vessel_inlet_names();
+  return std::find(ends.begin(), ends.end(), v.ends) != ends.end() &&
+         std::find(inlets.begin(), inlets.end(), v.inlet) != inlets.end();
+}
+
+// Cells enter an open vessel as copies of the cells crossing its feeder's end (docs/design.md,
+// "Open ends"): an inlet with a fixed profile has none to hand over, so it carries plasma alone.
+static void refuse_cells_without_feeder(Reader& r, const Scene& s) {
+  if (!known_ends(s.vessel)) return;  // refused as read
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
-  r.refuse_once(!cells || !open_ends(s.vessel), "vessel.ends",
-                "an open vessel carries plasma alone for now (no inlet hand-over or outlet removal of cells yet): "
-                "remove rbc.hematocrit and platelet.number_density_per_ul, or use vessel.ends = \"periodic\"");
+  r.refuse_once(!cells || !open_ends(s.vessel) || fed_by_feeder(s.vessel), "vessel.inlet",
+                "cells enter an open vessel only from a feeder (vessel.inlet = \"feeder\"); a fixed profile "
+                "carries plasma alone: remove rbc.hematocrit and platelet.number_density_per_ul, or use the feeder");
 }
 
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
@@ -369,7 +375,11 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
 WorkEstimate estimate_work(const Scene& s) {
   WorkEstimate w;
-  const double volume = vessel_volume(s.vessel);
+  double volume = vessel_volume(s.vessel);
+  if (known_ends(s.vessel) && fed_by_feeder(s.vessel)) {  // the feeder carries the scene's blood too
+    const FeederLayout feeder = feeder_layout(s.vessel, s.mesh.axial_cells);
+    volume += units::pi * feeder.radius * feeder.radius * feeder.period;
+  }
   w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
                 (s.platelet.present ? s.platelet.number_density * volume : 0);
   // The particle node's contact time (particle-node/dem_timing.cpp calls the same function).
@@ -807,7 +817,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);
-  refuse_cells_in_open_vessel(r, s);
+  refuse_cells_without_feeder(r, s);
 
   auto& c = s.contact;
   r.read("contact.cell_youngs_modulus_Pa", c.cell_youngs_modulus);
@@ -855,6 +865,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "\"streaming\" runs on one particle rank (run.particle_ranks = 1)");
   r.check(s.neighbour_rebuild == "engine" || uniform_vessel(s.vessel), "dem.neighbour_rebuild",
           "\"streaming\" predicts the straight tube's Poiseuille flow: use \"engine\" in a vessel.shape that narrows");
+  r.check(s.neighbour_rebuild == "engine" || !known_ends(s.vessel) || !open_ends(s.vessel), "dem.neighbour_rebuild",
+          "\"streaming\" predicts a periodic vessel's flow: use \"engine\" in an open vessel");
 
   r.read("output.every_steps", s.output.every_steps);
   r.check(s.output.every_steps >= 1, "output.every_steps", "must be at least 1");

@@ -358,7 +358,7 @@ bool placement_checked(const Scene& scene);  // whether SceneCheck::placement pl
 // derives the actual step; this uses only the shortest Hertz contact time, so its substeps are
 // a lower bound of the particle node's).
 struct WorkEstimate {
-  double particles = 0;       // expected number of particles in the vessel
+  double particles = 0;       // expected number of particles in the vessel (and an open one's feeder)
   double contact_time = 0;    // s, shortest Hertz contact time at the DEM masses (inf: none)
   double substeps = 0;        // DEM steps per coupling interval
   double particle_steps = 0;  // particles x substeps x coupling steps

@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "dem_fixes.h"
+#include "dem_open_ends.h"
 
 namespace hemo::particles {
 
@@ -54,7 +55,8 @@ std::vector<LiggghtsCheckpoint::Column> LiggghtsCheckpoint::carried_columns() co
       {liggghts_.atom().f, 3}, {liggghts_.atom().torque, 3}, {per_atom(fixes.impulse), values_per_atom(fixes.impulse)}};
   if (fixes.rotation) columns.push_back({per_atom(fixes.rotation), values_per_atom(fixes.rotation)});
   if (fixes.closures) columns.push_back({per_atom(fixes.closures), values_per_atom(fixes.closures)});
-  if (fixes.wall_history) columns.push_back({fixes.wall_history->array_atom, fixes.wall_history->get_nvalues()});
+  for (auto* history : {fixes.wall_history, fixes.feeder_wall_history})
+    if (history) columns.push_back({history->array_atom, history->get_nvalues()});
   return columns;
 }
 
@@ -64,6 +66,7 @@ auto LiggghtsCheckpoint::carried_fields(State& state) const {
   if (liggghts_.fixes().rotation) fields.push_back(&state.rotation);
   if (liggghts_.fixes().closures) fields.push_back(&state.closures);
   if (liggghts_.fixes().wall_history) fields.push_back(&state.wall_history);
+  if (liggghts_.fixes().feeder_wall_history) fields.push_back(&state.feeder_wall_history);
   return fields;
 }
 
@@ -100,6 +103,13 @@ void LiggghtsCheckpoint::save(EngineState& s) {
   liggghts_.rebuild_neighbours();
   scatter_carried(carried);
   s.particles = liggghts_.particles();
+  s.created = liggghts_.created();
+  s.tag_capacity = liggghts_.tag_capacity();
+  if (const auto* open = liggghts_.fixes().open_ends) {
+    s.inserted = open->counts().inserted;
+    s.left_outlet = open->counts().left_outlet;
+    s.left_inlet = open->counts().left_inlet;
+  }
   s.type_of = {liggghts_.type_of(kRbc), liggghts_.type_of(kPlatelet)};
   s.dem_step = liggghts_.dem_step();
   s.neighbour_builds = liggghts_.neighbour_builds();
@@ -111,7 +121,7 @@ std::vector<double> LiggghtsCheckpoint::gather_carried() const {
   const std::vector<Column> columns = carried_columns();
   const std::size_t width = static_cast<std::size_t>(carried_width());
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
-  std::vector<double> by_tag(width * static_cast<std::size_t>(liggghts_.particles()), 0.0);
+  std::vector<double> by_tag(width * static_cast<std::size_t>(liggghts_.tag_capacity()), 0.0);
   for (int i = 0; i < atom.nlocal; ++i) {
     double* row = &by_tag[width * static_cast<std::size_t>(atom.tag[i] - 1)];
     for (const Column& c : columns)
@@ -161,12 +171,18 @@ void LiggghtsCheckpoint::save_contact_history(EngineState& s) const {
 
 // ---- restore ------------------------------------------------------------------------------
 
-void LiggghtsCheckpoint::restore(const EngineState& s) {
+void LiggghtsCheckpoint::restore(const EngineState& s, LiggghtsSession::OpenEndsListener listener) {
   agreed([&] { check_atoms(s); }, comm_);
   liggghts_.set_timestep(s.dt);
   liggghts_.command(fmt::format("reset_timestep {}", s.dem_step));
   create_atoms_as(s);
-  liggghts_.lammps().init();  // pair gran makes its contact history store at its first init
+  liggghts_.set_created(s.created);
+  OpenEndsState open{{s.inserted, s.left_outlet, s.left_inlet}, static_cast<long>(s.tag_capacity)};
+  agreed([&] { liggghts_.first_init(std::move(listener), liggghts_.open() ? &open : nullptr); }, comm_);
+  if (liggghts_.particles() != s.particles || liggghts_.tag_capacity() != s.tag_capacity)
+    throw std::invalid_argument(fmt::format(
+        "the checkpoint's counts make {} particles on {} tags, it has {} on {}", liggghts_.particles(),
+        liggghts_.tag_capacity(), s.particles, s.tag_capacity));
   restore_contact_history(s);
   liggghts_.rebuild_neighbours();
   scatter_carried(carried_by_tag(s));
@@ -183,7 +199,7 @@ void LiggghtsCheckpoint::check_atoms(const EngineState& s) const {
   for (std::size_t c = 0; c < columns.size(); ++c) expect_size(*fields[c], n * columns[c].width, "per-atom values");
   const int rbc = liggghts_.type_of(kRbc), platelet = liggghts_.type_of(kPlatelet);
   for (std::size_t k = 0; k < n; ++k)
-    if (s.tag[k] < 1 || s.tag[k] > s.particles || (s.type[k] != rbc && s.type[k] != platelet) || s.type[k] < 1 ||
+    if (s.tag[k] < 1 || s.tag[k] > s.tag_capacity || (s.type[k] != rbc && s.type[k] != platelet) || s.type[k] < 1 ||
         s.partner_count[k] < 0)
       throw std::invalid_argument(fmt::format("the checkpoint's atom {} has tag {}, type {}", k, s.tag[k], s.type[k]));
   std::size_t partners = 0;
@@ -229,9 +245,9 @@ void LiggghtsCheckpoint::create_atoms_as(const EngineState& s) {
   a.nghost = 0;
   a.map_init();
   a.map_set();
-  if (liggghts_.count_particles() != s.particles)
+  if (liggghts_.count_atoms() != s.particles)
     throw std::runtime_error(
-        fmt::format("the checkpoint's ranks hold {} particles, not {}", liggghts_.particles(), s.particles));
+        fmt::format("the checkpoint's ranks hold {} particles, not {}", liggghts_.count_atoms(), s.particles));
 }
 
 void LiggghtsCheckpoint::restore_contact_history(const EngineState& s) {
@@ -260,7 +276,7 @@ std::vector<double> LiggghtsCheckpoint::carried_by_tag(const EngineState& s) con
   const std::vector<Column> columns = carried_columns();
   const auto fields = carried_fields(s);
   const std::size_t width = static_cast<std::size_t>(carried_width());
-  std::vector<double> by_tag(width * static_cast<std::size_t>(liggghts_.particles()), 0.0);
+  std::vector<double> by_tag(width * static_cast<std::size_t>(liggghts_.tag_capacity()), 0.0);
   for (std::size_t k = 0; k < s.tag.size(); ++k) {
     double* row = &by_tag[width * static_cast<std::size_t>(s.tag[k] - 1)];
     for (std::size_t c = 0; c < columns.size(); ++c)

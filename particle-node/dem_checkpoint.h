@@ -34,7 +34,8 @@ class LiggghtsCheckpoint {
   // Into a box set up for the state's atom types: the atoms as saved, the DEM step and step
   // length, rebuilt the same way. Throws std::invalid_argument, on every rank alike, when the
   // state does not fit the box.
-  void restore(const EngineState& state);
+  // `listener`: an open vessel's events from then on (LiggghtsSession::first_init).
+  void restore(const EngineState& state, LiggghtsSession::OpenEndsListener listener = {});
 
  private:
   // The per-atom values a rebuild must leave as they were: force, torque, impulse, rotation,

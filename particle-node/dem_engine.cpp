@@ -7,6 +7,9 @@
 #include <atom.h>
 #include <fmt/format.h>
 
+#include "dem_fixes.h"
+#include "dem_open_ends.h"
+
 #include <stdexcept>
 
 namespace hemo::particles {
@@ -20,6 +23,12 @@ DemBookkeeping with_neighbour_policy(DemBookkeeping bookkeeping, const Scene& sc
   return bookkeeping;
 }
 
+// An open vessel fed by a feeder: the layout its box holds (model/vessel_ends.h).
+std::optional<FeederLayout> feeder_of(const Scene& scene) {
+  if (!fed_by_feeder(scene.vessel)) return std::nullopt;
+  return feeder_layout(scene.vessel, scene.mesh.axial_cells);
+}
+
 }  // namespace
 
 DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
@@ -27,7 +36,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
     : scene_(dem_scene(scene)),
       comm_(comm),
       species_(scene_, scene),
-      liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_), comm),
+      liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_), comm,
+                feeder_of(scene_)),
       tracking_(locator),
       orientation_(liggghts_, problems_),
       fluid_force_(scene_, locator, species_, liggghts_, tracking_, orientation_, problems_, comm),
@@ -50,6 +60,32 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
   }
   set_up_box(used);
   tracking_.start(liggghts_.create_particles(particles));
+  // A periodic vessel's first set-up is its first run's, as it has always been.
+  if (liggghts_.open()) liggghts_.first_init(open_ends_listener());
+}
+
+LiggghtsSession::OpenEndsListener DemEngine::open_ends_listener() {
+  return [this](const std::vector<dem::OpenEndsEvent>& events) { follow(events); };
+}
+
+void DemEngine::follow(const std::vector<dem::OpenEndsEvent>& events) {
+  // Inside LIGGGHTS's pre_exchange, the same events on every rank; a copy is on its source's rank.
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  double** held = dem::per_atom(liggghts_.fixes().closures);
+  for (const auto& e : events) {
+    if (e.kind != dem::OpenEndsEvent::Kind::inserted) {
+      tracking_.leave(e.tag);
+      continue;
+    }
+    tracking_.enter(e.tag);
+    if (held == nullptr) continue;
+    // Held closures name the fluid cell they were evaluated in: the copy's is in the vessel.
+    for (int i = atom.nlocal - 1; i >= 0; --i)
+      if (atom.tag[i] == e.tag) {
+        held[i][dem::kCell] = tracking_.cell_of(e.tag, Vec3(atom.x[i][0], atom.x[i][1], atom.x[i][2]));
+        break;
+      }
+  }
 }
 
 std::string DemEngine::run(long coupling_step, int substeps, double dt, const FluidSampler& fluid) {
@@ -75,12 +111,26 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
 }
 
 std::string DemEngine::check_lost(long coupling_step) {
-  const LiggghtsSession::Lost lost = liggghts_.find_lost();
+  const LiggghtsSession::Lost lost = liggghts_.find_lost(tracking_.present());
   lost_ = lost.count;
   if (lost_ == 0) return {};
   return fmt::format(
       "particle {} was lost by LIGGGHTS (it left the DEM box) during coupling step {}; {} particle{} lost in all",
       lost.first, coupling_step, lost_, lost_ == 1 ? "" : "s");
+}
+
+DemEngine::EndCounts DemEngine::end_counts() const {
+  EndCounts c;
+  const auto* open = liggghts_.fixes().open_ends;
+  if (open == nullptr) return c;
+  for (int sp = 0; sp < kSpeciesCount; ++sp) {
+    const int type = liggghts_.type_of(sp);
+    if (type == 0) continue;
+    c.inserted[sp] = static_cast<long>(open->counts().inserted[type]);
+    c.left_outlet[sp] = static_cast<long>(open->counts().left_outlet[type]);
+    c.left_inlet[sp] = static_cast<long>(open->counts().left_inlet[type]);
+  }
+  return c;
 }
 
 EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
@@ -111,13 +161,13 @@ void DemEngine::restore(const EngineState& s) {
   if (liggghts_.box_set_up()) throw std::logic_error("particles were already created");
   agreed([&] { check_globals(s); }, comm_);
   set_up_box({s.type_of[kRbc] > 0, s.type_of[kPlatelet] > 0});
-  checkpoint_.restore(s);
+  checkpoint_.restore(s, open_ends_listener());
   dt_ = s.dt;
   first_run_ = false;  // the next run carries the last force over (`pre no`), as it would have
   lost_ = static_cast<long>(s.lost);
   fluid_force_.restore(s);
   orientation_.restore(s);
-  tracking_.restore(s, particle_count());
+  tracking_.restore(s, liggghts_.tag_capacity());
 }
 
 void DemEngine::check_globals(const EngineState& s) const {
@@ -131,8 +181,15 @@ void DemEngine::check_globals(const EngineState& s) const {
     if (s.type_of[sp] > 0 && !species_.has(sp))
       throw std::invalid_argument(
           fmt::format("the checkpoint has {} particles, the scene has none", sp == kRbc ? "red cell" : "platelet"));
-  if (s.particles < 1) throw std::invalid_argument("the checkpoint has no particles");
-  expect_size(s.tracked, EngineState::kTrackedValues * static_cast<std::size_t>(s.particles + 1), "tracked");
+  if (s.particles < 0 || s.created < 1 || s.tag_capacity < s.created || s.tag_capacity < s.particles)
+    throw std::invalid_argument(fmt::format("the checkpoint has {} particles created, {} present on {} tags",
+                                            s.created, s.particles, s.tag_capacity));
+  expect_size(s.tracked, EngineState::kTrackedValues * static_cast<std::size_t>(s.tag_capacity + 1), "tracked");
+  const bool open = liggghts_.open();
+  for (const auto* counts : {&s.inserted, &s.left_outlet, &s.left_inlet})
+    if (counts->empty() == open)
+      throw std::invalid_argument(open ? "the checkpoint is of a periodic vessel, the scene's is open"
+                                       : "the checkpoint is of an open vessel, the scene's is periodic");
   expect_size(s.max_reynolds, kSpeciesCount, "max_reynolds");
   expect_size(s.pending_orientations, 4 * s.pending_tags.size(), "pending_orientations");
 }

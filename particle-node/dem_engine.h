@@ -65,6 +65,13 @@ class DemEngine {
   // Creates the particles (the same list on every rank); tags are 1..N in list order.
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return liggghts_.particles(); }
+  // An open vessel's counts since the run started, per species: inserted at the inlet, left
+  // through the outlet, left back through the inlet (all zero for a periodic vessel).
+  struct EndCounts {
+    std::array<long, kSpeciesCount> inserted{}, left_outlet{}, left_inlet{};
+  };
+  EndCounts end_counts() const;
+  bool open_ends() const { return liggghts_.open(); }
   long local_particle_count() const { return liggghts_.local_particles(); }  // on this rank
 
   // Checkpoint, between runs (collective): rebuilds the neighbour lists from the atoms (see
@@ -106,7 +113,8 @@ class DemEngine {
   // Wall seconds spent in the fluid-force callback (location, sampling, closures) since the last call.
   double take_fluid_force_seconds() { return fluid_force_.take_seconds(); }
 
-  // Every particle, sorted by id, z unwrapped (collective; complete on every rank).
+  // Every particle, sorted by id, z unwrapped (collective; complete on every rank); in an open
+  // vessel, those in the vessel (not its feeder).
   ParticleSnapshot snapshot(long step, double time_s) { return output_.snapshot(step, time_s); }
 
   // Sets a particle's orientation from the next DEM step on (tests); its angular momentum is kept.
@@ -143,6 +151,9 @@ class DemEngine {
   void check_globals(const EngineState& state) const;
   // A particle LIGGGHTS lost: the error, "" when none.
   std::string check_lost(long coupling_step);
+  // An open vessel's cells in and out (dem_open_ends.h): the tracking follows the tags.
+  LiggghtsSession::OpenEndsListener open_ends_listener();
+  void follow(const std::vector<dem::OpenEndsEvent>& events);
 
   // The pieces hold references to the ones declared before them.
   const Scene scene_;  // the DEM's (dem_scene)

@@ -23,6 +23,9 @@ constexpr const char* kWallMeshFix = "hemo_wall_mesh";  // a shape's wall as tri
 // history per atom (checkpoints save it). A mesh wall keeps its history elsewhere (fix
 // contacthistory/mesh), which checkpoints do not carry.
 constexpr const char* kWallHistoryFix = "history_hemo_wall";
+// An open vessel's feeder's wall (a primitive cylinder) and its history.
+constexpr const char* kFeederWallFix = "hemo_feeder_wall";
+constexpr const char* kFeederWallHistoryFix = "history_hemo_feeder_wall";
 
 // The per-atom closure values held between evaluations (time.closure_every_dem_steps > 1, or
 // a held coupling.fluid_force). kCell: the fluid cell they were evaluated in (where the

@@ -38,6 +38,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "open_ends_events.h"
+
 #include <fix.h>
 
 #include <array>
@@ -57,14 +59,6 @@ struct OpenEndsLayout {
   double shift_x = 0;   // m, the feeder's axis from the vessel's, along x
 };
 
-struct OpenEndsEvent {
-  enum class Kind { left_outlet, left_inlet, inserted };
-  Kind kind = Kind::inserted;
-  int tag = 0;         // the atom removed, or the copy's new tag
-  int type = 0;        // LIGGGHTS atom type
-  int source_tag = 0;  // an insertion's feeder atom (0 for a removal)
-};
-
 class FixOpenEnds : public LAMMPS_NS::Fix {
  public:
   // fix ID all hemo/open_ends OUTLET_Z SPLIT_X SHIFT_X
@@ -80,13 +74,17 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   void pre_exchange() override { hand_over(); }
 
   // Counts since the run started, per atom type (index 0 unused), the same on every rank.
-  struct Counts {
-    std::vector<std::int64_t> inserted, left_outlet, left_inlet;
-  };
+  using Counts = OpenEndsCounts;
   const Counts& counts() const { return counts_; }
 
   // Tags in use are within 1..capacity (the largest tag ever given); the free ones are reused.
   long tag_capacity() const { return capacity_; }
+
+  using State = OpenEndsState;
+  State state() const { return {counts_, capacity_}; }
+  // Before the set-up of the restored atoms; throws std::invalid_argument when the counts are not
+  // per type of this box.
+  void restore(const State& state);
 
   // Per-atom fixes (fix property/atom) whose values an inserted copy takes from its source.
   void copy_values_of(std::vector<LAMMPS_NS::Fix*> fixes) { copied_ = std::move(fixes); }

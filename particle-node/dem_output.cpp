@@ -25,7 +25,8 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
   const int* tag = atom.tag;
   double** x = atom.x;
   double** v = atom.v;
-  double sums[4] = {0, 0, 0, 0};  // count, particle v_z, fluid u_z, particles in the wall gap
+  double sums[5] = {0, 0, 0, 0, 0};  // count, particle v_z, fluid u_z, particles in the wall gap, in the vessel
+  const auto& feeder = liggghts_.feeder();
   double max_speed = 0;
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
@@ -33,12 +34,14 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
     bool in_gap = false;
     const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
+    sums[4] += !(feeder && feeder->in_feeder(xi.x()));
     if (cell < 0 || std::hypot(xi.x(), xi.y()) >= 0.5 * locator_.wall_radius(xi.z())) continue;  // the core
     sums[0] += 1;
     sums[1] += v[i][2];
     if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_.wrap(xi)).z();
   }
-  MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, sums, 5, MPI_DOUBLE, MPI_SUM, comm_);
+  d.in_vessel = static_cast<long>(sums[4]);
   d.core_particles = static_cast<long>(sums[0]);
   d.in_wall_gap = static_cast<long>(sums[3]);
   if (sums[0] > 0) {
@@ -80,10 +83,11 @@ double DemOutput::local_max_overlap() const {
 }
 
 ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
-  const std::size_t n = static_cast<std::size_t>(liggghts_.particles());
-  // Per tag: species, position (3), velocity (3), orientation (4); summed over ranks (each atom
-  // on one rank). A tag no rank has (lost) keeps zeros.
-  constexpr int kPer = 11;
+  const std::size_t n = static_cast<std::size_t>(liggghts_.tag_capacity());
+  // Per tag: written (1), species, position (3), velocity (3), orientation (4); summed over ranks
+  // (each atom on one rank). A tag no rank has (lost, or free in an open vessel) is not written,
+  // nor is an open vessel's feeder (the inlet's supply, not the vessel's blood).
+  constexpr int kPer = 12;
   std::vector<double> buf(kPer * n, 0.0);
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
   const int nlocal = atom.nlocal;
@@ -92,20 +96,23 @@ ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
   double** x = atom.x;
   double** v = atom.v;
   double** rot = per_atom(liggghts_.fixes().rotation);
+  const auto& feeder = liggghts_.feeder();
   for (int i = 0; i < nlocal; ++i) {
+    if (feeder && feeder->in_feeder(x[i][0])) continue;
     const std::size_t k = kPer * static_cast<std::size_t>(tag[i] - 1);
     const int sp = liggghts_.species_of_type(type[i]);
-    buf[k] = sp;
-    buf[k + 1] = x[i][0];
-    buf[k + 2] = x[i][1];
-    buf[k + 3] = tracking_.unwrap_z(tag[i], x[i][2]);
-    buf[k + 4] = v[i][0];
-    buf[k + 5] = v[i][1];
-    buf[k + 6] = v[i][2];
+    buf[k] = 1;
+    buf[k + 1] = sp;
+    buf[k + 2] = x[i][0];
+    buf[k + 3] = x[i][1];
+    buf[k + 4] = tracking_.unwrap_z(tag[i], x[i][2]);
+    buf[k + 5] = v[i][0];
+    buf[k + 6] = v[i][1];
+    buf[k + 7] = v[i][2];
     if (species_.rotation[sp])
-      for (int d = 0; d < 4; ++d) buf[k + 7 + d] = rot[i][d];
+      for (int d = 0; d < 4; ++d) buf[k + 8 + d] = rot[i][d];
     else
-      buf[k + 7] = 1;
+      buf[k + 8] = 1;
   }
   int size = 1;
   MPI_Comm_size(comm_, &size);
@@ -113,19 +120,15 @@ ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
   ParticleSnapshot s;
   s.step = step;
   s.time_s = time_s;
-  s.id.resize(n);
-  s.species.resize(n);
-  s.position.resize(3 * n);
-  s.velocity.resize(3 * n);
-  s.orientation.resize(4 * n);
   for (std::size_t t = 0; t < n; ++t) {
-    s.id[t] = static_cast<std::int64_t>(t + 1);
-    s.species[t] = static_cast<std::int8_t>(buf[kPer * t]);
-    for (int d = 0; d < 3; ++d) {
-      s.position[3 * t + d] = buf[kPer * t + 1 + d];
-      s.velocity[3 * t + d] = buf[kPer * t + 4 + d];
-    }
-    for (int d = 0; d < 4; ++d) s.orientation[4 * t + d] = buf[kPer * t + 7 + d];
+    const double* row = &buf[kPer * t];
+    // A periodic vessel writes every tag (a lost one as zeros), as it always has.
+    if (row[0] == 0 && feeder) continue;
+    s.id.push_back(static_cast<std::int64_t>(t + 1));
+    s.species.push_back(static_cast<std::int8_t>(row[1]));
+    s.position.insert(s.position.end(), row + 2, row + 5);
+    s.velocity.insert(s.velocity.end(), row + 5, row + 8);
+    s.orientation.insert(s.orientation.end(), row + 8, row + 12);
   }
   return s;
 }

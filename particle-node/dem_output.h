@@ -26,6 +26,7 @@ struct EngineDiagnostics {
   double max_speed = 0;             // m/s
   double max_reynolds[2] = {0, 0};  // per species, over the last run
   long lost = 0;                    // particles LIGGGHTS no longer has
+  long in_vessel = 0;               // particles in the vessel (all but an open vessel's feeder's)
 };
 
 class DemOutput {
@@ -37,7 +38,8 @@ class DemOutput {
   // The particles at the current state in `fluid` (null: no fluid state yet): count, core
   // velocities, wall gap, largest speed and overlap. What the last run found is the caller's.
   EngineDiagnostics diagnostics(const FluidSampler* fluid);
-  // Every particle, sorted by id, z unwrapped (complete on every rank).
+  // Every particle, sorted by id, z unwrapped (complete on every rank); in an open vessel, those
+  // in the vessel (not its feeder).
   ParticleSnapshot snapshot(long step, double time_s);
 
  private:

@@ -25,6 +25,7 @@
 #include <type_traits>
 
 #include "dem_fixes.h"
+#include "dem_open_ends.h"
 #include "dem_fix_styles.h"
 #include "dem_streaming_neighbours.h"
 
@@ -104,14 +105,15 @@ void no_force(void*, std::int64_t, int, int*, double**, double**) {}
 
 LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
                                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping,
-                                 MPI_Comm comm)
+                                 MPI_Comm comm, std::optional<FeederLayout> feeder)
     : contact_(contact),
       locator_(locator),
       species_(species),
       log_path_(log_path),
       wall_file_(wall_file_for(log_path, comm)),
       bookkeeping_(bookkeeping),
-      comm_(comm) {
+      comm_(comm),
+      feeder_(std::move(feeder)) {
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
                                    append_log ? std::string("none") : log_path_};
   std::vector<char*> argv;
@@ -122,6 +124,10 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
     if (ranks != 1)
       throw std::invalid_argument(fmt::format(
           "dem.neighbour_rebuild = \"streaming\" runs on one MPI rank, not {} (docs/performance.md)", ranks));
+    // Its frame streams with one vessel's Poiseuille flow, around one axis.
+    if (feeder_)
+      throw std::invalid_argument("dem.neighbour_rebuild = \"streaming\" follows a periodic vessel's flow, not an "
+                                  "open vessel and its feeder: use \"engine\"");
   }
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
   atom_ = lmp_->atom;
@@ -179,10 +185,14 @@ int LiggghtsSession::assign_atom_types(const std::array<bool, kSpeciesCount>& us
 
 void LiggghtsSession::define_box_and_contacts(int n_types) {
   const double R = locator_.radius();
-  const double z0 = locator_.z0(), L = locator_.length();
+  const double z0 = locator_.z0();
   const double half_box = R + 2 * species_.d_max;
+  // An open vessel's box holds its feeder beside it and is periodic with the feeder's length.
+  const double x_hi = feeder_ ? feeder_->axis_x + feeder_->radius + 2 * species_.d_max : half_box;
+  const double period = feeder_ ? feeder_->period : locator_.length();
+  if (feeder_) check_outlet_gap();
   command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
-                      half_box, -half_box, half_box, z0, z0 + L));
+                      x_hi, -half_box, half_box, z0, z0 + period));
   command(fmt::format("create_box {} hemo_box", n_types));
   for (const auto& line : contact_model(n_types, bookkeeping_.streaming_neighbours)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
@@ -208,15 +218,35 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool stream
 }
 
 std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
-  if (!mesh_wall())
-    return {fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} 0 0",
-                        kWallFix, wall_type, locator_.radius())};
-  // The mesh's z origin is the shape's; LIGGGHTS takes the facets as they are in the box.
-  return {
-      fmt::format("fix {} all mesh/surface file {} type {}", kWallMeshFix, wall_file_, wall_type),
-      fmt::format("fix {} all wall/gran model hertz tangential history mesh n_meshes 1 meshes {}", kWallFix,
-                  kWallMeshFix),
+  auto cylinder = [&](const char* id, double radius, double axis_x) {
+    return fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} {:.17g} 0",
+                       id, wall_type, radius, axis_x);
   };
+  std::vector<std::string> lines;
+  if (!mesh_wall()) {
+    lines.push_back(cylinder(kWallFix, locator_.radius(), 0));
+  } else {
+    // The mesh's z origin is the shape's; LIGGGHTS takes the facets as they are in the box.
+    lines.push_back(fmt::format("fix {} all mesh/surface file {} type {}", kWallMeshFix, wall_file_, wall_type));
+    lines.push_back(fmt::format("fix {} all wall/gran model hertz tangential history mesh n_meshes 1 meshes {}",
+                                kWallFix, kWallMeshFix));
+  }
+  // The feeder is straight: the primitive, whatever the vessel's wall. Each wall reaches the
+  // cells of the other tube not at all (they are a radius or more away from it).
+  if (feeder_) lines.push_back(cylinder(kFeederWallFix, feeder_->radius, feeder_->axis_x));
+  return lines;
+}
+
+void LiggghtsSession::check_outlet_gap() const {
+  // A cell at the outlet and one at the inlet are one period minus the vessel's length apart
+  // through the box's periodic z; no pair may reach across (dem_open_ends.h).
+  const double reach = 2 * species_.d_max * kContactReach + bookkeeping_.skin_diameters * species_.d_max;
+  const double gap = feeder_->period - feeder_->vessel_length;
+  if (!(gap > reach))
+    throw std::invalid_argument(fmt::format(
+        "the feeder is {:.4g} um longer than the open vessel: a pair's reach ({:.4g} um, with the neighbour skin) "
+        "would cross from the outlet to the inlet",
+        gap / units::um, reach / units::um));
 }
 
 void LiggghtsSession::write_wall_surface() const {
@@ -247,11 +277,8 @@ std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_fil
 }
 
 void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
-  auto find = [&](const char* id) {
-    const int ifix = lmp_->modify->find_fix(id);
-    if (ifix < 0) throw std::runtime_error(std::string("LIGGGHTS did not create the fix ") + id);
-    return lmp_->modify->fix[ifix];
-  };
+  auto find = [&](const char* id) { return find_fix(id); };
+  find_feeder_wall_history();
   fluid_fix_ = static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix));
   fluid_fix_->set_callback(callback_, callback_target_);
   fixes_.impulse = find(kImpulseFix);
@@ -261,6 +288,42 @@ void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
   fixes_.wall_history = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find(kWallHistoryFix));
   if (fixes_.wall_history == nullptr)
     throw std::runtime_error("LIGGGHTS's wall contact history is not a fix property/atom");
+}
+
+void LiggghtsSession::find_feeder_wall_history() {
+  if (!feeder_) return;
+  fixes_.feeder_wall_history = dynamic_cast<LAMMPS_NS::FixPropertyAtom*>(find_fix(kFeederWallHistoryFix));
+  if (fixes_.feeder_wall_history == nullptr)
+    throw std::runtime_error("LIGGGHTS's feeder wall contact history is not a fix property/atom");
+}
+
+LAMMPS_NS::Fix* LiggghtsSession::find_fix(const char* id) const {
+  const int ifix = lmp_->modify->find_fix(id);
+  if (ifix < 0) throw std::runtime_error(std::string("LIGGGHTS did not create the fix ") + id);
+  return lmp_->modify->fix[ifix];
+}
+
+void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState* restored) {
+  lmp_->init();
+  if (!feeder_) return;
+  command(open_ends_command({locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x}));
+  fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
+  // A copy takes the source's orientation and held closures; its impulse starts at zero (the
+  // source's interval impulse stays with the source, which goes on in the feeder).
+  std::vector<LAMMPS_NS::Fix*> copied;
+  for (LAMMPS_NS::Fix* fix : {fixes_.rotation, fixes_.closures})
+    if (fix != nullptr) copied.push_back(fix);
+  fixes_.open_ends->copy_values_of(copied);
+  fixes_.open_ends->on_events(std::move(listener));
+  if (restored) fixes_.open_ends->restore(*restored);
+}
+
+long LiggghtsSession::particles() const {
+  return particles_ + (fixes_.open_ends ? static_cast<long>(fixes_.open_ends->counts().net()) : 0);
+}
+
+long LiggghtsSession::tag_capacity() const {
+  return fixes_.open_ends ? std::max<long>(particles_, fixes_.open_ends->tag_capacity()) : particles_;
 }
 
 std::vector<const PlacedParticle*> LiggghtsSession::create_particles(const std::vector<PlacedParticle>& particles) {
@@ -285,13 +348,14 @@ std::vector<const PlacedParticle*> LiggghtsSession::create_particles(const std::
     const double density = species_.mass[sp] / (units::pi / 6 * std::pow(diameter, 3));
     command(fmt::format("set type {} diameter {:.17g} density {:.17g}", type_of_[sp], diameter, density));
   }
-  if (count_particles() != static_cast<long>(particles.size()))
+  particles_ = count_atoms();
+  if (particles_ != static_cast<long>(particles.size()))
     throw std::runtime_error(
         fmt::format("LIGGGHTS created {} of {} particles (some outside the box?)", particles_, particles.size()));
   return order;
 }
 
-long LiggghtsSession::count_particles() { return particles_ = static_cast<long>(atom_->natoms); }
+long LiggghtsSession::count_atoms() const { return static_cast<long>(atom_->natoms); }
 
 long LiggghtsSession::local_particles() const { return atom_->nlocal; }
 
@@ -318,17 +382,18 @@ void LiggghtsSession::rebuild_neighbours() {
   lmp_->neighbor->ncalls = builds;
 }
 
-LiggghtsSession::Lost LiggghtsSession::find_lost() const {
+LiggghtsSession::Lost LiggghtsSession::find_lost(const std::vector<char>& expected) const {
   // LIGGGHTS drops an atom that leaves the box (thermo_modify lost ignore).
   Lost lost;
   const long have = static_cast<long>(sum_all(static_cast<double>(atom_->nlocal), comm_));
-  lost.count = particles_ - have;
+  lost.count = particles() - have;
   if (lost.count == 0) return lost;
-  std::vector<double> present(particles_ + 1, 0.0);
-  for (int i = 0; i < atom_->nlocal; ++i) present[atom_->tag[i]] = 1;
+  std::vector<double> present(expected.size(), 0.0);
+  for (int i = 0; i < atom_->nlocal; ++i)
+    if (atom_->tag[i] < static_cast<long>(present.size())) present[atom_->tag[i]] = 1;
   MPI_Allreduce(MPI_IN_PLACE, present.data(), static_cast<int>(present.size()), MPI_DOUBLE, MPI_SUM, comm_);
-  for (long t = 1; t <= particles_ && lost.first == 0; ++t)
-    if (present[t] == 0) lost.first = t;
+  for (std::size_t t = 1; t < expected.size() && lost.first == 0; ++t)
+    if (expected[t] && present[t] == 0) lost.first = static_cast<long>(t);
   return lost;
 }
 

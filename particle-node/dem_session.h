@@ -16,14 +16,18 @@
 #pragma once
 
 #include "cell_locator.h"
+#include "open_ends_events.h"
 #include "dem_species.h"
 #include "placement.h"
 
 #include <mpi.h>
 #include <scene.h>
+#include <vessel_ends.h>
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,6 +38,10 @@ class Fix;
 class FixExternal;
 class FixPropertyAtom;
 }  // namespace LAMMPS_NS
+
+namespace hemo::particles::dem {
+class FixOpenEnds;
+}
 
 namespace hemo::particles {
 
@@ -67,12 +75,18 @@ class LiggghtsSession {
     LAMMPS_NS::Fix* closures = nullptr;                  // closures held between evaluations
     LAMMPS_NS::FixPropertyAtom* wall_history = nullptr;  // LIGGGHTS's own: the wall contacts' history
                                                          // (a primitive wall's; null for a mesh wall)
+    LAMMPS_NS::FixPropertyAtom* feeder_wall_history = nullptr;  // the feeder's primitive wall's (open ends)
+    dem::FixOpenEnds* open_ends = nullptr;                      // open ends, after the first init
   };
+  using OpenEndsListener = std::function<void(const std::vector<dem::OpenEndsEvent>&)>;
 
   // Starts LIGGGHTS with the settings that need no particles yet. Its log goes to `log_path`
   // ("none": no log; appended to with `append_log`); the screen stays quiet.
+  // `feeder`: an open vessel's layout (model/vessel_ends.h): the box holds the vessel and its
+  // feeder, each with its wall, and the ends are open (dem_open_ends.h).
   LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
-                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping, MPI_Comm comm);
+                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping, MPI_Comm comm,
+                  std::optional<FeederLayout> feeder = std::nullopt);
   ~LiggghtsSession();
   LiggghtsSession(const LiggghtsSession&) = delete;
   LiggghtsSession& operator=(const LiggghtsSession&) = delete;
@@ -81,13 +95,25 @@ class LiggghtsSession {
   // a rotation fix and a held-closure fix as asked; `callback(target, ...)` is the fluid force.
   void set_up_box(const std::array<bool, kSpeciesCount>& used, bool rotation, bool held_closures,
                   ForceCallback callback, void* target);
+  // LIGGGHTS's first set-up of the atoms created (or recreated from a checkpoint), where pair gran
+  // makes its contact history store; then, in an open vessel, the open ends, after that store
+  // (dem_open_ends.h), with the counts and tag capacity of `restored` (none: a new run) and
+  // `listener` told of every build's events.
+  void first_init(OpenEndsListener listener, const dem::OpenEndsState* restored = nullptr);
+  bool open() const { return feeder_.has_value(); }
+  const std::optional<FeederLayout>& feeder() const { return feeder_; }
   bool box_set_up() const { return fluid_fix_ != nullptr; }
   // The particles as atoms (the same list on every rank); returns them in the order of their
   // tags, 1..N.
   std::vector<const PlacedParticle*> create_particles(const std::vector<PlacedParticle>& particles);
-  // The atoms LIGGGHTS holds now, over all ranks, are the particles (after they were created or
-  // recreated); LIGGGHTS may lose some later (find_lost).
-  long count_particles();
+  // The atoms LIGGGHTS holds now, over all ranks.
+  long count_atoms() const;
+  // The particles created at the run's start (a restored run: as its checkpoint says).
+  long created() const { return particles_; }
+  void set_created(long created) { particles_ = created; }
+  // Tags in use lie in 1..tag_capacity(): the particles created, or, with open ends, the largest
+  // tag ever given (a tag freed by a cell that left is given again).
+  long tag_capacity() const;
 
   void command(const std::string& line);
   void set_timestep(double dt);
@@ -106,15 +132,17 @@ class LiggghtsSession {
     long count = 0;
     long first = 0;  // the smallest tag lost
   };
-  // The particles LIGGGHTS dropped because they left the box (collective).
-  Lost find_lost() const;
+  // The particles LIGGGHTS dropped because they left the box: of the tags `expected` says are
+  // present (index = tag), those no rank has (collective).
+  Lost find_lost(const std::vector<char>& expected) const;
 
   LAMMPS_NS::LAMMPS& lammps() const { return *lmp_; }
   LAMMPS_NS::Atom& atom() const { return *atom_; }
   const Fixes& fixes() const { return fixes_; }
   int type_of(int species) const { return type_of_[species]; }  // 0: none
   int species_of_type(int type) const { return species_of_type_[type]; }
-  long particles() const { return particles_; }
+  // The particles present: created, and with open ends inserted - left (the open ends' counts).
+  long particles() const;
   long local_particles() const;
   std::int64_t dem_step() const;
   // Neighbour-list builds since the last run that set up anew.
@@ -138,6 +166,10 @@ class LiggghtsSession {
   std::vector<std::string> wall_commands(int wall_type) const;
   void write_wall_surface() const;
   void find_fixes(bool rotation, bool held_closures);
+  void find_feeder_wall_history();
+  LAMMPS_NS::Fix* find_fix(const char* id) const;
+  // Refuses a feeder too short for the gap beyond the outlet.
+  void check_outlet_gap() const;
 
   const Contact contact_;
   const CellLocator& locator_;
@@ -146,6 +178,7 @@ class LiggghtsSession {
   const std::string wall_file_;  // the mesh wall's STL: next to the log (or in the temporary directory)
   const DemBookkeeping bookkeeping_;
   MPI_Comm comm_;
+  const std::optional<FeederLayout> feeder_;
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
   LAMMPS_NS::Atom* atom_ = nullptr;  // LAMMPS keeps one for its lifetime
   LAMMPS_NS::FixExternal* fluid_fix_ = nullptr;
@@ -154,7 +187,7 @@ class LiggghtsSession {
   Fixes fixes_;
   std::array<int, kSpeciesCount> type_of_{};
   std::array<int, kSpeciesCount + 2> species_of_type_{};
-  long particles_ = 0;
+  long particles_ = 0;  // created at the run's start
 };
 
 }  // namespace hemo::particles

@@ -1,16 +1,33 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_tracking.h"
 
+#include <cmath>
+#include <limits>
+
 namespace hemo::particles {
 
 void ParticleTracking::start(const std::vector<const PlacedParticle*>& order) {
   tracked_.assign(order.size() + 1, Tracked{});
+  present_.assign(order.size() + 1, 1);
+  present_[0] = 0;
   for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
+}
+
+void ParticleTracking::enter(int tag) {
+  const auto t = static_cast<std::size_t>(tag);
+  if (t >= tracked_.size()) {
+    tracked_.resize(t + 1);
+    present_.resize(t + 1, 0);
+  }
+  tracked_[t] = Tracked{};
+  tracked_[t].last_z = std::numeric_limits<double>::quiet_NaN();
+  present_[t] = 1;
 }
 
 double ParticleTracking::unwrap_z(int tag, double z) {
   const double half = 0.5 * locator_->length();
   Tracked& t = tracked_[tag];
+  if (std::isnan(t.last_z)) t.last_z = z;  // a new particle: its z is where it starts
   const double dz = z - t.last_z;
   if (dz < -half)
     t.crossings += 1;
@@ -41,6 +58,7 @@ void ParticleTracking::sync(int nlocal, const int* tag, MPI_Comm comm) {
   }
   MPI_Allreduce(MPI_IN_PLACE, buf.data(), static_cast<int>(buf.size()), MPI_DOUBLE, MPI_SUM, comm);
   for (std::size_t t = 0; t < tracked_.size(); ++t) {
+    if (!present_[t]) continue;
     tracked_[t].last_z = buf[2 * t];
     tracked_[t].crossings = buf[2 * t + 1];
   }
@@ -48,13 +66,17 @@ void ParticleTracking::sync(int nlocal, const int* tag, MPI_Comm comm) {
 
 void ParticleTracking::save(EngineState& s) const {
   s.tracked.reserve(EngineState::kTrackedValues * tracked_.size());
-  for (const Tracked& t : tracked_)
+  for (std::size_t k = 0; k < tracked_.size(); ++k) {
+    const Tracked& t = tracked_[k];
     s.tracked.insert(s.tracked.end(), {t.where.anchor.x(), t.where.anchor.y(), t.where.anchor.z(), t.where.clearance,
-                                       static_cast<double>(t.where.cell), t.last_z, t.crossings});
+                                       static_cast<double>(t.where.cell), t.last_z, t.crossings,
+                                       static_cast<double>(present_[k])});
+  }
 }
 
-void ParticleTracking::restore(const EngineState& s, long particles) {
-  tracked_.assign(static_cast<std::size_t>(particles) + 1, Tracked{});
+void ParticleTracking::restore(const EngineState& s, long tags) {
+  tracked_.assign(static_cast<std::size_t>(tags) + 1, Tracked{});
+  present_.assign(tracked_.size(), 0);
   for (std::size_t t = 0; t < tracked_.size(); ++t) {
     const double* v = &s.tracked[EngineState::kTrackedValues * t];
     tracked_[t].where.anchor = Vec3(v[0], v[1], v[2]);
@@ -62,6 +84,7 @@ void ParticleTracking::restore(const EngineState& s, long particles) {
     tracked_[t].where.cell = static_cast<int>(v[4]);
     tracked_[t].last_z = v[5];
     tracked_[t].crossings = v[6];
+    present_[t] = v[7] != 0;
   }
 }
 

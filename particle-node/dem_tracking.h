@@ -3,7 +3,8 @@
 // the box), and the locate cache of its fluid cell; packed for one cache line per particle.
 // Every rank holds every tag: after a run the crossings of each rank's own atoms are summed into
 // everyone's view (sync), so that an atom that moved to another rank keeps its count. The locate
-// cache is each rank's own guess (a stale one costs a search).
+// cache is each rank's own guess (a stale one costs a search). In an open vessel tags come and go
+// (dem_open_ends.h): each tag is present or free, and a tag given again starts afresh.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -24,6 +25,11 @@ class ParticleTracking {
 
   // Tags 1..N for the particles in `order`, where they start.
   void start(const std::vector<const PlacedParticle*>& order);
+  // An open end's events: a tag freed, a tag given (again) to a new particle, its z not yet seen.
+  void leave(int tag) { present_[tag] = 0; }
+  void enter(int tag);
+  // Per tag (index = tag, 0 unused): whether a particle has it.
+  const std::vector<char>& present() const { return present_; }
 
   // z unwrapped over the crossings of the periodic ends since the start; `z` as LIGGGHTS has
   // it now (counts a crossing when it jumped by more than half the period since last seen).
@@ -36,18 +42,19 @@ class ParticleTracking {
   void sync(int nlocal, const int* tag, MPI_Comm comm);
 
   void save(EngineState& state) const;
-  // The state's `tracked` holds `particles` + 1 tags (checked by the caller).
-  void restore(const EngineState& state, long particles);
+  // The state's `tracked` holds `tags` + 1 tags (checked by the caller).
+  void restore(const EngineState& state, long tags);
 
  private:
   struct Tracked {
     LocateCache where;     // fluid cell
-    double last_z = 0;     // z when last seen (as LIGGGHTS had it)
+    double last_z = 0;     // z when last seen (as LIGGGHTS had it); NaN: not yet seen
     double crossings = 0;  // periodic crossings along +z (integer valued)
   };
 
   const CellLocator* locator_;
   std::vector<Tracked> tracked_;  // index = LIGGGHTS atom tag, 0 unused
+  std::vector<char> present_;     // the same indices
 };
 
 }  // namespace hemo::particles

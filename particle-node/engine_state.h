@@ -23,7 +23,11 @@ namespace hemo::particles {
 struct EngineState {
   // The same on every rank.
   std::int64_t ranks = 1;
-  std::int64_t particles = 0;
+  std::int64_t particles = 0;             // present
+  std::int64_t created = 0;               // at the run's start
+  std::int64_t tag_capacity = 0;          // tags in use lie in 1..tag_capacity
+  // An open vessel's counts per LIGGGHTS atom type (index 0 unused; empty for a periodic one).
+  std::vector<std::int64_t> inserted, left_outlet, left_inlet;
   std::vector<std::int64_t> type_of;     // LIGGGHTS atom type per species (0: none)
   std::int64_t dem_step = 0;             // LIGGGHTS's ntimestep
   double dt = 0;                         // the DEM step of the last run
@@ -45,20 +49,26 @@ struct EngineState {
   std::vector<double> rotation;             // hemoRotation: q, L (platelets); empty without orientation
   std::vector<double> closures;             // hemoClosures: the held closures; empty when m = 1
   std::vector<double> wall_history;         // the wall contacts' tangential history
+  std::vector<double> feeder_wall_history;  // the feeder's wall's (an open vessel's)
   std::vector<std::int64_t> partner_count;  // pair contacts with history, per atom
   std::vector<std::int64_t> partner;        // their partners' tags
   std::vector<double> contact_history;      // contact_values per partner
   std::int64_t contact_values = 0;
 
   // Per tag (index 0 unused), as this rank has it: locate cache (anchor x, y, z, clearance,
-  // cell), last z seen, periodic crossings.
-  static constexpr int kTrackedValues = 7;
+  // cell), last z seen, periodic crossings, present (1) or free (0).
+  static constexpr int kTrackedValues = 8;
   std::vector<double> tracked;
 
   template <class F>
   void visit(F&& f) {
     f("ranks", ranks);
     f("particles", particles);
+    f("created", created);
+    f("tag_capacity", tag_capacity);
+    f("inserted", inserted);
+    f("left_outlet", left_outlet);
+    f("left_inlet", left_inlet);
     f("type_of", type_of);
     f("dem_step", dem_step);
     f("dt", dt);
@@ -87,6 +97,7 @@ struct EngineState {
     f("rotation", rotation);
     f("closures", closures);
     f("wall_history", wall_history);
+    f("feeder_wall_history", feeder_wall_history);
     f("partner_count", partner_count);
     f("partner", partner);
     f("contact_history", contact_history);

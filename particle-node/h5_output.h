@@ -1,7 +1,9 @@
 // Particle snapshots in RUN_DIR/particles.h5:
 //
 //   /snapshots/<step, 8 digits>/        attribute time_s (double)
-//       id        int64   [N]      LIGGGHTS atom tag
+//       id        int64   [N]      LIGGGHTS atom tag; in an open vessel the cells in the vessel
+//                                  (not its feeder), and a tag freed by a cell that left is
+//                                  given again to a cell that enters
 //       species   int8    [N]      0 = RBC, 1 = platelet
 //       position  double  [N][3]   m, z unwrapped across the periodic ends
 //       velocity     double  [N][3]   m/s

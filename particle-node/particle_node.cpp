@@ -96,8 +96,12 @@ void ParticleNode::log_particles() const {
 }
 
 void ParticleNode::start() {
-  const auto placed =
-      place_particles(locator_.geometry(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
+  auto placed = place_particles(locator_.geometry(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
+  if (fed_by_feeder(scene_.vessel)) {  // the inlet's supply, beside the vessel (model/vessel_ends.h)
+    const auto fed = place_feeder_particles(scene_, feeder_layout(scene_.vessel, scene_.mesh.axial_cells),
+                                            locator_.z0(), scene_.run.seed);
+    placed.insert(placed.end(), fed.begin(), fed.end());
+  }
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);
@@ -333,11 +337,22 @@ Diagnostics ParticleNode::diagnostics() {
       {"particles_outside_mesh", static_cast<double>(d.outside_mesh)},
       {"particles_in_wall_gap", static_cast<double>(d.in_wall_gap)},
       {"particles_lost", static_cast<double>(d.lost)},
+      {"particles_in_vessel", static_cast<double>(d.in_vessel)},
       {"max_reynolds_rbc", d.max_reynolds[kRbc]},
       {"max_reynolds_platelet", d.max_reynolds[kPlatelet]},
       {"solid_volume_m3", deposition_.total_volume()},
       {kTimeDiagnostic, time_},
   };
+  if (engine_->open_ends()) {  // counts since the run started, per species and end
+    const DemEngine::EndCounts c = engine_->end_counts();
+    for (int sp = 0; sp < kSpeciesCount; ++sp) {
+      if (!used_[sp]) continue;
+      const std::string name = sp == kRbc ? "rbc" : "platelet";
+      out.emplace_back(name + "_inserted", static_cast<double>(c.inserted[sp]));
+      out.emplace_back(name + "_left_outlet", static_cast<double>(c.left_outlet[sp]));
+      out.emplace_back(name + "_left_inlet", static_cast<double>(c.left_inlet[sp]));
+    }
+  }
   // Before the first run: the particles at rest. None without drag (nothing bounds an interval).
   const double tau = engine_->ran() ? engine_->min_relaxation_time() : timing_.relaxation_time;
   if (std::isfinite(tau)) out.emplace_back(kRelaxationDiagnostic, tau);

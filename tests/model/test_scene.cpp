@@ -269,26 +269,31 @@ TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
   }
 }
 
-// An open vessel carries plasma alone until cells can be handed over at its inlet and removed at
-// its outlet (issue #34's next slice): red cells or platelets in it are one problem, on
-// vessel.ends, naming both ways out; the same cells in the periodic vessel are fine, and so are
-// species given at zero.
-TEST(Scene, AnOpenVesselWithCellsIsRefusedInOneLine) {
+// Cells enter an open vessel from its feeder: red cells or platelets in one fed by the feeder (the
+// default inlet) are fine, in one with a fixed inlet profile one problem, on vessel.inlet, naming
+// both ways out; species given at zero are fine with any inlet.
+TEST(Scene, CellsEnterAnOpenVesselOnlyFromAFeeder) {
   auto with = [](const std::string& ends, const std::string& cells) {
     return "[vessel]\ndiameter_um = 100\nlength_um = 600\nends = \"" + ends +
-           "\"\n[driving]\nwall_shear_rate_per_s = 799\n" + cells;
+           "\n[driving]\nwall_shear_rate_per_s = 799\n" + cells;
   };
   for (const std::string cells : {"[rbc]\nhematocrit = 0.1\n", "[platelet]\nnumber_density_per_ul = 300000\n",
                                   "[rbc]\nhematocrit = 0.1\n[platelet]\nnumber_density_per_ul = 300000\n"}) {
-    EXPECT_TRUE(problems_of(with("periodic", cells)).empty()) << cells;
-    const auto ps = problems_of(with("open", cells));
-    ASSERT_EQ(ps.size(), 1u) << cells;
-    EXPECT_EQ(ps[0].key, "vessel.ends");
-    EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
-    EXPECT_NE(ps[0].message.find("plasma alone"), std::string::npos) << ps[0].message;
-    EXPECT_NE(ps[0].message.find("vessel.ends = \"periodic\""), std::string::npos) << ps[0].message;
+    EXPECT_TRUE(problems_of(with("periodic\"", cells)).empty()) << cells;
+    EXPECT_TRUE(problems_of(with("open\"", cells)).empty()) << cells;
+    EXPECT_TRUE(problems_of(with("open\"\ninlet = \"feeder\"", cells)).empty()) << cells;
+    for (const std::string inlet : {"poiseuille", "uniform"}) {
+      const auto ps = problems_of(with("open\"\ninlet = \"" + inlet + "\"", cells));
+      ASSERT_EQ(ps.size(), 1u) << cells;
+      EXPECT_EQ(ps[0].key, "vessel.inlet");
+      EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
+      EXPECT_NE(ps[0].message.find("plasma alone"), std::string::npos) << ps[0].message;
+      EXPECT_NE(ps[0].message.find("vessel.inlet = \"feeder\""), std::string::npos) << ps[0].message;
+    }
   }
-  EXPECT_TRUE(problems_of(with("open", "[rbc]\nhematocrit = 0\n[platelet]\nnumber_density_per_ul = 0\n")).empty());
+  EXPECT_TRUE(
+      problems_of(with("open\"\ninlet = \"uniform\"", "[rbc]\nhematocrit = 0\n[platelet]\nnumber_density_per_ul = 0\n"))
+          .empty());
 }
 
 // dem.neighbour_rebuild = "streaming" is proven and tested on one particle rank only
