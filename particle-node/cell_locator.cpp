@@ -8,6 +8,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace hemo::particles {
 
@@ -85,16 +86,18 @@ std::vector<char> wall_faces(const mesh_t& mesh) {
 }
 
 // A wall face leaves a gap to the round vessel only when its corners lie on the vessel's
-// wall, r = R(z) (a chord); other wall faces are taken as the vessel's true boundary.
+// wall, r = R(z) (a chord); other wall faces are taken as the vessel's true boundary. A feeder's
+// corners are measured where they stand for in the vessel frame, so its chords are those on the
+// feeder's circle.
 std::vector<char> chords(const mesh_t& mesh, const std::vector<Vec3>& points, const std::vector<char>& wall_face,
-                         const VesselGeometry& geometry) {
+                         const VesselGeometry& geometry, const std::optional<FeederLayout>& feeder) {
   std::vector<char> on_circle(mesh.n_faces, 0);
   for (int f = mesh.n_internal_faces; f < mesh.n_faces; ++f) {
     if (!wall_face[f]) continue;
     const int end = face_end(mesh, f);
     bool all = true;
     for (int k = mesh.face_offsets[f]; k < end && all; ++k) {
-      const Vec3& p = points[mesh.face_points[k]];
+      const Vec3 p = feeder ? feeder->in_vessel_frame(points[mesh.face_points[k]]) : points[mesh.face_points[k]];
       const double radius = geometry.radius_at(p.z());
       all = radius > 0 && std::abs(std::hypot(p.x(), p.y()) - radius) <= 1e-6 * radius;
     }
@@ -114,7 +117,9 @@ struct CellLocator::Faces {
   Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
 };
 
-CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry) {
+CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry,
+                         std::optional<FeederLayout> feeder)
+    : feeder_(std::move(feeder)) {
   check_counts(mesh);
   const std::vector<Vec3> points = read_points(mesh);
   read_cells(mesh);
@@ -133,7 +138,7 @@ CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometr
   geometry_ = std::move(geometry);
   std::vector<char> wall_cell;
   const std::vector<char> on_wall =
-      geometry_ ? chords(mesh, points, wall_face, *geometry_) : std::vector<char>(mesh.n_faces, 0);
+      geometry_ ? chords(mesh, points, wall_face, *geometry_, feeder_) : std::vector<char>(mesh.n_faces, 0);
   const std::vector<Vec3> plane_point = build_planes(mesh, faces, wall_face, on_wall, wall_cell);
   set_period(mesh, faces.lo, faces.hi);
   reach_into_wall_gap(wall_cell, faces);
@@ -222,8 +227,15 @@ std::vector<Vec3> CellLocator::build_planes(const mesh_t& mesh, const Faces& fac
       plane.wall = wall_face[f] != 0;
       plane.beyond = plane.across;
       plane.gap = 0;
-      if (on_circle[f] && std::abs(plane.normal.z()) < 0.5)  // a side wall of the vessel
-        plane.gap = std::max(0.0, wall_reach(plane.normal, faces.cell_lo[c].z(), faces.cell_hi[c].z()) - plane.offset);
+      if (on_circle[f] && std::abs(plane.normal.z()) < 0.5) {  // a side wall of the vessel or the feeder
+        // In the vessel frame: a feeder face moved by its axis, so that the feeder's reach
+        // R |n_xy| + n_x axis_x less the face's offset is the vessel's R(0) |n_xy| less the moved
+        // face's (the same to rounding: the feeder's side faces have n_z = 0). Elsewhere the frame
+        // is the identity and the offset is plane.offset, computed alike.
+        const double z_lo = in_vessel_frame(faces.cell_lo[c]).z(), z_hi = in_vessel_frame(faces.cell_hi[c]).z();
+        const double offset = plane.normal.dot(in_vessel_frame(face.centroid));
+        plane.gap = std::max(0.0, wall_reach(plane.normal, z_lo, z_hi) - offset);
+      }
       if (plane.gap > 0) wall_cell[c] = 1;
       planes_.push_back(plane);
       plane_point.push_back(face.centroid);
@@ -247,6 +259,17 @@ double CellLocator::wall_reach(const Vec3& normal, double z_lo, double z_hi) con
 
 void CellLocator::set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi) {
   z0_ = lo.z();
+  if (feeder_) {
+    // The feeder spans the period, the vessel only its own length within it.
+    length_ = feeder_->period;
+    if (!(length_ > 0) || std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
+      bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from the feeder's period " +
+               std::to_string(length_) + " m");
+    if (std::abs(mesh.vessel_length_m - feeder_->vessel_length) > 1e-6 * length_)
+      bad_mesh("its vessel_length_m " + std::to_string(mesh.vessel_length_m) +
+               " m differs from the feeder layout's vessel length " + std::to_string(feeder_->vessel_length) + " m");
+    return;
+  }
   length_ = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : hi.z() - lo.z();
   if (std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
     bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from vessel_length_m " +
@@ -355,7 +378,8 @@ int CellLocator::search_bins(const Vec3& x) const {
 
 int CellLocator::locate_in_wall_gap(const Vec3& x) const {
   const Vec3 w = wrap(x);
-  if (!(wall_gap_ > 0) || std::hypot(w.x(), w.y()) > wall_radius(w.z()) * (1 + 1e-12)) return -1;
+  const Vec3 v = in_vessel_frame(w);
+  if (!(wall_gap_ > 0) || std::hypot(v.x(), v.y()) > wall_radius(v.z()) * (1 + 1e-12)) return -1;
   const int b = bin_of(w);
   if (b < 0) return -1;
   int best = -1;

@@ -12,7 +12,9 @@
 // point in no candidate cell is outside the mesh (-1), without any brute-force fallback.
 //
 // The mesh is periodic along z with period vessel_length_m starting at the lowest mesh point;
-// points are wrapped into [z0, z0 + L) before they are located.
+// points are wrapped into [z0, z0 + L) before they are located. An open vessel fed by a feeder
+// (model/vessel_ends.h, FeederLayout) is two regions of one mesh: the vessel over [0, L] and the
+// feeder beside it over the whole period, the feeder's length, which is then the period.
 //
 // The wall gap: the fluid mesh's wall is a polygon of flat faces (chords) inside the round
 // vessel the DEM wall bounds, so a particle touching the DEM wall can have its centre in the
@@ -23,7 +25,10 @@
 //
 // The vessel's wall is the shape's, r = R(z) (model/geometry.h): the mesh's z origin is the
 // shape's, its period the shape's length. A straight tube's answers are those of the fixed radius
-// the locator used before shapes, to the bit.
+// the locator used before shapes, to the bit. The feeder's wall is measured where each of its
+// points stands for, in the vessel frame (the inlet plane, FeederLayout::in_vessel_frame): one
+// wall, one set of rules for chords, gaps and the radius; without a feeder the frame is the
+// identity and the answers are those of before feeders, to the bit.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -31,8 +36,10 @@
 
 #include <geometry.h>
 #include <hemo/mesh_t.hpp>
+#include <vessel_ends.h>
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace hemo::particles {
@@ -49,9 +56,12 @@ struct LocateCache {
 
 class CellLocator {
  public:
-  // Throws std::invalid_argument when the mesh is inconsistent (sizes, indices, empty cells).
-  // `geometry` is the vessel's shape; none: the straight tube of the mesh's diameter and length.
-  explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry = nullptr);
+  // Throws std::invalid_argument when the mesh is inconsistent (sizes, indices, empty cells, a
+  // z extent other than the period). `geometry` is the vessel's shape; none: the straight tube of
+  // the mesh's diameter and length. `feeder`: the mesh is an open vessel's with its feeder
+  // (feeder_layout(vessel, mesh.axial_cells)); its period is the feeder's length.
+  explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry = nullptr,
+                       std::optional<FeederLayout> feeder = std::nullopt);
 
   // The cell containing x (any z; wrapped first), or -1 when x is outside the mesh.
   // `hint` is a cell to try first (-1: none).
@@ -74,8 +84,8 @@ class CellLocator {
   double clearance(int cell, const Vec3& x) const;
 
   // For a point that locate() found in no cell: the wall cell it lies behind, when it is in
-  // the wall gap (inside the vessel radius, at most wall_gap() behind the cell's wall face and
-  // inside all its other faces); else -1.
+  // the wall gap (inside the radius of its tube, the vessel's or the feeder's, at most
+  // wall_gap() behind the cell's wall face and inside all its other faces); else -1.
   int locate_in_wall_gap(const Vec3& x) const;
 
   // Calls f(signed distance of x from the face plane (< 0 on the cell's side), the cell beyond
@@ -127,9 +137,16 @@ class CellLocator {
   double z0() const { return z0_; }
   double length() const { return length_; }
   double radius() const { return radius_; }  // R0, the nominal radius (the widest a shape gets)
-  // The vessel's wall radius at axial coordinate z (any z), m.
+  // The vessel's wall radius at axial coordinate z (any z) of the vessel frame, m.
   double wall_radius(double z) const { return geometry_->radius_at(z); }
+  // The wall radius of the tube x is in (the vessel's at x's z, or the feeder's), m.
+  double wall_radius(const Vec3& x) const { return wall_radius(in_vessel_frame(x).z()); }
   const VesselGeometry& geometry() const { return *geometry_; }
+  // x where it stands for in the vessel: a feeder point moved onto the vessel's inlet plane (at
+  // its offset from the feeder's axis), any other point as it is. Not wrapped. Radial distances
+  // and the shape's R(z), centre-line speeds and diameters of a point are those of this point.
+  Vec3 in_vessel_frame(const Vec3& x) const { return feeder_ ? feeder_->in_vessel_frame(x) : x; }
+  const std::optional<FeederLayout>& feeder() const { return feeder_; }
 
   // Statistics of the searches so far (not thread safe; for diagnostics and tests).
   struct Stats {
@@ -162,7 +179,8 @@ class CellLocator {
   std::vector<Vec3> build_planes(const mesh_t& mesh, const Faces& faces, const std::vector<char>& wall_face,
                                  const std::vector<char>& on_circle, std::vector<char>& wall_cell);
   void set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi);
-  // How far along the unit `normal` the vessel's wall reaches over z in [z_lo, z_hi].
+  // How far along the unit `normal` the vessel's wall reaches over z in [z_lo, z_hi], in the
+  // vessel frame.
   double wall_reach(const Vec3& normal, double z_lo, double z_hi) const;
   // The deepest wall gap, and the wall cells' boxes widened by it for the bins.
   void reach_into_wall_gap(const std::vector<char>& wall_cell, Faces& faces);
@@ -179,6 +197,7 @@ class CellLocator {
 
   double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
   std::shared_ptr<const VesselGeometry> geometry_;
+  std::optional<FeederLayout> feeder_;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};
   std::vector<int> bin_start_;  // CSR: candidate cells per bin

@@ -11,6 +11,7 @@
 #include <momentum_forms.h>
 #include <placement.h>
 #include <spdlog/spdlog.h>
+#include <vessel_ends.h>
 
 #include <chrono>
 #include <cmath>
@@ -57,7 +58,9 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
     : scene_(scene),
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
-      locator_(mesh, make_vessel_geometry(scene.vessel)),
+      locator_(mesh, make_vessel_geometry(scene.vessel),
+               fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene.vessel, scene.mesh.axial_cells))
+                                           : std::nullopt),
       fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
       run_dir_(run_dir) {
