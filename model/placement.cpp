@@ -168,16 +168,25 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
 
 }  // namespace
 
-std::vector<PlacedParticle> place_feeder_particles(const Scene& scene, const FeederLayout& feeder, double z0,
-                                                   unsigned long long seed, const PlacementOptions& options) {
+std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
+                                                        const FeederLayout& feeder, double z0,
+                                                        unsigned long long seed, const PlacementOptions& options) {
   Scene tube = scene;
   tube.vessel = Vessel{};
   tube.vessel.diameter = 2 * feeder.radius;
   tube.vessel.length = feeder.period;
-  constexpr unsigned long long kFeederStream = 0x9E3779B97F4A7C15ULL;  // 2^64 / golden ratio: far from seed + 1
   std::vector<PlacedParticle> placed =
-      place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed + kFeederStream, options);
-  for (PlacedParticle& p : placed) p.position.x() += feeder.axis_x;
+      place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed, options);
+  const std::size_t fed = placed.size();
+  for (std::size_t k = 0; k < fed; ++k) {
+    PlacedParticle copy = placed[k];  // on the vessel's axis
+    placed[k].position.x() += feeder.axis_x;
+    const Vec3 in_shape(copy.position.x(), copy.position.y(), copy.position.z() - z0);
+    const double d = copy.diameter;
+    if (in_shape.z() < feeder.vessel_length &&
+        vessel.signed_distance(in_shape) <= -(d / 2 + options.gap_fraction * d))
+      placed.push_back(copy);
+  }
   return placed;
 }
 

@@ -73,12 +73,15 @@ std::vector<PlacementRequest> placement_requests(const Scene& scene);
 std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,
                                             const PlacementOptions& options = {});
-// An open vessel's feeder (model/vessel_ends.h) at the scene's hematocrit and platelet density:
-// placed as in a straight periodic vessel of its radius and length from z0, moved onto its axis,
-// from a random stream of its own (derived from `seed`, so the vessel's particles are those of
-// place_particles with `seed`).
-std::vector<PlacedParticle> place_feeder_particles(const Scene& scene, const FeederLayout& feeder, double z0,
-                                                   unsigned long long seed, const PlacementOptions& options = {});
+// An open vessel's particles (model/vessel_ends.h): its feeder's, placed at the scene's hematocrit
+// and platelet density as in a straight periodic vessel of the feeder's radius and length from z0
+// and moved onto its axis; then the vessel's, copies of the feeder's over the vessel's length that
+// keep clear of the vessel's own wall (all of them in a straight vessel). So the cells the feeder
+// hands over at the inlet continue the suspension already there, as they do at every later step.
+// Independent placements would put the first copies onto the vessel's cells at the inlet.
+std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
+                                                        const FeederLayout& feeder, double z0,
+                                                        unsigned long long seed, const PlacementOptions& options = {});
 
 // In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,

@@ -107,7 +107,11 @@ void FixOpenEnds::hand_over() {
   const double beyond = domain->boxhi[0] + (domain->boxhi[0] - domain->boxlo[0]);
   for (const int i : leaving) atom->x[i][0] = beyond;
   atom->natoms += static_cast<LAMMPS_NS::bigint>(sources.size()) - static_cast<LAMMPS_NS::bigint>(removed);
-  if (capacity_ > atom->map_tag_max) {  // the tag map must reach the new tags (as LIGGGHTS's insertions do)
+  // The copies were appended over the first ghost slots: the map is made anew from the owned
+  // atoms alone (the ghosts are built again after the exchange), reaching the new tags, as
+  // LIGGGHTS's own insertions do. Left as it was, the exchange would clear the map through
+  // ghost slots past the copies, beyond what LIGGGHTS holds.
+  if (!sources.empty()) {
     atom->nghost = 0;
     atom->map_init();
     atom->map_set();

@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kD = 50e-6, kL = 100e-6;
-constexpr double kPlug = 0.5;  // m/s: a cell crosses the vessel in 20 coupling steps
+constexpr double kPlug = 0.1;  // m/s: a cell crosses the vessel in 100 coupling steps
 
 hemo::Scene open_scene() {
   auto scene = synthetic::blood_scene(kD, kL, 0.15);
@@ -49,7 +49,7 @@ hemo::mesh_t mesh_of(const hemo::Scene& scene) {
 
 // A plug flow with Poiseuille flow on it, in each tube about its own axis.
 synthetic::FieldAt through_both_tubes(const hemo::FeederLayout& feeder) {
-  const synthetic::FieldAt shear = synthetic::poiseuille(kD / 2, 0.2);
+  const synthetic::FieldAt shear = synthetic::poiseuille(kD / 2, 0.05);
   return [=](const std::array<double, 3>& x, std::array<double, 3>& u, std::array<double, 9>& g) {
     const Vec3 local = feeder.in_vessel_frame(Vec3(x[0], x[1], x[2]));
     shear({local.x(), local.y(), local.z()}, u, g);
@@ -84,7 +84,7 @@ TEST(OpenVessel, CountsBalanceAtEveryStepAndTheCellsFlowThrough) {
 
   const std::string h5 = (dir / "particles.h5").string();
   std::map<long, std::set<std::int64_t>> ids;  // the vessel's tags per step
-  const long steps = 45;
+  const long steps = 130;
   for (long k = 1; k <= steps; ++k) {
     const auto o = checkpoint_case::order(k);
     ASSERT_EQ(node.check(fluid), "");
@@ -131,7 +131,7 @@ TEST(OpenVessel, ResumedNodeGoesOnBitForBitWithItsCounts) {
   const auto feeder = hemo::feeder_layout(scene.vessel, scene.mesh.axial_cells);
   const auto mesh = mesh_of(scene);
   const auto fluid = synthetic::fluid_state(mesh, through_both_tubes(feeder));
-  const long K = 25, N = 8;  // by step 25 cells have left and entered
+  const long K = 40, N = 8;  // by step 40 cells have left and entered
   const fs::path a_dir = checkpoint_case::fresh_dir("hemo_open_a"), b_dir = checkpoint_case::fresh_dir("hemo_open_b");
   std::map<long, hemo::particle_feedback_t> written;
   std::map<long, Diagnostic> counted;
