@@ -10,12 +10,14 @@
 #include <fix_property_atom.h>
 #include <fmt/format.h>
 #include <lammps.h>
+#include <memory.h>
 #include <modify.h>
 #include <mpi.h>
 #include <update.h>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <stdexcept>
@@ -23,22 +25,55 @@
 namespace hemo::particles::dem {
 
 FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp, narg, arg) {
-  if (narg != 6) error->all(FLERR, "fix hemo/open_ends needs OUTLET_Z SPLIT_X SHIFT_X");
+  if (narg != 7) error->all(FLERR, "fix hemo/open_ends needs OUTLET_Z SPLIT_X SHIFT_X BUFFER");
   layout_.outlet_z = std::atof(arg[3]);
   layout_.split_x = std::atof(arg[4]);
   layout_.shift_x = std::atof(arg[5]);
+  layout_.buffer = std::atof(arg[6]);
+  if (!(layout_.buffer >= 0 && layout_.buffer < layout_.outlet_z - domain->boxlo[2]))
+    error->all(FLERR, "fix hemo/open_ends: the inlet buffer must be shorter than the vessel");
   if (!(layout_.outlet_z > domain->boxlo[2] && layout_.outlet_z < domain->boxhi[2]))
     error->all(FLERR, "fix hemo/open_ends: the outlet must lie inside the box, short of its upper z bound");
   if (!(layout_.shift_x > 0) || !(layout_.split_x > 0 && layout_.split_x < layout_.shift_x))
     error->all(FLERR, "fix hemo/open_ends: SPLIT_X must lie between the vessel's axis and the feeder's");
   force_reneighbor = 1;
   next_reneighbor = -1;
+  create_attribute = 1;  // set_arrays for atoms made by create_atom (ours and LIGGGHTS's)
+  grow_arrays(atom->nmax);
+  atom->add_callback(0);
+  for (int i = 0; i < atom->nlocal; ++i) source_[i] = 0;  // the atoms made before this fix
+  // LIGGGHTS's first set-up after a fix is made calls set_arrays on every atom, after
+  // setup_pre_exchange: it would clear the links just found.
+  just_created = 0;
   const std::size_t types = static_cast<std::size_t>(atom->ntypes) + 1;
   counts_ = {std::vector<std::int64_t>(types, 0), std::vector<std::int64_t>(types, 0),
              std::vector<std::int64_t>(types, 0)};
 }
 
-int FixOpenEnds::setmask() { return LAMMPS_NS::FixConst::POST_INTEGRATE | LAMMPS_NS::FixConst::PRE_EXCHANGE; }
+FixOpenEnds::~FixOpenEnds() {
+  atom->delete_callback(id, 0);
+  memory->destroy(source_);
+}
+
+void FixOpenEnds::grow_arrays(int nmax) { memory->grow(source_, nmax, "hemo/open_ends:source"); }
+
+void FixOpenEnds::copy_arrays(int i, int j, int) { source_[j] = source_[i]; }
+
+int FixOpenEnds::pack_exchange(int i, double* buf) {
+  buf[0] = source_[i];
+  return 1;
+}
+
+int FixOpenEnds::unpack_exchange(int nlocal, double* buf) {
+  source_[nlocal] = static_cast<int>(buf[0]);
+  return 1;
+}
+
+double FixOpenEnds::memory_usage() { return static_cast<double>(atom->nmax) * sizeof(int); }
+
+int FixOpenEnds::setmask() {
+  return LAMMPS_NS::FixConst::POST_INTEGRATE | LAMMPS_NS::FixConst::PRE_EXCHANGE | LAMMPS_NS::FixConst::END_OF_STEP;
+}
 
 FixOpenEnds::Crossing FixOpenEnds::crossing(const double* x) const {
   if (x[0] >= layout_.split_x) return x[2] >= domain->boxhi[2] ? Crossing::feeder_end : Crossing::none;
@@ -47,6 +82,7 @@ FixOpenEnds::Crossing FixOpenEnds::crossing(const double* x) const {
 }
 
 void FixOpenEnds::post_integrate() {
+  replay_sources();
   double** x = atom->x;
   int crossed = 0;
   for (int i = 0; i < atom->nlocal && !crossed; ++i) crossed = crossing(x[i]) != Crossing::none;
@@ -128,6 +164,54 @@ void FixOpenEnds::restore(const State& state) {
   capacity_ = state.capacity;
 }
 
+void FixOpenEnds::replay_sources() {
+  // A copy and its source have the same z, so one rank owns both (the box is split along z
+  // only); a source found nowhere here lets its copy go.
+  const double end = domain->boxlo[2] + layout_.buffer;
+  double** x = atom->x;
+  double** v = atom->v;
+  double** omega = atom->omega;
+  for (int i = 0; i < atom->nlocal; ++i) {
+    if (source_[i] == 0) continue;
+    const int j = atom->map(source_[i]);
+    if (j < 0 || j >= atom->nlocal || x[j][2] >= end || x[j][2] < domain->boxlo[2]) {
+      source_[i] = 0;
+      continue;
+    }
+    x[i][0] = x[j][0] - layout_.shift_x;
+    x[i][1] = x[j][1];
+    x[i][2] = x[j][2];
+    for (int d = 0; d < 3; ++d) {
+      v[i][d] = v[j][d];
+      omega[i][d] = omega[j][d];
+    }
+  }
+}
+
+void FixOpenEnds::find_links() {
+  // Vessel atoms in the buffer and feeder atoms at the same heights, over all ranks: a pair at
+  // the same position but for the shift is a copy and its source.
+  const double end = domain->boxlo[2] + layout_.buffer;
+  std::vector<double> mine;  // (tag, x, y, z) of either kind
+  double** x = atom->x;
+  for (int i = 0; i < atom->nlocal; ++i) {
+    source_[i] = 0;
+    if (x[i][2] < end && x[i][2] >= domain->boxlo[2])
+      mine.insert(mine.end(), {static_cast<double>(atom->tag[i]), x[i][0], x[i][1], x[i][2]});
+  }
+  const std::vector<double> all = gather_all(mine, world);
+  const double tolerance = 1e-9 * layout_.buffer;
+  for (int i = 0; i < atom->nlocal; ++i) {
+    if (x[i][0] >= layout_.split_x || x[i][2] >= end || x[i][2] < domain->boxlo[2]) continue;
+    for (std::size_t k = 0; k < all.size(); k += 4)
+      if (all[k + 1] >= layout_.split_x && std::abs(all[k + 1] - layout_.shift_x - x[i][0]) <= tolerance &&
+          std::abs(all[k + 2] - x[i][1]) <= tolerance && std::abs(all[k + 3] - x[i][2]) <= tolerance) {
+        source_[i] = static_cast<int>(all[k]);
+        break;
+      }
+  }
+}
+
 void FixOpenEnds::find_free_tags() {
   int largest = 0;
   for (int i = 0; i < atom->nlocal; ++i) largest = std::max(largest, atom->tag[i]);
@@ -164,6 +248,7 @@ void FixOpenEnds::insert_copy(int source, int tag) {
   atom->rmass[m] = atom->rmass[source];
   for (int f = 0; f < modify->nfix; ++f)
     if (modify->fix[f]->create_attribute) modify->fix[f]->set_arrays(m);
+  if (layout_.buffer > 0) source_[m] = atom->tag[source];
   for (LAMMPS_NS::Fix* fix : copied_) {
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix);
     if (values->array_atom == nullptr)
@@ -174,8 +259,8 @@ void FixOpenEnds::insert_copy(int source, int tag) {
 }
 
 std::string open_ends_command(const OpenEndsLayout& layout) {
-  return fmt::format("fix {} all {} {:.17g} {:.17g} {:.17g}", kOpenEndsFix, kOpenEndsStyle, layout.outlet_z,
-                     layout.split_x, layout.shift_x);
+  return fmt::format("fix {} all {} {:.17g} {:.17g} {:.17g} {:.17g}", kOpenEndsFix, kOpenEndsStyle, layout.outlet_z,
+                     layout.split_x, layout.shift_x, layout.buffer);
 }
 
 LAMMPS_NS::Fix* create_open_ends(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) {

@@ -26,6 +26,19 @@
 // number of ranks, and per-tag arrays keep their size. The decision and the tags are agreed over
 // the ranks (one reduction a step, one gather of the crossings at each list build).
 //
+// The inlet buffer. A copy enters at the inlet plane, where the vessel's cells ahead of it have
+// moved on since their own sources, beside it in the feeder, pushed them: left free, a copy can
+// land on a cell ahead (overlaps of 10 % of a diameter were measured) and be thrown back through
+// the inlet. So over the vessel's first BUFFER of length (one largest cell diameter) each copy
+// replays its source: its position (shifted by -shift_x in x, at the same z) and velocity are its
+// source's at every step, the inflow the feeder's developed suspension exactly, until the source
+// passes the buffer's end; from then on the copy moves freely. The vessel's initial cells in the
+// buffer that are copies of feeder cells (placement puts them there: model/placement.h) replay
+// theirs too: a run's set-up links each vessel atom in the buffer to the feeder atom at its
+// position shifted by shift_x, if any (which also finds a checkpoint's links again). A replayed
+// copy is a moving boundary to the cells beyond it: their contacts and the fluid push on it
+// without moving it, as on the feeder's cells.
+//
 // Counts per atom type: inserted, left through the outlet, left through the inlet. Present =
 // created + inserted - left, at every step; a listener sees each build's events, the same on
 // every rank, in the order: removals (by tag), insertions (by new tag).
@@ -57,21 +70,28 @@ struct OpenEndsLayout {
   double outlet_z = 0;  // m, the vessel's outlet plane (its inlet is the box's lower z bound)
   double split_x = 0;   // m, atoms at x >= split_x are the feeder's
   double shift_x = 0;   // m, the feeder's axis from the vessel's, along x
+  double buffer = 0;    // m, the inlet buffer's length (0: none)
 };
 
 class FixOpenEnds : public LAMMPS_NS::Fix {
  public:
-  // fix ID all hemo/open_ends OUTLET_Z SPLIT_X SHIFT_X
+  // fix ID all hemo/open_ends OUTLET_Z SPLIT_X SHIFT_X BUFFER
   FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
+  ~FixOpenEnds() override;
 
   int setmask() override;
   void post_integrate() override;
-  // A run's set-up: which tags are free, from the atoms as they are; then any crossing.
+  // A run's set-up: which tags are free, from the atoms as they are; the inlet buffer's links;
+  // then any crossing.
   void setup_pre_exchange() override {
     find_free_tags();
+    find_links();
     hand_over();
   }
   void pre_exchange() override { hand_over(); }
+  // A step's last word on the buffer's copies: their velocities are their sources' (the final
+  // half kick gave each its own).
+  void end_of_step() override { replay_sources(); }
 
   // Counts since the run started, per atom type (index 0 unused), the same on every rank.
   using Counts = OpenEndsCounts;
@@ -91,6 +111,17 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   // Called at each build that moved any atom, with its events (on every rank).
   void on_events(std::function<void(const std::vector<OpenEndsEvent>&)> listener) { listener_ = std::move(listener); }
 
+  // The feeder atom a vessel atom in the inlet buffer replays (its tag; 0: none), by local index.
+  int source_of(int i) const { return source_[i]; }
+
+  // Per-atom storage of the links (LAMMPS's per-atom fix protocol: they move with the atoms).
+  void grow_arrays(int nmax) override;
+  void copy_arrays(int i, int j, int delflag) override;
+  void set_arrays(int i) override { source_[i] = 0; }
+  int pack_exchange(int i, double* buf) override;
+  int unpack_exchange(int nlocal, double* buf) override;
+  double memory_usage() override;
+
  private:
   // Where an atom at x is past: the feeder's end (a feeder atom), the outlet or the inlet (a
   // vessel atom), or none.
@@ -100,12 +131,17 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   void find_free_tags();
   int take_free_tag();
   void insert_copy(int source, int tag);
+  void find_links();
+  // The inlet buffer: each linked copy takes its source's position and velocity, or is let go
+  // (after the positions moved, and at the step's end).
+  void replay_sources();
 
   OpenEndsLayout layout_;
   Counts counts_;
   long capacity_ = 0;
   std::vector<int> free_;  // free tags, largest first (the smallest is taken from the back)
   std::vector<LAMMPS_NS::Fix*> copied_;
+  int* source_ = nullptr;  // per local atom: the source tag it replays (0: none)
   std::function<void(const std::vector<OpenEndsEvent>&)> listener_;
 };
 

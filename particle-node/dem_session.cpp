@@ -306,7 +306,10 @@ LAMMPS_NS::Fix* LiggghtsSession::find_fix(const char* id) const {
 void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState* restored) {
   lmp_->init();
   if (!feeder_) return;
-  command(open_ends_command({locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x}));
+  // The inlet buffer: one largest cell diameter, so that a copy is wholly inside the vessel when
+  // it is let go (dem_open_ends.h).
+  command(open_ends_command(
+      {locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x, species_.d_max}));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the
   // source's interval impulse stays with the source, which goes on in the feeder).

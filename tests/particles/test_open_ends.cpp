@@ -3,7 +3,8 @@
 // fluid: cells streaming along z leave the vessel through its outlet the step they cross it, and
 // the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
 // per-atom values of their source, on the tags the leavers freed; present = created + inserted -
-// left at every step; on one rank and on two (ctest particles.OpenEnds.ranks2: the box split along
+// left at every step; over the inlet buffer a copy replays its source, so a cell in its way is
+// pushed on rather than the copy thrown back through the inlet; on one rank and on two (ctest particles.OpenEnds.ranks2: the box split along
 // z, the copies made on the rank of their source and owned by the rank of the inlet).
 #include "dem_fix_styles.h"
 #include "dem_fixes.h"
@@ -86,13 +87,13 @@ class OpenEndsBox {
     command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type, x, y, z));
   }
   // Sizes, the common velocity, each atom's own value (its tag), LIGGGHTS's set-up and the fix.
-  void start() {
+  void start(double buffer = 0) {
     command(fmt::format("set group all diameter {} density 1100", kDiameter));
     command(fmt::format("velocity all set 0 0 {} units box", kSpeed));
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
     for (int i = 0; i < lmp_->atom->nlocal; ++i) values->array_atom[i][0] = lmp_->atom->tag[i];
     command("run 0 pre yes post no");  // LIGGGHTS makes its contact history fix (before ours)
-    command(open_ends_command({kOutlet, 1.5 * kRadius, kShift}));
+    command(open_ends_command({kOutlet, 1.5 * kRadius, kShift, buffer}));
     open_ = static_cast<FixOpenEnds*>(fix(kOpenEndsFix));
     open_->copy_values_of({values});
     open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
@@ -217,4 +218,63 @@ TEST(OpenEnds, CellsLeaveAtTheOutletAndEnterAsTheFeedersCopiesAndEveryStepCounts
   int seen = static_cast<int>(box.before_insertion_.size());
   MPI_Allreduce(MPI_IN_PLACE, &seen, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(seen, 3);  // each source on exactly one rank
+}
+
+// A cell at rest just inside the inlet, where a copy enters overlapping it by a fifth of a
+// diameter. With an inlet buffer the copy replays its source, at its position shifted and with its
+// velocity, step by step, pushing the cell on, even when stopped by hand; past the buffer's end it
+// is let go, and a stop holds it. Without a buffer the same contact throws the copy back out
+// through the inlet.
+TEST(OpenEnds, OverTheInletBufferACopyReplaysItsSourceAndIsNotThrownBack) {
+  for (const double buffer : {kDiameter, 0.0}) {
+    OpenEndsBox box;
+    box.create(1, 0, 0, 0.8 * kDiameter);                  // tag 1, in the copy's way
+    box.create(2, kShift, 0, kPeriod - 10 * kSpeed * kDt);  // crosses the feeder's end at step 10
+    box.start(buffer);
+    box.command("group still id 1");
+    box.command("velocity still set 0 0 0 units box");
+    int replayed = 0, stopped_inside = 0, stopped_outside = 0;
+    for (int s = 0; s < 200; ++s) {
+      box.step(s == 0);
+      if (box.events.empty() || box.events.back().kind != OpenEndsEvent::Kind::inserted) continue;
+      const OpenEndsEvent e = box.events.back();
+      const auto atoms = box.atoms();
+      if (!atoms.count(e.tag)) continue;  // thrown back
+      const Atom& copy = atoms.at(e.tag);
+      const Atom& source = atoms.at(e.source_tag);
+      const bool inside = source.x[2] < buffer;
+      if (inside) {
+        ++replayed;
+        ASSERT_NEAR(copy.x[0], source.x[0] - kShift, 1e-15) << "step " << s;
+        ASSERT_EQ(copy.x[1], source.x[1]) << "step " << s;
+        ASSERT_EQ(copy.x[2], source.x[2]) << "step " << s;
+        ASSERT_EQ(copy.v[2], source.v[2]) << "step " << s;
+      }
+      // Stop the copy by hand once inside the buffer and once past it: the next step tells.
+      if ((inside && stopped_inside == 0 && replayed == 20) || (!inside && buffer > 0 && stopped_outside == 0)) {
+        box.command(fmt::format("group copy{} id {}", s, e.tag));
+        box.command(fmt::format("velocity copy{} set 0 0 0 units box", s));
+        box.step(false);
+        const auto after = box.atoms();
+        const double lag = after.at(e.source_tag).x[2] - after.at(e.tag).x[2];
+        if (inside) {
+          stopped_inside = 1;
+          EXPECT_EQ(lag, 0.0) << "a copy in the buffer is its source's";
+        } else {
+          stopped_outside = 1;
+          EXPECT_GT(lag, 0.9 * kSpeed * kDt) << "a copy past the buffer moves on its own";
+        }
+      }
+    }
+    const auto& c = box.open().counts();
+    EXPECT_EQ(c.inserted[2], 1) << "buffer " << buffer;
+    if (buffer > 0) {
+      EXPECT_GT(replayed, 50);  // ~110 steps cross one diameter
+      EXPECT_EQ(stopped_inside + stopped_outside, 2);
+      EXPECT_EQ(c.left_inlet[2], 0);
+      EXPECT_GT(box.atoms().at(1).x[2], 0.8 * kDiameter);  // pushed on
+    } else {
+      EXPECT_EQ(c.left_inlet[2], 1);  // what the buffer prevents
+    }
+  }
 }
