@@ -111,4 +111,20 @@ Snapshot read_snapshot(const std::string& h5_path, const std::string& name) {
   return s;
 }
 
+long step_after(const std::string& text, const std::string& marker) {
+  const auto at = text.find(marker);
+  if (at == std::string::npos) return -1;
+  return std::stol(text.substr(at + marker.size()));
+}
+
+void wait_for_step(const std::string& dir, long step) {
+  const std::string marker = std::to_string(step) + ",";
+  for (int i = 0; i < 600; ++i) {
+    std::ifstream in(dir + "/metrics.csv");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind(marker, 0) == 0) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
 }  // namespace hemo::test

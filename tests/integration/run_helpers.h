@@ -21,6 +21,11 @@ std::string small_scene_text(long coupling_steps, const std::string& run_keys = 
 // in metrics.csv (about 60 rows a step), not merely started. True if it got there.
 bool wait_until_stepping(const std::string& dir, double timeout_s = 120);
 
+// The number after `marker` in `text` (-1: no marker).
+long step_after(const std::string& text, const std::string& marker);
+// Waits (up to a minute) until the run in `dir` has reported `step` in metrics.csv.
+void wait_for_step(const std::string& dir, long step);
+
 // A program in the background, its stdout and stderr in files (FILES.out, FILES.err), its pid
 // known; interrupted (SIGINT) and waited for when it goes out of scope.
 struct Background {

@@ -76,11 +76,6 @@ std::vector<std::string> metric_rows(const std::string& dir, bool values) {
   return rows;
 }
 
-long step_after(const std::string& text, const std::string& marker) {
-  const auto at = text.find(marker);
-  if (at == std::string::npos) return -1;
-  return std::stol(text.substr(at + marker.size()));
-}
 double number_after(const std::string& text, const std::string& marker) {
   const auto at = text.find(marker);
   if (at == std::string::npos) return -1;
@@ -295,16 +290,6 @@ TEST(Checkpoint, PausedCoordinatorGoesOnAndTheRunEndsAsIfUninterrupted) {
 
 namespace {
 
-// Waits until the run in `dir` has reported `step` in metrics.csv.
-void wait_for_step(const std::string& dir, long step) {
-  const std::string marker = std::to_string(step) + ",";
-  for (int i = 0; i < 600; ++i) {
-    std::ifstream in(dir + "/metrics.csv");
-    for (std::string line; std::getline(in, line);)
-      if (line.rfind(marker, 0) == 0) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-}
 
 // `hemocosim restart` or `hemocosim swap` while a run goes: the coordinator checkpoints the step
 // the request came in, stops both nodes and starts them again from it (the swapped node as the

@@ -1,0 +1,141 @@
+// Coupled runs in an open vessel fed by a feeder (docs/design.md, "Open ends"): the real nodes
+// over real LCM. Red cells leave through the outlet and copies of the feeder's enter at the inlet
+// within the run; the particle node's counts balance at every step; the snapshots hold the
+// vessel's cells, each once, inside the vessel; a run stopped and resumed from a checkpoint ends
+// as the uninterrupted one, counts included.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <scene.h>
+#include <vessel_ends.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <future>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+using namespace hemo::test;
+
+namespace {
+
+const char* const kCounts[] = {"rbc_inserted",    "rbc_left_outlet",      "rbc_left_inlet",
+                               "platelet_inserted", "platelet_left_outlet", "platelet_left_inlet"};
+
+double count_at(const Metrics& m, const std::string& name, long step) { return m.at({"particles", name}).at(step); }
+
+// The small open scene with checkpoints every `every` steps.
+std::string open_scene_with_checkpoints(long every) {
+  std::ifstream in(scene("open_small.toml"));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string s = text.str();
+  const std::string output = "every_steps = 10";
+  s.replace(s.find(output), output.size(), output + "\ncheckpoint_every_steps = " + std::to_string(every));
+  return s;
+}
+
+}  // namespace
+
+TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
+  const std::string dir = fresh_run_dir("open-small");
+  const auto r = run(bin("hemocosim") + " run " + scene("open_small.toml") + " --out " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const hemo::Scene s = hemo::load_scene(dir + "/scene.toml");
+  const hemo::FeederLayout feeder = hemo::feeder_layout(s.vessel, s.mesh.axial_cells);
+
+  const auto m = read_metrics(dir);
+  const auto& present = m.at({"particles", "particles"});
+  ASSERT_EQ(present.size(), 41u);  // step 0 and 40 steps
+  const double created = present.at(0);
+  for (const auto& [step, n] : present) {
+    double net = 0;
+    for (const char* c : kCounts) net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
+    EXPECT_EQ(n, created + net) << "step " << step;
+    EXPECT_EQ(count_at(m, "particles_lost", step), 0) << "step " << step;
+  }
+  std::printf("  %g cells at the start; by step 40: %g red cells in, %g out, %g back; %g platelets in, %g out\n", created,
+              count_at(m, "rbc_inserted", 40), count_at(m, "rbc_left_outlet", 40), count_at(m, "rbc_left_inlet", 40),
+              count_at(m, "platelet_inserted", 40), count_at(m, "platelet_left_outlet", 40));
+  EXPECT_GT(count_at(m, "rbc_inserted", 40), 0);
+  EXPECT_GT(count_at(m, "rbc_left_outlet", 40), 0);
+
+  const auto names = snapshot_names(dir + "/particles.h5");
+  ASSERT_EQ(names.size(), 5u);
+  for (const auto& name : names) {
+    const auto snap = read_snapshot(dir + "/particles.h5", name);
+    const long step = std::stol(name);
+    EXPECT_EQ(static_cast<double>(snap.id.size()), count_at(m, "particles_in_vessel", step)) << name;
+    std::set<long long> ids(snap.id.begin(), snap.id.end());
+    EXPECT_EQ(ids.size(), snap.id.size()) << name << ": a tag twice";
+    for (std::size_t i = 0; i < snap.id.size(); ++i) {
+      const double x = snap.position[3 * i], y = snap.position[3 * i + 1], z = snap.position[3 * i + 2];
+      EXPECT_LT(x, feeder.split_x) << name << ": a feeder cell written";
+      EXPECT_GE(z, 0.0) << name << ", particle " << snap.id[i];
+      EXPECT_LT(z, s.vessel.length) << name << ", particle " << snap.id[i];
+      EXPECT_LT(std::hypot(x, y), s.vessel.radius()) << name << ", particle " << snap.id[i];
+    }
+  }
+}
+
+// 40 steps in one go, and the same scene stopped after step 20 and resumed: the same snapshots
+// and the same counts at every step, bit for bit.
+TEST(OpenRun, ResumedRunEqualsTheUninterruptedRunCountsIncluded) {
+  const std::string whole = fresh_run_dir("open-whole"), parts = fresh_run_dir("open-parts");
+  std::ofstream(whole + ".toml") << open_scene_with_checkpoints(10);
+  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + whole).exit_code, 0);
+  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const auto second = run(bin("hemocosim") + " resume " + parts);
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_NE(second.output.find("resumes from step 20"), std::string::npos) << second.output;
+
+  const auto ma = read_metrics(whole), mb = read_metrics(parts);
+  for (const char* c : kCounts)
+    for (long step = 0; step <= 40; ++step) EXPECT_EQ(count_at(ma, c, step), count_at(mb, c, step)) << c << " " << step;
+  EXPECT_GT(count_at(ma, "rbc_inserted", 40), count_at(ma, "rbc_inserted", 20));
+  const auto names = snapshot_names(whole + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(parts + "/particles.h5"));
+  for (const auto& name : names) {
+    const auto a = read_snapshot(whole + "/particles.h5", name), b = read_snapshot(parts + "/particles.h5", name);
+    ASSERT_EQ(a.id, b.id) << name;
+    EXPECT_EQ(a.position, b.position) << name;
+    EXPECT_EQ(a.velocity, b.velocity) << name;
+  }
+}
+
+// `hemocosim swap` of the particle node while the run goes (here for the same program): the
+// coordinator checkpoints the step, stops both nodes and starts them from it; the counts go on
+// from the checkpoint's and balance at every step, each step reported once.
+TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
+  const std::string dir = fresh_run_dir("open-swap");
+  std::string text = open_scene_with_checkpoints(0);
+  const std::string steps = "coupling_steps = 40";
+  text.replace(text.find(steps), steps.size(), "coupling_steps = 120");
+  std::ofstream(dir + ".toml") << text;
+  auto going = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  wait_for_step(dir, 30);
+  const auto answer = run(bin("hemocosim") + " swap " + dir + " particles --with " + bin("hemocosim-particles") +
+                          " --timeout 120");
+  const auto r = going.get();
+  ASSERT_EQ(answer.exit_code, 0) << answer.output << r.output;
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const long k = step_after(r.output, "restarting both nodes from the checkpoint of step ");
+  ASSERT_GE(k, 30) << r.output;
+  const auto m = read_metrics(dir);
+  const auto& present = m.at({"particles", "particles"});
+  ASSERT_EQ(present.size(), 121u);  // each step once
+  const double created = present.at(0);
+  for (const auto& [step, n] : present) {
+    double net = 0;
+    for (const char* c : kCounts) net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
+    EXPECT_EQ(n, created + net) << "step " << step;
+  }
+  EXPECT_GT(count_at(m, "rbc_inserted", 120), count_at(m, "rbc_inserted", k)) << "cells entered after the swap";
+  EXPECT_GE(count_at(m, "rbc_inserted", k + 1), count_at(m, "rbc_inserted", k)) << "the counts went on";
+}
