@@ -104,6 +104,28 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
     a.notes.push_back(a.balance_verdict.line);
 }
 
+// An open vessel's ends over the window: the plasma's flux (the fluid node's) and the cells the
+// particle node counted through each (into the vessel at the inlet: inserted - left back).
+std::vector<EndFlux> end_fluxes(const Analysis& a, const RunData& run) {
+  if (!open_ends(run.scene.vessel)) return {};
+  auto rate = [&](const std::string& name) {
+    const auto series = metric_series(run.metrics, name);
+    return series.empty() ? 0.0 : window_rate(series.time_s, series.value, a.window_start, a.window_end);
+  };
+  auto plasma = [&](const std::string& name) {
+    const auto series = metric_series(run.metrics, name);
+    return time_mean(series.time_s, series.value, a.window_start, a.window_end);
+  };
+  EndFlux in{"inlet", plasma("inlet_plasma_flux_m3_s"), rate("rbc_inserted") - rate("rbc_left_inlet"),
+             rate("platelet_inserted") - rate("platelet_left_inlet")};
+  EndFlux out{"outlet", plasma("outlet_plasma_flux_m3_s"), rate("rbc_left_outlet"), rate("platelet_left_outlet")};
+  for (EndFlux* e : {&in, &out}) {
+    e->rbc_volume_flux = e->rbc_rate * a.rbc_volume;
+    e->platelet_volume_flux = e->platelet_rate * a.platelet_volume;
+  }
+  return {in, out};
+}
+
 }  // namespace
 
 WallShearBalance momentum_balance(const MetricSeries& tau, const Scene& scene, double t_start, double t_end) {
@@ -137,6 +159,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.bin_edges = radial_bin_edges(a.tube, bins);
   choose_window(a, run, opt.window_start, opt.window_end);
 
+  const bool open = open_ends(run.scene.vessel);
   const Snapshot first = run.load(0);
   const Cells reference = radii_at_nominal_wall(select_species(first, kPlatelet), *geometry);
   a.msd_reference_time = first.time_s;
@@ -158,7 +181,9 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
     const Cells rbc = select_species(s, kRbc), plt = select_species(s, kPlatelet);
     a.frames.push_back(
         {s.time_s, radial_number_density(rbc.r, a.tube, bins), radial_number_density(plt.r, a.tube, bins)});
-    if (i > 0) a.msd.push_back(radial_msd(reference, first.time_s, radii_at_nominal_wall(plt, *geometry), s.time_s));
+    // An open vessel's cells come and go, and their ids are given again: no displacement to follow.
+    if (i > 0 && !open)
+      a.msd.push_back(radial_msd(reference, first.time_s, radii_at_nominal_wall(plt, *geometry), s.time_s));
     if (s.time_s <= a.window_end) {
       end_platelet_r = plt.r;
       end_time = s.time_s;
@@ -223,7 +248,9 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.margination_index = margination_snapshots > 0 ? margination_sum / margination_snapshots : kNaN;
 
   a.diffusion = fit_diffusivity(a.msd, t_fit);
-  if (a.diffusion.points == 0)
+  if (open)
+    a.notes.push_back("an open vessel's cells come and go (their ids are given again): no radial MSD or D");
+  else if (a.diffusion.points == 0)
     a.notes.push_back(fmt::format("no MSD point in (0, {}] s: no D (output more often or raise --t-fit)", t_fit));
   else if (a.diffusion.points < 3)
     a.notes.push_back(fmt::format("D from only {} MSD point(s)", a.diffusion.points));
@@ -239,6 +266,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.tube_hematocrit = hematocrit_sum / n;
   a.rbc_volume_flux = rbc_flux_sum / n;
   fluid_observables(a, run, cells_flux_sum / n);
+  a.ends = end_fluxes(a, run);
   return a;
 }
 
@@ -289,6 +317,15 @@ std::string format_table(const Analysis& a) {
                        fixed(a.axial.cfl[k] / a.axial.radius[k], 3), fixed(a.axial.hematocrit[k], 3),
                        fixed(a.axial.platelet_near_wall[k], 1, 1e6), fixed(a.axial.wall_contact_rate[k], 1, 1e6));
   }
+  if (!a.ends.empty()) {
+    t += "  through the ends (window means; cells counted through each):\n";
+    t += fmt::format("    {:<8} {:>12} {:>10} {:>12} {:>12} {:>6}\n", "", "plasma nl/s", "RBC 1/s", "platelet 1/s",
+                     "blood nl/s", "H_D");
+    for (const EndFlux& e : a.ends)
+      t += fmt::format("    {:<8} {:>12} {:>10} {:>12} {:>12} {:>6}\n", e.end, fixed(e.plasma_flux, 3, 1e-12),
+                       fixed(e.rbc_rate, 0), fixed(e.platelet_rate, 0), fixed(e.blood_flux(), 3, 1e-12),
+                       fixed(e.discharge_hematocrit(), 3));
+  }
   for (const auto& n : a.notes) line("note", n);
   return t;
 }
@@ -315,6 +352,13 @@ std::string format_json(const Analysis& a) {
                   {"contact_gap_platelet_diameters", kWallContactDiameters},
                   {"snapshots", a.axial.snapshots}};
   }
+  for (const EndFlux& e : a.ends)
+    j["ends"][e.end] = {{"plasma_flux_m3_s", number(e.plasma_flux)},
+                        {"rbc_per_s", number(e.rbc_rate)},
+                        {"platelets_per_s", number(e.platelet_rate)},
+                        {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
+                        {"blood_flux_m3_s", number(e.blood_flux())},
+                        {"discharge_hematocrit", number(e.discharge_hematocrit())}};
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},

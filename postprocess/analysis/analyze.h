@@ -76,6 +76,7 @@ struct Analysis {
   std::vector<ProfileFrame> frames;
   std::string shape;       // vessel.shape
   AxialObservables axial;  // per axial station over the window; empty for a straight tube
+  std::vector<EndFlux> ends;  // an open vessel's inlet and outlet over the window; empty when periodic
 
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
 };

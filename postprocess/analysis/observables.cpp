@@ -353,6 +353,20 @@ double time_mean(const std::vector<double>& t, const std::vector<double>& value,
   return n > 0 ? sum / n : kNaN;
 }
 
+// ---- Through an open vessel's ends ----------------------------------------------------------
+
+double EndFlux::discharge_hematocrit() const { return hemo::analysis::discharge_hematocrit(rbc_volume_flux, blood_flux()); }
+
+double window_rate(const std::vector<double>& t, const std::vector<double>& count, double t_start, double t_end) {
+  if (!(t_end > t_start)) return kNaN;
+  auto at = [&](double when) {
+    double value = kNaN;
+    for (std::size_t i = 0; i < t.size() && i < count.size() && t[i] <= when; ++i) value = count[i];
+    return value;
+  };
+  return (at(t_end) - at(t_start)) / (t_end - t_start);
+}
+
 // ---- Momentum balance ------------------------------------------------------------------------
 
 double WallShearBalance::ratio() const { return imposed > 0 ? mean / imposed : kNaN; }

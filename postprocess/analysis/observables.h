@@ -247,6 +247,28 @@ double total_volume_flux(double superficial_plasma_velocity, double cells_volume
 // section. H_D = H_T in plug flow; H_D > H_T when RBCs ride the fast core (Fahraeus effect).
 double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux);
 
+// ---- Through an open vessel's ends (model/vessel_ends.h) ----------------------------------------
+
+// What passes one end of an open vessel over a window: the plasma's volume flux (the fluid node's
+// alpha u . n over the patch, its window mean) and the cells counted through it (the particle
+// node's cumulative counts, their increase over the window per second).
+struct EndFlux {
+  std::string end;                // "inlet" (into the vessel) or "outlet" (out of it)
+  double plasma_flux = 0;         // m^3/s
+  double rbc_rate = 0;            // red cells per second
+  double platelet_rate = 0;       // platelets per second
+  double rbc_volume_flux = 0;     // m^3/s: rbc_rate x V_RBC
+  double platelet_volume_flux = 0;
+  double blood_flux() const { return plasma_flux + rbc_volume_flux + platelet_volume_flux; }
+  // H_D = Q_RBC / Q through this end.
+  double discharge_hematocrit() const;
+};
+
+// The increase of a cumulative count over [t_start, t_end], per second, from its values at the
+// last samples at or before each time; NaN when no sample lies at or before t_start or the window
+// is empty.
+double window_rate(const std::vector<double>& t, const std::vector<double>& count, double t_start, double t_end);
+
 // ---- Blood in glass tubes: the in-vitro references (docs/model.md §7.4) -------------------------
 
 // Relative apparent viscosity of blood in a glass tube of diameter d at discharge hematocrit H_D,

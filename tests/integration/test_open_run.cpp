@@ -10,6 +10,7 @@
 #include <vessel_ends.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -64,6 +65,25 @@ TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
               count_at(m, "platelet_inserted", 40), count_at(m, "platelet_left_outlet", 40));
   EXPECT_GT(count_at(m, "rbc_inserted", 40), 0);
   EXPECT_GT(count_at(m, "rbc_left_outlet", 40), 0);
+
+  // `analyze` says what passed each end over its window (the second half: 0.4 to 0.8 ms).
+  const auto analysis = run(bin("hemocosim") + " analyze " + dir + " --json");
+  ASSERT_EQ(analysis.exit_code, 0) << analysis.output;
+  const auto j = nlohmann::json::parse(analysis.output);
+  const double t0 = j["window"]["start_s"], t1 = j["window"]["end_s"];
+  const long k0 = std::lround(t0 / s.time.coupling_interval), k1 = std::lround(t1 / s.time.coupling_interval);
+  EXPECT_NEAR(j["ends"]["outlet"]["rbc_per_s"].get<double>() * (t1 - t0),
+              count_at(m, "rbc_left_outlet", k1) - count_at(m, "rbc_left_outlet", k0), 1e-9);
+  EXPECT_NEAR(j["ends"]["inlet"]["rbc_per_s"].get<double>() * (t1 - t0),
+              count_at(m, "rbc_inserted", k1) - count_at(m, "rbc_inserted", k0) -
+                  (count_at(m, "rbc_left_inlet", k1) - count_at(m, "rbc_left_inlet", k0)),
+              1e-9);
+  const double q_in = j["ends"]["inlet"]["plasma_flux_m3_s"], q_out = j["ends"]["outlet"]["plasma_flux_m3_s"];
+  EXPECT_GT(q_in, 0);
+  EXPECT_NEAR(q_out, q_in, 0.05 * q_in) << "the plasma that enters leaves (to the cells' changing volume)";
+  const double hd = j["ends"]["outlet"]["discharge_hematocrit"];
+  EXPECT_GT(hd, 0);
+  EXPECT_LT(hd, 3 * s.rbc.hematocrit);
 
   const auto names = snapshot_names(dir + "/particles.h5");
   ASSERT_EQ(names.size(), 5u);
