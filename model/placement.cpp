@@ -169,8 +169,8 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
 }  // namespace
 
 std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
-                                                        const FeederLayout& feeder, double z0,
-                                                        unsigned long long seed, const PlacementOptions& options) {
+                                                        const FeederLayout& feeder, double z0, unsigned long long seed,
+                                                        const PlacementOptions& options) {
   Scene tube = scene;
   tube.vessel = Vessel{};
   tube.vessel.diameter = 2 * feeder.radius;
@@ -183,8 +183,7 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
     placed[k].position.x() += feeder.axis_x;
     const Vec3 in_shape(copy.position.x(), copy.position.y(), copy.position.z() - z0);
     const double d = copy.diameter;
-    if (in_shape.z() < feeder.vessel_length &&
-        vessel.signed_distance(in_shape) <= -(d / 2 + options.gap_fraction * d))
+    if (in_shape.z() < feeder.vessel_length && vessel.signed_distance(in_shape) <= -(d / 2 + options.gap_fraction * d))
       placed.push_back(copy);
   }
   return placed;

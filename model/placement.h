@@ -80,8 +80,8 @@ std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double
 // hands over at the inlet continue the suspension already there, as they do at every later step.
 // Independent placements would put the first copies onto the vessel's cells at the inlet.
 std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
-                                                        const FeederLayout& feeder, double z0,
-                                                        unsigned long long seed, const PlacementOptions& options = {});
+                                                        const FeederLayout& feeder, double z0, unsigned long long seed,
+                                                        const PlacementOptions& options = {});
 
 // In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,

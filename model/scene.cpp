@@ -447,9 +447,9 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   if (const auto& shape = vessel_shape(s.vessel.shape); !shape.narrowing_key.empty()) {
     const double throat = 2 * make_vessel_geometry(s.vessel)->throat_radius();
     if (!(throat > s.rbc.diameter))
-      fail(shape.narrowing_key, r.value_text(shape.narrowing_key).empty()
-                                    ? fmt::format("{:g}", s.vessel.stenosis_area_reduction)
-                                    : r.value_text(shape.narrowing_key),
+      fail(shape.narrowing_key,
+           r.value_text(shape.narrowing_key).empty() ? fmt::format("{:g}", s.vessel.stenosis_area_reduction)
+                                                     : r.value_text(shape.narrowing_key),
            fmt::format("the throat is {:.3g} um across, narrower than a red cell (rbc.diameter_um {:g}): lower it "
                        "or widen the vessel",
                        throat / units::um, s.rbc.diameter / units::um));

@@ -20,8 +20,8 @@ struct Vessel {
   double diameter = 0;  // m, the nominal diameter 2 R0 (the whole length of a straight tube)
   double length = 0;    // m, along z (the period of a periodic vessel)
   std::string shape = "straight";
-  std::string ends = "periodic";  // vessel_ends.h
-  std::string inlet = "feeder";   // vessel_ends.h: what an open vessel's inlet takes in
+  std::string ends = "periodic";         // vessel_ends.h
+  std::string inlet = "feeder";          // vessel_ends.h: what an open vessel's inlet takes in
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   double radius() const { return diameter / 2; }
@@ -43,7 +43,7 @@ struct MeshSpec {
   std::string wall_polygon = "circumscribed";
   int cells() const { return (core_cells * core_cells + 4 * core_cells * ring_cells) * axial_cells; }
   int wall_sides() const { return 4 * core_cells; }
-  double wall_corner_radius() const;      // the wall polygon's corners, in vessel radii
+  double wall_corner_radius() const;        // the wall polygon's corners, in vessel radii
   double hydraulic_diameter_ratio() const;  // 4A/P of the cross-section, in vessel diameters
 };
 

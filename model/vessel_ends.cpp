@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "vessel_ends.h"
 
-#include "named_table.h"
 #include "geometry.h"
+#include "named_table.h"
 #include "scene.h"
 
 #include <algorithm>

@@ -35,8 +35,8 @@
 #include <vec.h>
 
 #include <geometry.h>
-#include <hemo/mesh_t.hpp>
 #include <vessel_ends.h>
+#include <hemo/mesh_t.hpp>
 
 #include <memory>
 #include <optional>

@@ -180,9 +180,9 @@ void LiggghtsCheckpoint::restore(const EngineState& s, LiggghtsSession::OpenEnds
   OpenEndsState open{{s.inserted, s.left_outlet, s.left_inlet}, static_cast<long>(s.tag_capacity)};
   agreed([&] { liggghts_.first_init(std::move(listener), liggghts_.open() ? &open : nullptr); }, comm_);
   if (liggghts_.particles() != s.particles || liggghts_.tag_capacity() != s.tag_capacity)
-    throw std::invalid_argument(fmt::format(
-        "the checkpoint's counts make {} particles on {} tags, it has {} on {}", liggghts_.particles(),
-        liggghts_.tag_capacity(), s.particles, s.tag_capacity));
+    throw std::invalid_argument(fmt::format("the checkpoint's counts make {} particles on {} tags, it has {} on {}",
+                                            liggghts_.particles(), liggghts_.tag_capacity(), s.particles,
+                                            s.tag_capacity));
   restore_contact_history(s);
   liggghts_.rebuild_neighbours();
   scatter_carried(carried_by_tag(s));

@@ -36,8 +36,8 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
     : scene_(dem_scene(scene)),
       comm_(comm),
       species_(scene_, scene),
-      liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_), comm,
-                feeder_of(scene_)),
+      liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_),
+                comm, feeder_of(scene_)),
       tracking_(locator),
       orientation_(liggghts_, problems_),
       fluid_force_(scene_, locator, species_, liggghts_, tracking_, orientation_, problems_, comm),
@@ -182,8 +182,8 @@ void DemEngine::check_globals(const EngineState& s) const {
       throw std::invalid_argument(
           fmt::format("the checkpoint has {} particles, the scene has none", sp == kRbc ? "red cell" : "platelet"));
   if (s.particles < 0 || s.created < 1 || s.tag_capacity < s.created || s.tag_capacity < s.particles)
-    throw std::invalid_argument(fmt::format("the checkpoint has {} particles created, {} present on {} tags",
-                                            s.created, s.particles, s.tag_capacity));
+    throw std::invalid_argument(fmt::format("the checkpoint has {} particles created, {} present on {} tags", s.created,
+                                            s.particles, s.tag_capacity));
   expect_size(s.tracked, EngineState::kTrackedValues * static_cast<std::size_t>(s.tag_capacity + 1), "tracked");
   const bool open = liggghts_.open();
   for (const auto* counts : {&s.inserted, &s.left_outlet, &s.left_inlet})

@@ -54,8 +54,8 @@ namespace hemo::particles {
 
 class DemEngine {
  public:
-  // Starts LIGGGHTS for the scene (its dem.neighbour_rebuild joins `bookkeeping`); the box, materials, contact model, wall, integrator and
-  // fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
+  // Starts LIGGGHTS for the scene (its dem.neighbour_rebuild joins `bookkeeping`); the box, materials, contact model,
+  // wall, integrator and fluid callback are set up with the particles (create_particles or restore). The LIGGGHTS log
   // goes to `log_path` ("none": no log; appended to with `append_log`); the screen stays quiet.
   DemEngine(const Scene& scene, const CellLocator& locator, const std::string& log_path, MPI_Comm comm,
             bool append_log = false, const DemBookkeeping& bookkeeping = {});

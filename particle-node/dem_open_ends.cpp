@@ -159,7 +159,8 @@ void FixOpenEnds::restore(const State& state) {
   const std::size_t types = counts_.inserted.size();
   for (const auto* v : {&state.counts.inserted, &state.counts.left_outlet, &state.counts.left_inlet})
     if (v->size() != types)
-      throw std::invalid_argument(fmt::format("open ends: {} counts, not one per atom type and a 0 ({})", v->size(), types));
+      throw std::invalid_argument(
+          fmt::format("open ends: {} counts, not one per atom type and a 0 ({})", v->size(), types));
   counts_ = state.counts;
   capacity_ = state.capacity;
 }

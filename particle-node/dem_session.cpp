@@ -24,9 +24,9 @@
 #include <tuple>
 #include <type_traits>
 
+#include "dem_fix_styles.h"
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
-#include "dem_fix_styles.h"
 #include "dem_streaming_neighbours.h"
 
 namespace hemo::particles {
@@ -126,8 +126,9 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
           "dem.neighbour_rebuild = \"streaming\" runs on one MPI rank, not {} (docs/performance.md)", ranks));
     // Its frame streams with one vessel's Poiseuille flow, around one axis.
     if (feeder_)
-      throw std::invalid_argument("dem.neighbour_rebuild = \"streaming\" follows a periodic vessel's flow, not an "
-                                  "open vessel and its feeder: use \"engine\"");
+      throw std::invalid_argument(
+          "dem.neighbour_rebuild = \"streaming\" follows a periodic vessel's flow, not an "
+          "open vessel and its feeder: use \"engine\"");
   }
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
   atom_ = lmp_->atom;
@@ -219,8 +220,9 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool stream
 
 std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
   auto cylinder = [&](const char* id, double radius, double axis_x) {
-    return fmt::format("fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} {:.17g} 0",
-                       id, wall_type, radius, axis_x);
+    return fmt::format(
+        "fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} {:.17g} 0", id,
+        wall_type, radius, axis_x);
   };
   std::vector<std::string> lines;
   if (!mesh_wall()) {
@@ -308,8 +310,8 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (!feeder_) return;
   // The inlet buffer: one largest cell diameter, so that a copy is wholly inside the vessel when
   // it is let go (dem_open_ends.h).
-  command(open_ends_command(
-      {locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x, species_.d_max}));
+  command(
+      open_ends_command({locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x, species_.d_max}));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the
   // source's interval impulse stays with the source, which goes on in the feeder).

@@ -16,8 +16,8 @@
 #pragma once
 
 #include "cell_locator.h"
-#include "open_ends_events.h"
 #include "dem_species.h"
+#include "open_ends_events.h"
 #include "placement.h"
 
 #include <mpi.h>
@@ -71,10 +71,10 @@ class LiggghtsSession {
   // Our per-atom fixes (values in dem_fixes.h); null when the scene needs none.
   struct Fixes {
     LAMMPS_NS::Fix* impulse = nullptr;
-    LAMMPS_NS::Fix* rotation = nullptr;                  // orientations tracked
-    LAMMPS_NS::Fix* closures = nullptr;                  // closures held between evaluations
-    LAMMPS_NS::FixPropertyAtom* wall_history = nullptr;  // LIGGGHTS's own: the wall contacts' history
-                                                         // (a primitive wall's; null for a mesh wall)
+    LAMMPS_NS::Fix* rotation = nullptr;                         // orientations tracked
+    LAMMPS_NS::Fix* closures = nullptr;                         // closures held between evaluations
+    LAMMPS_NS::FixPropertyAtom* wall_history = nullptr;         // LIGGGHTS's own: the wall contacts' history
+                                                                // (a primitive wall's; null for a mesh wall)
     LAMMPS_NS::FixPropertyAtom* feeder_wall_history = nullptr;  // the feeder's primitive wall's (open ends)
     dem::FixOpenEnds* open_ends = nullptr;                      // open ends, after the first init
   };

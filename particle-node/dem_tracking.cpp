@@ -68,9 +68,9 @@ void ParticleTracking::save(EngineState& s) const {
   s.tracked.reserve(EngineState::kTrackedValues * tracked_.size());
   for (std::size_t k = 0; k < tracked_.size(); ++k) {
     const Tracked& t = tracked_[k];
-    s.tracked.insert(s.tracked.end(), {t.where.anchor.x(), t.where.anchor.y(), t.where.anchor.z(), t.where.clearance,
-                                       static_cast<double>(t.where.cell), t.last_z, t.crossings,
-                                       static_cast<double>(present_[k])});
+    s.tracked.insert(s.tracked.end(),
+                     {t.where.anchor.x(), t.where.anchor.y(), t.where.anchor.z(), t.where.clearance,
+                      static_cast<double>(t.where.cell), t.last_z, t.crossings, static_cast<double>(present_[k])});
   }
 }
 

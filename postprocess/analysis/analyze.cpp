@@ -197,17 +197,18 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
       if (opt.slices > 0) a.stations.axial = opt.slices;
       if (opt.sectors > 0) a.stations.sectors = opt.sectors;
       stations_chosen = true;
-      if (!geometry->uniform()) {
+      if (!geometry->uniform() || open) {
         // Along the vessel: the CFL stations, but at least one per R0 / 2 of length unless the
-        // slices are given, so that the constriction is resolved.
+        // slices are given, so that the constriction (or an open vessel's entrance) is resolved.
         Stations along = a.stations;
         if (opt.slices <= 0)
           along.axial = std::max(along.axial, static_cast<int>(std::lround(2 * a.tube.length / a.tube.radius)));
         axial.emplace(*geometry, along, a.rbc_diameter, a.rbc_volume, run.scene.platelet.diameter);
-        a.notes.push_back(
-            "the radial profiles, δ and margination above are of the nominal tube (R0 = d/2; H_T, "
-            "H_D and µ_app take the vessel's own volume and flux); along the vessel, each station "
-            "is against its local radius R(z)");
+        if (!geometry->uniform())
+          a.notes.push_back(
+              "the radial profiles, δ and margination above are of the nominal tube (R0 = d/2; H_T, "
+              "H_D and µ_app take the vessel's own volume and flux); along the vessel, each station "
+              "is against its local radius R(z)");
       }
     }
     if (axial) axial->add(s);
@@ -353,12 +354,10 @@ std::string format_json(const Analysis& a) {
                   {"snapshots", a.axial.snapshots}};
   }
   for (const EndFlux& e : a.ends)
-    j["ends"][e.end] = {{"plasma_flux_m3_s", number(e.plasma_flux)},
-                        {"rbc_per_s", number(e.rbc_rate)},
-                        {"platelets_per_s", number(e.platelet_rate)},
-                        {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
-                        {"blood_flux_m3_s", number(e.blood_flux())},
-                        {"discharge_hematocrit", number(e.discharge_hematocrit())}};
+    j["ends"][e.end] = {
+        {"plasma_flux_m3_s", number(e.plasma_flux)},  {"rbc_per_s", number(e.rbc_rate)},
+        {"platelets_per_s", number(e.platelet_rate)}, {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
+        {"blood_flux_m3_s", number(e.blood_flux())},  {"discharge_hematocrit", number(e.discharge_hematocrit())}};
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},

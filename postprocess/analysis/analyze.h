@@ -54,13 +54,13 @@ struct Analysis {
   std::vector<MsdPoint> msd;
   DiffusionFit diffusion;
 
-  ApparentViscosity rheology;     // from the blood's mean velocity Q / (pi R^2)
+  ApparentViscosity rheology;       // from the blood's mean velocity Q / (pi R^2)
   double plasma_mean_velocity = 0;  // m/s, the fluid node's interstitial mean, window mean
   long velocity_samples = 0;
   double wall_shear_stress = 0;  // Pa, window mean from the fluid node
   WallShearBalance balance;      // τ_w against τ_w,imposed over the window
   BalanceVerdict balance_verdict;
-  double settling_time = 0;  // s, before which the balance is not judged
+  double settling_time = 0;                    // s, before which the balance is not judged
   std::vector<SeriesPoint> balance_over_time;  // τ_w / τ_w,imposed over the whole run, thinned
 
   AxisEnrichment platelet_axis;  // first snapshot to the last one in the window
@@ -74,8 +74,8 @@ struct Analysis {
   std::vector<double> bin_edges;                                           // m
   std::vector<double> rbc_density, platelet_density, rbc_volume_fraction;  // window means
   std::vector<ProfileFrame> frames;
-  std::string shape;       // vessel.shape
-  AxialObservables axial;  // per axial station over the window; empty for a straight tube
+  std::string shape;          // vessel.shape
+  AxialObservables axial;     // per axial station over the window; empty for a straight tube
   std::vector<EndFlux> ends;  // an open vessel's inlet and outlet over the window; empty when periodic
 
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)

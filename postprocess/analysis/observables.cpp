@@ -355,7 +355,9 @@ double time_mean(const std::vector<double>& t, const std::vector<double>& value,
 
 // ---- Through an open vessel's ends ----------------------------------------------------------
 
-double EndFlux::discharge_hematocrit() const { return hemo::analysis::discharge_hematocrit(rbc_volume_flux, blood_flux()); }
+double EndFlux::discharge_hematocrit() const {
+  return hemo::analysis::discharge_hematocrit(rbc_volume_flux, blood_flux());
+}
 
 double window_rate(const std::vector<double>& t, const std::vector<double>& count, double t_start, double t_end) {
   if (!(t_end > t_start)) return kNaN;

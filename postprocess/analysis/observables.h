@@ -253,11 +253,11 @@ double discharge_hematocrit(double rbc_volume_flux, double total_volume_flux);
 // alpha u . n over the patch, its window mean) and the cells counted through it (the particle
 // node's cumulative counts, their increase over the window per second).
 struct EndFlux {
-  std::string end;                // "inlet" (into the vessel) or "outlet" (out of it)
-  double plasma_flux = 0;         // m^3/s
-  double rbc_rate = 0;            // red cells per second
-  double platelet_rate = 0;       // platelets per second
-  double rbc_volume_flux = 0;     // m^3/s: rbc_rate x V_RBC
+  std::string end;             // "inlet" (into the vessel) or "outlet" (out of it)
+  double plasma_flux = 0;      // m^3/s
+  double rbc_rate = 0;         // red cells per second
+  double platelet_rate = 0;    // platelets per second
+  double rbc_volume_flux = 0;  // m^3/s: rbc_rate x V_RBC
   double platelet_volume_flux = 0;
   double blood_flux() const { return plasma_flux + rbc_volume_flux + platelet_volume_flux; }
   // H_D = Q_RBC / Q through this end.
@@ -286,7 +286,7 @@ double in_vitro_fahraeus_ratio(double diameter, double discharge_hematocrit);
 // gap is the distance from its sphere to the wall, -signed_distance(x) - d/2 (on a straight tube
 // R - r - d/2). Stations are equal slices of [0, L) (z wrapped); angular sectors split each for
 // the cell-free layer as in the edge method (rbc_core_edges), which this is on a straight tube.
-inline constexpr double kNearWallDiameters = 1;     // "near the wall": a gap below one platelet diameter
+inline constexpr double kNearWallDiameters = 1;        // "near the wall": a gap below one platelet diameter
 inline constexpr double kWallContactDiameters = 0.02;  // "touching": a gap below 2 % of it (contacts overlap ~1 %)
 struct AxialObservables {
   std::vector<double> z;                   // m, station centres

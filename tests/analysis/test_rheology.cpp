@@ -136,7 +136,7 @@ TEST(OpenEnds, CellsPerSecondAreTheCountsIncreaseOverTheWindow) {
   const std::vector<double> t = {0, 1e-4, 2e-4, 3e-4, 4e-4}, n = {0, 2, 5, 9, 14};
   EXPECT_NEAR(window_rate(t, n, 1e-4, 3e-4), (9 - 2) / 2e-4, 1e-6);
   EXPECT_NEAR(window_rate(t, n, 1.5e-4, 4e-4), (14 - 2) / 2.5e-4, 1e-6);  // N(1.5e-4) = N(1e-4)
-  EXPECT_TRUE(std::isnan(window_rate(t, n, -1e-4, 2e-4)));               // nothing before the start
+  EXPECT_TRUE(std::isnan(window_rate(t, n, -1e-4, 2e-4)));                // nothing before the start
   EXPECT_TRUE(std::isnan(window_rate(t, n, 2e-4, 2e-4)));
   EndFlux e{"outlet", 4e-11, 1e5, 2e4, 1e5 * 90e-18, 2e4 * 6e-18};
   EXPECT_DOUBLE_EQ(e.blood_flux(), 4e-11 + 9e-12 + 1.2e-13);

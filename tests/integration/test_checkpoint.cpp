@@ -290,7 +290,6 @@ TEST(Checkpoint, PausedCoordinatorGoesOnAndTheRunEndsAsIfUninterrupted) {
 
 namespace {
 
-
 // `hemocosim restart` or `hemocosim swap` while a run goes: the coordinator checkpoints the step
 // the request came in, stops both nodes and starts them again from it (the swapped node as the
 // new program), and answers once they run. The run ends bit for bit as the same scene stopped

@@ -15,8 +15,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <future>
 #include <fstream>
+#include <future>
 #include <set>
 #include <sstream>
 #include <string>
@@ -25,7 +25,7 @@ using namespace hemo::test;
 
 namespace {
 
-const char* const kCounts[] = {"rbc_inserted",    "rbc_left_outlet",      "rbc_left_inlet",
+const char* const kCounts[] = {"rbc_inserted",      "rbc_left_outlet",      "rbc_left_inlet",
                                "platelet_inserted", "platelet_left_outlet", "platelet_left_inlet"};
 
 double count_at(const Metrics& m, const std::string& name, long step) { return m.at({"particles", name}).at(step); }
@@ -56,13 +56,15 @@ TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
   const double created = present.at(0);
   for (const auto& [step, n] : present) {
     double net = 0;
-    for (const char* c : kCounts) net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
+    for (const char* c : kCounts)
+      net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
     EXPECT_EQ(n, created + net) << "step " << step;
     EXPECT_EQ(count_at(m, "particles_lost", step), 0) << "step " << step;
   }
-  std::printf("  %g cells at the start; by step 40: %g red cells in, %g out, %g back; %g platelets in, %g out\n", created,
-              count_at(m, "rbc_inserted", 40), count_at(m, "rbc_left_outlet", 40), count_at(m, "rbc_left_inlet", 40),
-              count_at(m, "platelet_inserted", 40), count_at(m, "platelet_left_outlet", 40));
+  std::printf("  %g cells at the start; by step 40: %g red cells in, %g out, %g back; %g platelets in, %g out\n",
+              created, count_at(m, "rbc_inserted", 40), count_at(m, "rbc_left_outlet", 40),
+              count_at(m, "rbc_left_inlet", 40), count_at(m, "platelet_inserted", 40),
+              count_at(m, "platelet_left_outlet", 40));
   EXPECT_GT(count_at(m, "rbc_inserted", 40), 0);
   EXPECT_GT(count_at(m, "rbc_left_outlet", 40), 0);
 
@@ -138,10 +140,11 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
   const std::string steps = "coupling_steps = 40";
   text.replace(text.find(steps), steps.size(), "coupling_steps = 120");
   std::ofstream(dir + ".toml") << text;
-  auto going = std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
+  auto going =
+      std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir); });
   wait_for_step(dir, 30);
-  const auto answer = run(bin("hemocosim") + " swap " + dir + " particles --with " + bin("hemocosim-particles") +
-                          " --timeout 120");
+  const auto answer =
+      run(bin("hemocosim") + " swap " + dir + " particles --with " + bin("hemocosim-particles") + " --timeout 120");
   const auto r = going.get();
   ASSERT_EQ(answer.exit_code, 0) << answer.output << r.output;
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -153,7 +156,8 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
   const double created = present.at(0);
   for (const auto& [step, n] : present) {
     double net = 0;
-    for (const char* c : kCounts) net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
+    for (const char* c : kCounts)
+      net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
     EXPECT_EQ(n, created + net) << "step " << step;
   }
   EXPECT_GT(count_at(m, "rbc_inserted", 120), count_at(m, "rbc_inserted", k)) << "cells entered after the swap";

@@ -13,9 +13,9 @@
 #include "minimal_scene.h"
 #include "momentum_forms.h"
 #include "scene.h"
-#include "vec.h"
 #include "suspension_viscosity.h"
 #include "units.h"
+#include "vec.h"
 #include "vessel_ends.h"
 
 using namespace hemo;

@@ -95,8 +95,8 @@ TEST(FeederLocator, NothingBeyondTheVesselsOutlet) {
   const auto layout = hemo::feeder_layout(vessel, kSpec.axial_cells);
   const CellLocator locator(mesh.message, hemo::make_vessel_geometry(vessel), layout);
   const int feeder_first = feeder_zone(mesh.poly).first;
-  for (const double z : {layout.vessel_length + 1e-6, 0.5 * (layout.vessel_length + layout.period),
-                         layout.period - 1e-6}) {
+  for (const double z :
+       {layout.vessel_length + 1e-6, 0.5 * (layout.vessel_length + layout.period), layout.period - 1e-6}) {
     for (const double x : {0.0, 0.9 * vessel.radius()}) {
       const Vec3 p(x, 0.1 * vessel.radius(), z);
       ASSERT_LT(p.x(), layout.split_x);

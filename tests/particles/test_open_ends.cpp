@@ -4,8 +4,9 @@
 // the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
 // per-atom values of their source, on the tags the leavers freed; present = created + inserted -
 // left at every step; over the inlet buffer a copy replays its source, so a cell in its way is
-// pushed on rather than the copy thrown back through the inlet; on one rank and on two (ctest particles.OpenEnds.ranks2: the box split along
-// z, the copies made on the rank of their source and owned by the rank of the inlet).
+// pushed on rather than the copy thrown back through the inlet; on one rank and on two (ctest
+// particles.OpenEnds.ranks2: the box split along z, the copies made on the rank of their source and owned by the rank
+// of the inlet).
 #include "dem_fix_styles.h"
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
@@ -228,7 +229,7 @@ TEST(OpenEnds, CellsLeaveAtTheOutletAndEnterAsTheFeedersCopiesAndEveryStepCounts
 TEST(OpenEnds, OverTheInletBufferACopyReplaysItsSourceAndIsNotThrownBack) {
   for (const double buffer : {kDiameter, 0.0}) {
     OpenEndsBox box;
-    box.create(1, 0, 0, 0.8 * kDiameter);                  // tag 1, in the copy's way
+    box.create(1, 0, 0, 0.8 * kDiameter);                   // tag 1, in the copy's way
     box.create(2, kShift, 0, kPeriod - 10 * kSpeed * kDt);  // crosses the feeder's end at step 10
     box.start(buffer);
     box.command("group still id 1");

@@ -116,7 +116,7 @@ TEST(OpenVessel, CountsBalanceAtEveryStepAndTheCellsFlowThrough) {
   EXPECT_GT(end.at("rbc_left_outlet"), 0);
   EXPECT_GT(end.at("platelet_left_outlet"), 0);
   EXPECT_EQ(left_and_entered(end, "left_inlet"), 0);  // nothing flows back
-  std::set<std::int64_t> reused;  // tags in the vessel at step 1, gone, and in it again
+  std::set<std::int64_t> reused;                      // tags in the vessel at step 1, gone, and in it again
   for (const auto id : ids[1])
     for (long a = 2; a < steps && !reused.count(id); ++a)
       if (!ids[a].count(id))
