@@ -84,6 +84,9 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
             ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
                           s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))
             : std::string());
+  if (fed_by_feeder(s.vessel) && rbcs + platelets > 0)
+    fmt::print("  feeder      the same blood: the vessel starts with copies of its cells over its length, and each "
+               "cell that crosses its end enters at the inlet (counts below: the vessel's nominal)\n");
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
              rbcs + platelets == 0 ? std::string()
              : placement_checked(s)

@@ -83,6 +83,11 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
                                                         const FeederLayout& feeder, double z0, unsigned long long seed,
                                                         const PlacementOptions& options = {});
 
+// The particles a scene starts with, in its vessel of this shape from z0: place_particles, or in
+// a vessel fed by a feeder place_open_vessel_particles (the particle node's placement, and
+// `hemocosim check`'s).
+std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselGeometry& vessel, double z0);
+
 // In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,
                                             const std::vector<PlacementRequest>& requests, unsigned long long seed,

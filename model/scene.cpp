@@ -496,7 +496,7 @@ void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
   if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
   try {
-    pl::place_particles(*make_vessel_geometry(s.vessel), 0.0, pl::placement_requests(s), s.run.seed);
+    pl::place_scene_particles(s, *make_vessel_geometry(s.vessel), 0.0);
   } catch (const pl::PlacementError& e) {
     const Species* sp = e.species == pl::kRbc ? &s.rbc : e.species == pl::kPlatelet ? &s.platelet : nullptr;
     if (sp == nullptr) {  // not a species' (validation rules out such vessels and requests)

@@ -99,10 +99,7 @@ void ParticleNode::log_particles() const {
 }
 
 void ParticleNode::start() {
-  const auto placed =
-      fed_by_feeder(scene_.vessel)
-          ? place_open_vessel_particles(scene_, locator_.geometry(), *locator_.feeder(), locator_.z0(), scene_.run.seed)
-          : place_particles(locator_.geometry(), locator_.z0(), placement_requests(scene_), scene_.run.seed);
+  const auto placed = place_scene_particles(scene_, locator_.geometry(), locator_.z0());
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);
