@@ -59,6 +59,9 @@ struct Analysis {
   long velocity_samples = 0;
   double wall_shear_stress = 0;  // Pa, window mean from the fluid node
   WallShearBalance balance;      // τ_w against τ_w,imposed over the window
+  // What τ_w is held against: the imposed drop's d ΔP / (4 l), or in an open vessel the realised
+  // one's, d p_inlet / (4 l) (the outlet holds p = 0).
+  std::string balance_against = "imposed d ΔP / (4 l)";
   BalanceVerdict balance_verdict;
   double settling_time = 0;                    // s, before which the balance is not judged
   std::vector<SeriesPoint> balance_over_time;  // τ_w / τ_w,imposed over the whole run, thinned
@@ -83,9 +86,10 @@ struct Analysis {
 
 Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt);
 
-// τ_w of a run's metrics against the scene's imposed one over [t_start, t_end].
-WallShearBalance momentum_balance(const MetricSeries& wall_shear_stress, const Scene& scene, double t_start,
-                                  double t_end);
+// τ_w of a run's metrics against d ΔP / (4 l) over [t_start, t_end], ΔP the scene's imposed drop
+// or, in an open vessel, the realised one: the mean of `inlet_pressure` (the outlet holds 0).
+WallShearBalance momentum_balance(const MetricSeries& wall_shear_stress, const MetricSeries& inlet_pressure,
+                                  const Scene& scene, double t_start, double t_end);
 
 // What the run's closing summary says of the momentum balance (coordinator/run.cpp prints it as a
 // run ends): judge_balance over the second half of the run's wall_shear_stress_Pa samples, which

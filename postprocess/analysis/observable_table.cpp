@@ -43,8 +43,8 @@ std::string viscosity_detail(const Analysis& a) {
 std::string pa(double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v) : "n/a"; }
 
 std::string wall_shear_stress_detail(const Analysis& a) {
-  return fmt::format("fluid node, {} samples; {} Pa at the window's end; imposed d ΔP / (4 l) = {} Pa",
-                     a.balance.samples, pa(a.balance.end), pa(a.balance.imposed));
+  return fmt::format("fluid node, {} samples; {} Pa at the window's end; {} = {} Pa", a.balance.samples,
+                     pa(a.balance.end), a.balance_against, pa(a.balance.imposed));
 }
 
 std::string balance_detail(const Analysis& a) {

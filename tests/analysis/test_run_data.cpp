@@ -329,8 +329,8 @@ TEST(Analyze, PlateletAxisEnrichmentFromTheFirstToTheLastSnapshot) {
   EXPECT_NE(format_table(deficit).find(note), std::string::npos) << format_table(deficit);
 }
 
-// The closing line of `hemocosim run` judges tau_w = d dP / (4 l) only in a periodic vessel whose wall is parallel
-// to the axis: the same wall shear stress, 0.8 of the imposed one over a settled window, is named
+// The closing line of `hemocosim run` judges tau_w = d dP / (4 l) only in a vessel whose wall is parallel
+// to the axis (dP an open vessel's realised drop): the same wall shear stress, 0.8 of the imposed one over a settled window, is named
 // for a straight vessel and not for a stenosis, whose wall takes part of the drop as pressure.
 TEST(Analyze, TheWallShearBalanceIsJudgedOnlyForAStraightVessel) {
   const TempDir tmp("balance");
@@ -347,7 +347,20 @@ TEST(Analyze, TheWallShearBalanceIsJudgedOnlyForAStraightVessel) {
   const std::string straight = closing_balance_line(dir, hemo::load_scene(dir + "/straight.toml"));
   EXPECT_NE(straight.find("is 0.800 of the imposed"), std::string::npos) << straight;
   EXPECT_EQ(closing_balance_line(dir, hemo::load_scene(dir + "/stenosis.toml")), "");
-  // Nor for an open vessel, driven by its inlet's flow rate rather than an imposed drop.
+  // An open vessel's wall carries the drop its inlet's pressure realises (the outlet holds 0):
+  // 0.8 of the imposed stress is the whole of a drop 0.8 of the imposed one, and 0.8 of a drop
+  // as large as the imposed one.
   write_text(dir + "/open.toml", vessel + "ends = \"open\"\n" + rest);
-  EXPECT_EQ(closing_balance_line(dir, hemo::load_scene(dir + "/open.toml")), "");
+  const double imposed_drop = hemo::load_scene(dir + "/open.toml").driving.pressure_drop;
+  for (const double drop : {0.8, 1.0}) {
+    std::string with_inlet = csv;
+    for (int k = 0; k <= 100; ++k)
+      with_inlet += fmt::format("{},{},fluid,inlet_pressure_Pa,{}\n", k, 0.01 * k, drop * imposed_drop);
+    write_text(dir + "/metrics.csv", with_inlet);
+    const std::string open = closing_balance_line(dir, hemo::load_scene(dir + "/open.toml"));
+    if (drop == 0.8)
+      EXPECT_EQ(open, "") << open;
+    else
+      EXPECT_NE(open.find("is 0.800 of the"), std::string::npos) << open;
+  }
 }
