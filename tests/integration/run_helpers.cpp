@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_helpers.h"
 
+#include <gtest/gtest.h>
 #include <hdf5.h>
 
 #include <sys/wait.h>
@@ -124,6 +125,18 @@ void wait_for_step(const std::string& dir, long step) {
     for (std::string line; std::getline(in, line);)
       if (line.rfind(marker, 0) == 0) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
+void expect_same_snapshots(const std::string& a_dir, const std::string& b_dir) {
+  const auto names = snapshot_names(a_dir + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(b_dir + "/particles.h5"));
+  for (const auto& name : names) {
+    const auto a = read_snapshot(a_dir + "/particles.h5", name), b = read_snapshot(b_dir + "/particles.h5", name);
+    ASSERT_EQ(a.id, b.id) << name;
+    EXPECT_EQ(a.time_s, b.time_s) << name;
+    EXPECT_EQ(a.position, b.position) << name;  // bit for bit
+    EXPECT_EQ(a.velocity, b.velocity) << name;
   }
 }
 

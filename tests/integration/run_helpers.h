@@ -47,5 +47,7 @@ struct Snapshot {
 };
 std::vector<std::string> snapshot_names(const std::string& h5_path);
 Snapshot read_snapshot(const std::string& h5_path, const std::string& name);
+// The two runs wrote the same snapshots, bit for bit (gtest expectations).
+void expect_same_snapshots(const std::string& a_dir, const std::string& b_dir);
 
 }  // namespace hemo::test

@@ -228,14 +228,16 @@ TEST(CoupledRun, OneWayCouplingLeavesThePlasmaAsWithoutParticles) {
 // wall holds the plasma's share alone, 1 - the mean solid fraction (0.908 here, measured to
 // 0.001); a form that lost the particles' share would fail the first check.
 TEST(CoupledRun, SteadyWallForceHoldsTheWholeDropInTheExactForms) {
-  const auto one_way = read_metrics(run_scene_text("drop-one-way", small_scene_text(40, "", "[coupling]\ntwo_way = false\n")));
+  const auto one_way =
+      read_metrics(run_scene_text("drop-one-way", small_scene_text(40, "", "[coupling]\ntwo_way = false\n")));
   const double imposed = one_way.at({"fluid", "driving_force_z_N"}).rbegin()->second;  // dP / l V
   ASSERT_GT(imposed, 0);
   for (const hemo::MomentumForm& form : hemo::momentum_forms()) {
     const std::string dir =
         form.name == hemo::Scene{}.momentum
             ? small_run()
-            : run_scene_text("drop-" + form.name, small_scene_text(40, "", "[coupling]\nmomentum = \"" + form.name + "\"\n"));
+            : run_scene_text("drop-" + form.name,
+                             small_scene_text(40, "", "[coupling]\nmomentum = \"" + form.name + "\"\n"));
     const auto m = read_metrics(dir);
     double wall = 0;
     int n = 0;
@@ -311,17 +313,6 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 std::string adaptive_scene_text(long coupling_steps, double relaxation_times) {
   return replaced(small_scene_text(coupling_steps), "[time]",
                   "[time]\ncoupling_relaxation_times = " + std::to_string(relaxation_times));
-}
-void expect_same_snapshots(const std::string& a_dir, const std::string& b_dir) {
-  const auto names = snapshot_names(a_dir + "/particles.h5");
-  ASSERT_EQ(names, snapshot_names(b_dir + "/particles.h5"));
-  for (const auto& name : names) {
-    const auto a = read_snapshot(a_dir + "/particles.h5", name), b = read_snapshot(b_dir + "/particles.h5", name);
-    ASSERT_EQ(a.id, b.id) << name;
-    EXPECT_EQ(a.time_s, b.time_s) << name;
-    EXPECT_EQ(a.position, b.position) << name;  // bit for bit
-    EXPECT_EQ(a.velocity, b.velocity) << name;
-  }
 }
 }  // namespace
 

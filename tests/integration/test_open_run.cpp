@@ -41,6 +41,21 @@ std::string open_scene_with_checkpoints(long every) {
   return s;
 }
 
+// Present = created + inserted - left, and none lost, at every step the particle node reported.
+void expect_counts_balance(const Metrics& m) {
+  const auto& present = m.at({"particles", "particles"});
+  const double created = present.begin()->second;
+  for (const auto& [step, n] : present) {
+    double net = 0;
+    for (const char* c : kCounts) {
+      const bool in = std::string(c).find("inserted") != std::string::npos;
+      net += (in ? 1 : -1) * count_at(m, c, step);
+    }
+    EXPECT_EQ(n, created + net) << "step " << step;
+    EXPECT_EQ(count_at(m, "particles_lost", step), 0) << "step " << step;
+  }
+}
+
 }  // namespace
 
 TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
@@ -54,13 +69,7 @@ TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
   const auto& present = m.at({"particles", "particles"});
   ASSERT_EQ(present.size(), 41u);  // step 0 and 40 steps
   const double created = present.at(0);
-  for (const auto& [step, n] : present) {
-    double net = 0;
-    for (const char* c : kCounts)
-      net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
-    EXPECT_EQ(n, created + net) << "step " << step;
-    EXPECT_EQ(count_at(m, "particles_lost", step), 0) << "step " << step;
-  }
+  expect_counts_balance(m);
   std::printf("  %g cells at the start; by step 40: %g red cells in, %g out, %g back; %g platelets in, %g out\n",
               created, count_at(m, "rbc_inserted", 40), count_at(m, "rbc_left_outlet", 40),
               count_at(m, "rbc_left_inlet", 40), count_at(m, "platelet_inserted", 40),
@@ -121,14 +130,7 @@ TEST(OpenRun, ResumedRunEqualsTheUninterruptedRunCountsIncluded) {
   for (const char* c : kCounts)
     for (long step = 0; step <= 40; ++step) EXPECT_EQ(count_at(ma, c, step), count_at(mb, c, step)) << c << " " << step;
   EXPECT_GT(count_at(ma, "rbc_inserted", 40), count_at(ma, "rbc_inserted", 20));
-  const auto names = snapshot_names(whole + "/particles.h5");
-  ASSERT_EQ(names, snapshot_names(parts + "/particles.h5"));
-  for (const auto& name : names) {
-    const auto a = read_snapshot(whole + "/particles.h5", name), b = read_snapshot(parts + "/particles.h5", name);
-    ASSERT_EQ(a.id, b.id) << name;
-    EXPECT_EQ(a.position, b.position) << name;
-    EXPECT_EQ(a.velocity, b.velocity) << name;
-  }
+  expect_same_snapshots(whole, parts);
 }
 
 // `hemocosim swap` of the particle node while the run goes (here for the same program): the
@@ -153,13 +155,7 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
   const auto m = read_metrics(dir);
   const auto& present = m.at({"particles", "particles"});
   ASSERT_EQ(present.size(), 121u);  // each step once
-  const double created = present.at(0);
-  for (const auto& [step, n] : present) {
-    double net = 0;
-    for (const char* c : kCounts)
-      net += (std::string(c).find("inserted") != std::string::npos ? 1 : -1) * count_at(m, c, step);
-    EXPECT_EQ(n, created + net) << "step " << step;
-  }
+  expect_counts_balance(m);
   EXPECT_GT(count_at(m, "rbc_inserted", 120), count_at(m, "rbc_inserted", k)) << "cells entered after the swap";
   EXPECT_GE(count_at(m, "rbc_inserted", k + 1), count_at(m, "rbc_inserted", k)) << "the counts went on";
 }

@@ -617,14 +617,6 @@ TEST(DemEngine, RefusesClosuresItDoesNotHave) {
   EXPECT_THROW(DemEngine(scene, locator, "none", MPI_COMM_WORLD), std::invalid_argument);
 }
 
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  ::testing::InitGoogleTest(&argc, argv);
-  const int result = RUN_ALL_TESTS();
-  MPI_Finalize();
-  return result;
-}
-
 // coupling.implicit_drag = "co_relaxed": one red cell from rest in a uniform plasma flow u, its
 // cell's plasma answering at every DEM step (cell_plasma.h). Momentum: the plasma of its cell
 // loses exactly what the cell gains (to round-off), no other cell's plasma moves, and the fluid

@@ -168,11 +168,3 @@ TEST(OpenVessel, ResumedNodeGoesOnBitForBitWithItsCounts) {
   fs::remove_all(a_dir);
   fs::remove_all(b_dir);
 }
-
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  ::testing::InitGoogleTest(&argc, argv);
-  const int result = RUN_ALL_TESTS();
-  MPI_Finalize();
-  return result;
-}

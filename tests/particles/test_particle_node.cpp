@@ -112,11 +112,3 @@ TEST(ParticleNode, WarnsOnceWhenRedCellsLeaveTheDragFitsRange) {
   EXPECT_EQ(snap.orientation.size(), 4 * snap.size());
   std::filesystem::remove_all(dir);
 }
-
-int main(int argc, char** argv) {
-  MPI_Init(&argc, &argv);
-  ::testing::InitGoogleTest(&argc, argv);
-  const int result = RUN_ALL_TESTS();
-  MPI_Finalize();
-  return result;
-}
