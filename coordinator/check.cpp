@@ -77,9 +77,10 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
              s.driving.wall_shear_rate);
   if (open_ends(s.vessel))
     fmt::print(
-        "  ends        open: inlet {} at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate), outlet "
-        "p = 0{}\n",
-        s.vessel.inlet, nominal_flow_rate(s),
+        "  ends        open: inlet {} {}, outlet p = 0{}\n", s.vessel.inlet,
+        vessel_inlet(s.vessel.inlet).carries_q
+            ? fmt::format("at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate)", nominal_flow_rate(s))
+            : std::string("at the feeder's own flow (the periodic tube's at dP)"),
         fed_by_feeder(s.vessel)
             ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
                           s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))

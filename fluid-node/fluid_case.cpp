@@ -116,9 +116,9 @@ std::string fv_solution(const FluidSolver& solver) {
 
 // The inlet's velocity, carrying fluid.inlet_flow_rate Q through the patch's faces (the mesh's
 // section, a polygon: its area is not pi R^2). A mapped inlet (a feeder) takes the feeder's
-// section, scaled by OpenFOAM to the mean velocity Q / A (setAverage); a fixed one its profile at
-// the face centres, scaled to the faces' flux Q: the parabola R^2 - r^2 of the inlet's radius R,
-// or a constant.
+// section, as it is (the feeder's own flow; Q / A is only its first value) or scaled by OpenFOAM
+// to the mean velocity Q / A (setAverage); a fixed one its profile at the face centres, scaled to
+// the faces' flux Q: the parabola R^2 - r^2 of the inlet's radius R, or a constant.
 std::string inlet_velocity(const FluidSettings& fluid, const PatchInfo& patch, const MeshGeometry& geometry,
                            double inlet_radius) {
   using Profile = VesselInlet::Profile;
@@ -137,10 +137,10 @@ std::string inlet_velocity(const FluidSettings& fluid, const PatchInfo& patch, c
   if (fluid.inlet_profile == Profile::feeder) {
     if (patch.type != "mappedPatch") throw std::logic_error("a feeder inlet needs the mesh's mapped inlet patch");
     const std::string mean = "(0 0 " + num(fluid.inlet_flow_rate / area) + ")";
-    return "        type            mapped;\n        field           U;\n        setAverage      true;\n"
-           "        average         " +
-           mean +
-           ";\n"
+    const std::string average = fluid.inlet_carries_q ? "        setAverage      true;\n        average         " +
+                                                            mean + ";\n"
+                                                      : "        setAverage      false;\n";
+    return "        type            mapped;\n        field           U;\n" + average +
            "        interpolationScheme cell;\n"
            "        value           uniform " +
            mean + ";\n";
@@ -174,6 +174,7 @@ FluidSettings fluid_settings(const Scene& scene) {
   if (f.open_ends) {
     f.inlet_flow_rate = nominal_flow_rate(scene);
     f.inlet_profile = vessel_inlet(scene.vessel.inlet).profile;
+    f.inlet_carries_q = vessel_inlet(scene.vessel.inlet).carries_q;
   }
   f.dt = scene.time.coupling_interval;
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");

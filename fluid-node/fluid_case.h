@@ -35,6 +35,7 @@ struct FluidSettings {
   bool open_ends = false;                   // vessel.ends: an inlet and an outlet (vessel_ends.h)
   double inlet_flow_rate = 0;               // m^3/s, open ends: Q = pi R0^3 gamma_w / 4 (driving.h)
   VesselInlet::Profile inlet_profile = VesselInlet::Profile::feeder;  // open ends: vessel.inlet
+  bool inlet_carries_q = true;  // open ends: the inlet's flux is inlet_flow_rate (else a feeder's own)
 };
 
 FluidSettings fluid_settings(const Scene& scene);

@@ -25,8 +25,12 @@ const VesselEnds& vessel_end(const std::string& name) { return named_entry(vesse
 
 const std::vector<VesselInlet>& vessel_inlets() {
   static const std::vector<VesselInlet> all = {
-      {"feeder", "the section of a periodic feeder vessel beside it (OpenFOAM's mapped inlet), scaled to Q",
-       VesselInlet::Profile::feeder},
+      {"feeder",
+       "the section of a periodic feeder vessel beside it (OpenFOAM's mapped inlet): its own flow, the periodic "
+       "tube's at dP",
+       VesselInlet::Profile::feeder, false},
+      {"feeder_at_q", "the section of a periodic feeder vessel beside it, scaled to Q", VesselInlet::Profile::feeder,
+       true},
       {"poiseuille", "the parabolic profile of Q, fixed", VesselInlet::Profile::parabola},
       {"uniform", "a flat profile of Q, fixed (the textbook entrance flow)", VesselInlet::Profile::flat},
   };

@@ -11,7 +11,10 @@
 //   vessel.inlet "feeder"    (default for open ends) a straight periodic feeder vessel of the
 //                            inlet's radius, driven by G, a disconnected region of the same fluid
 //                            mesh beside the vessel (its axis at x = feeder_axis_x); the inlet
-//                            maps the velocity of the feeder's end section, scaled to the flux Q.
+//                            maps the velocity of the feeder's end section as it is: the vessel
+//                            carries the feeder's own flow, the periodic tube's at the scene's
+//                            drop, with the cells it carries (their apparent viscosity included).
+//                "feeder_at_q" the same section scaled to the flux Q.
 //                "poiseuille" the parabolic profile of Q, fixed.
 //                "uniform"   a flat profile of Q, fixed: the textbook entrance flow (Durst et al. 2005,
 //                            J. Fluids Eng. 127:1154), which the vessel's first ~0.6 d develop.
@@ -38,6 +41,8 @@ struct VesselInlet {
   std::string name;
   std::string description;
   Profile profile = Profile::feeder;
+  // The inlet's flux is Q (every fixed profile; a feeder's section if scaled), else the feeder's own.
+  bool carries_q = true;
 };
 
 // Every choice, the default first.

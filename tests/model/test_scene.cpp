@@ -261,7 +261,7 @@ TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
   EXPECT_TRUE(problems_of(with("ends = \"open\"\nshape = \"stenosis\"\nstenosis_length_um = 300")).empty());
   for (const auto& [line, key, known] :
        {std::tuple{"ends = \"closed\"", "vessel.ends", "known: periodic, open"},
-        std::tuple{"ends = \"open\"\ninlet = \"plug\"", "vessel.inlet", "known: feeder, poiseuille, uniform"}}) {
+        std::tuple{"ends = \"open\"\ninlet = \"plug\"", "vessel.inlet", "known: feeder, feeder_at_q, poiseuille, uniform"}}) {
     const auto ps = problems_of(with(line));
     ASSERT_EQ(ps.size(), 1u) << line;
     EXPECT_EQ(ps[0].key, key);
