@@ -2,6 +2,7 @@
 #include "surface_mesh.h"
 
 #include <child_process.h>
+#include <geometry.h>
 
 #include <fmt/format.h>
 
@@ -340,6 +341,15 @@ PolyMesh mesh_surface(const Surface& surface, const SurfaceMeshSpec& spec, const
                                            name, spec.cell_size * 1e6, (dir / "log.snappyHexMesh").string()));
   }
   return mesh;
+}
+
+PolyMesh surface_vessel_mesh(const Scene& scene, const std::string& case_dir, bool mesh) {
+  if (!mesh) return read_polymesh(case_dir);
+  const Surface surface = make_vessel_surface(scene.vessel);
+  SurfaceMeshSpec spec;
+  spec.cell_size = scene.mesh.surface_cell_size > 0 ? scene.mesh.surface_cell_size : scene.vessel.diameter / 12;
+  spec.location_in_mesh = point_inside_from_inlet(surface);
+  return mesh_surface(surface, spec, case_dir);
 }
 
 }  // namespace hemo
