@@ -365,6 +365,9 @@ static bool known_ends(const Vessel& v) {
 // "Open ends"): an inlet with a fixed profile has none to hand over, so it carries plasma alone.
 static void refuse_cells_without_feeder(Reader& r, const Scene& s) {
   if (!known_ends(s.vessel)) return;  // refused as read
+  const auto shapes = vessel_shape_names();
+  if (std::find(shapes.begin(), shapes.end(), s.vessel.shape) != shapes.end() && surface_vessel(s.vessel))
+    return;  // no cells at all yet, which check_surface_vessel says
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
   r.refuse_once(!cells || !open_ends(s.vessel) || fed_by_feeder(s.vessel), "vessel.inlet",
                 "cells enter an open vessel only from a feeder (vessel.inlet = \"feeder\"); a fixed profile "
