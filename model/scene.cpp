@@ -219,6 +219,10 @@ class Reader {
         {"run.max_courant", {ninf, 1000}},
         {"vessel.diameter_um", {5, 1e4}},  // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
+        {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
+        {"vessel.daughter_2_diameter_um", {ninf, 1e4}},
+        {"vessel.daughter_length_um", {ninf, 1e5}},  // as the vessel's length
+        {"mesh.surface_cell_size_um", {ninf, 1e4}},
         {"mesh.core_cells", {ninf, 200}},
         {"mesh.ring_cells", {ninf, 200}},
         {"mesh.axial_cells", {ninf, 10000}},
