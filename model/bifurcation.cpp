@@ -59,6 +59,16 @@ void check_bifurcation(const BifurcationSpec& spec) {
     throw SurfaceError(fmt::format("the bifurcation's daughters ({:.3g} um) must be longer than the parent's radius "
                                    "and their own ({:.3g} um)",
                                    um(s.daughter_length), um(rp + std::max(r1, r2))));
+  // The sampling grid spans the tubes' box: a vessel very long for its narrowest diameter would
+  // need more samples than memory holds.
+  const double half = s.angle / 2;
+  const double wide = 2 * (s.daughter_length * std::sin(half) + rp) + 4 * s.step;
+  const double high = s.parent_length + s.daughter_length + 2 * rp + 4 * s.step;
+  const double samples = (wide / s.step + 4) * (2 * rp / s.step + 8) * (high / s.step + 4);
+  if (!(samples <= kMaxBifurcationSamples))
+    throw SurfaceError(fmt::format("the bifurcation's sampling grid would have {:.3g} points (at most {:.3g}): it is "
+                                   "too long or wide for its narrowest diameter (or its sampling step)",
+                                   samples, kMaxBifurcationSamples));
   const double apart = 2 * s.daughter_length * std::sin(s.angle / 2);
   if (!(apart > r1 + r2))
     throw SurfaceError(fmt::format("the bifurcation's outlets overlap: their centres are {:.3g} um apart, less than "

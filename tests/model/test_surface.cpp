@@ -271,6 +271,9 @@ TEST(Bifurcation, RefusesADaughterNarrowerThanARedCellAndImpossibleShapes) {
   BifurcationSpec wide = small();
   wide.daughter_diameter[0] = 40e-6;
   EXPECT_NE(what([&] { check_bifurcation(wide); }).find("wider than the parent"), std::string::npos);
+  BifurcationSpec long_one = small();
+  long_one.daughter_length = 20e-3;  // 20 mm of 24-um daughters: 1e10 samples
+  EXPECT_NE(what([&] { check_bifurcation(long_one); }).find("sampling grid would have"), std::string::npos);
   BifurcationSpec stub = small();
   stub.daughter_length = 20e-6;
   EXPECT_NE(what([&] { check_bifurcation(stub); }).find("must be longer than the parent's radius"), std::string::npos);
