@@ -166,3 +166,46 @@ TEST(FluidSurfaceVessel, ImportedSurfaceRunsFromItsSceneWithItsSolidsAsPatches) 
   EXPECT_LT(q1 / q2, from_junction * (1 + 0.09));
   fs::remove_all(root);
 }
+
+// Stopped after step 4 and resumed from its checkpoint, the bifurcation's run is the run in one
+// go to the last digit: the resumed fluid node reads its case's snapped mesh back rather than
+// meshing again (and snappyHexMesh, run twice for the two runs, makes the same mesh). 10 steps from
+// rest, so that every step changes the flow.
+TEST(FluidSurfaceVessel, ResumedRunIsTheRunInOneGo) {
+  SceneSpec s;
+  s.diameter_um = 2 * kRp * 1e6;
+  s.length_um = kLp * 1e6;
+  s.vessel = "shape = \"bifurcation\"\nends = \"open\"\ninlet = \"poiseuille\"\n";
+  s.mesh = "surface_cell_size_um = 2.5";
+  s.dt = 1e-5;
+  s.steps = 10;
+  s.particle_command = bin("hemocosim-prescribed-particles") + " --mode none --record state.csv";
+  s.name = "bifurcation-one-go";
+  const auto one_go = run_scene(s);
+  ASSERT_EQ(one_go.command.exit_code, 0) << one_go.command.output;
+  s.name = "bifurcation-parts";
+  const auto parts = run_scene(s, "--stop-after-step 4");
+  ASSERT_EQ(parts.command.exit_code, 0) << parts.command.output;
+  namespace fs = std::filesystem;
+  const fs::path snappy_log = fs::path(parts.dir) / "fluid" / "log.snappyHexMesh";
+  ASSERT_TRUE(fs::exists(snappy_log));
+  const auto meshed = fs::last_write_time(snappy_log);
+  const auto resumed = run(bin("hemocosim") + " resume " + parts.dir);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_EQ(fs::last_write_time(snappy_log), meshed) << "the resumed run meshed again";
+  const auto a = read_state(one_go.dir + "/state.csv"), c = read_state(parts.dir + "/state.csv");
+  ASSERT_EQ(a.size(), c.size());
+  double umax = 0, d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      umax = std::max(umax, std::abs(a[i].u[k]));
+      d = std::max(d, std::abs(a[i].u[k] - c[i].u[k]));
+    }
+  const auto m = read_metrics(one_go.dir);
+  const auto& fastest = m.at({"fluid", "max_velocity_m_s"});
+  std::printf("Bifurcation, 10 steps: stopped at 4 and resumed vs one go max |du| / u_max = %.3e; max velocity step "
+              "5 / step 10 - 1 = %+.3e\n",
+              d / umax, fastest.at(5) / fastest.rbegin()->second - 1);
+  EXPECT_GT(std::abs(fastest.at(5) / fastest.rbegin()->second - 1), 1e-4);
+  EXPECT_EQ(d, 0.0);
+}
