@@ -282,7 +282,8 @@ const std::vector<VesselShape>& vessel_shapes() {
       {"imported", "a closed surface from an ASCII STL (vessel.surface), one solid per region", nullptr,
        imported_surface,
        {"vessel.surface", "vessel.surface_inlet", "vessel.surface_outlets", "mesh.surface_cell_size_um"}, "",
-       "ends = \"open\"\ninlet = \"poiseuille\"\nsurface = \"surfaces/bifurcation.stl\""},
+       "ends = \"open\"\ninlet = \"poiseuille\"\nsurface = \"surfaces/y-bifurcation.stl\"\nsurface_inlet = \"in\"\n"
+       "surface_outlets = \"out_wide out_narrow\""},  // scenes/imported.toml's
   };
   return shapes;
 }
