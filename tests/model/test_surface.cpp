@@ -74,6 +74,31 @@ TEST(Bifurcation, IsClosedWithItsFourRegions) {
   std::printf("small bifurcation: %zu points, %zu triangles\n", s.points.size(), s.triangles.size());
 }
 
+// Closed whatever the angle and the diameters (make_bifurcation checks every edge; counted here
+// again), with each end's cap where it belongs.
+TEST(Bifurcation, IsClosedAtOtherAnglesAndDiameters) {
+  struct Case {
+    double deg, d1_um, d2_um, length_um;
+  };
+  for (const Case& c : {Case{30, 0, 0, 90}, Case{90, 20, 12, 60}, Case{150, 30, 8, 50}, Case{120, 16, 25, 70}}) {
+    BifurcationSpec spec = small();
+    spec.angle = c.deg * kPi / 180;
+    spec.daughter_diameter[0] = c.d1_um * 1e-6;
+    spec.daughter_diameter[1] = c.d2_um * 1e-6;
+    spec.daughter_length = c.length_um * 1e-6;
+    const Surface s = make_bifurcation(spec);
+    const BifurcationSpec r = resolved(spec);
+    for (const auto& [edge, n] : edge_counts(s)) ASSERT_EQ(n, 2) << c.deg << " degrees";
+    for (int i = 0; i < 2; ++i) {
+      const int region = s.region_index(surface_region::outlet(i + 1));
+      const double d = r.daughter_diameter[i];
+      EXPECT_NEAR(s.area(region) / (kPi * d * d / 4), 1, 7e-3) << c.deg << " degrees, outlet " << i + 1;
+      const Point centre = Point(0, 0, spec.parent_length) + r.daughter_length * daughter_direction(r, i);
+      EXPECT_LT((s.centroid(region) - centre).norm(), r.step / 10) << c.deg << " degrees, outlet " << i + 1;
+    }
+  }
+}
+
 // Each cap is a flat disc of its tube's radius at its end: a polygon inscribed in the rim whose
 // sides are at most about a grid step, so its area is short of pi r^2 by at most
 // (2 pi / N)^2 / 6 with N >= pi D / step = 31 sides: 0.7 %. The caps' normals point along their
