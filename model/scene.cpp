@@ -403,8 +403,9 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
   r.refuse_once(s.run.fluid_ranks == 1, "run.fluid_ranks",
                 "a surface vessel's fluid runs on one rank for now (the decomposition splits the O-grid's layers)");
   if (!r.problems().empty()) return;
-  const std::string key = shape.takes("vessel.surface") ? "vessel.surface" : "vessel.shape";
-  if (key == "vessel.surface" && s.vessel.surface_file.empty()) {
+  const bool from_file = shape.takes("vessel.surface");  // a problem of the surface is blamed on its file
+  const std::string key = from_file ? "vessel.surface" : "vessel.shape";
+  if (from_file && s.vessel.surface_file.empty()) {
     r.refuse_once(false, key, "missing: the ASCII STL of the vessel.shape \"" + shape.name + "\"");
     return;
   }
