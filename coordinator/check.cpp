@@ -68,19 +68,32 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
     fmt::print(
         "  particles   none: `hemocosim run` refuses it (the particle node has nothing to couple) unless "
         "run.particle_command names a stand-in\n");
-  fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
-             s.vessel.length / units::um, s.mesh.cells());
-  if (const auto g = make_vessel_geometry(s.vessel); !g->uniform())
-    fmt::print("  shape       {}: narrowest d = {:.1f} um; the DEM's wall a triangle mesh (vessel_wall.stl)\n",
-               s.vessel.shape, 2 * g->throat_radius() / units::um);
+  if (surface_vessel(s.vessel)) {
+    const Surface surface = make_vessel_surface(s.vessel);
+    const double cell = s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : s.vessel.diameter / 12;
+    std::string regions;
+    for (const auto& r : surface.region_names) regions += (regions.empty() ? "" : ", ") + r;
+    fmt::print("  vessel      {}: a closed surface of {} triangles, {:.4g} um^3; regions {}; inlet d = {:.1f} um\n",
+               s.vessel.shape, surface.triangles.size(), surface.volume() / (units::um * units::um * units::um),
+               regions, s.vessel.diameter / units::um);
+    fmt::print("  fluid mesh  snappyHexMesh, cubes of {:.3g} um snapped to the surface, made by the fluid node\n",
+               cell / units::um);
+  } else {
+    fmt::print("  vessel      d = {:.1f} um, l = {:.1f} um, {} fluid cells\n", s.vessel.diameter / units::um,
+               s.vessel.length / units::um, s.mesh.cells());
+    if (const auto g = make_vessel_geometry(s.vessel); !g->uniform())
+      fmt::print("  shape       {}: narrowest d = {:.1f} um; the DEM's wall a triangle mesh (vessel_wall.stl)\n",
+                 s.vessel.shape, 2 * g->throat_radius() / units::um);
+  }
   fmt::print("  driving     dP = {:.4g} Pa, wall shear rate {:.4g} 1/s\n", s.driving.pressure_drop,
              s.driving.wall_shear_rate);
   if (open_ends(s.vessel))
     fmt::print(
-        "  ends        open: inlet {} {}, outlet p = 0{}\n", s.vessel.inlet,
+        "  ends        open: inlet {} {}, {} p = 0{}\n", s.vessel.inlet,
         vessel_inlet(s.vessel.inlet).carries_q
             ? fmt::format("at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate)", nominal_flow_rate(s))
             : std::string("at the feeder's own flow (the periodic tube's at dP)"),
+        surface_vessel(s.vessel) ? "every outlet" : "outlet",
         fed_by_feeder(s.vessel)
             ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
                           s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))

@@ -219,6 +219,7 @@ int run_command(const RunOptions& opt) {
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene,
                                          bus_ttl(scene.run.bus_ttl, scene.hosts.across_hosts()));
   const RunLock lock(dir.path);  // for the run's life: a resume of it meanwhile is refused
+  dir.keep_surface(scene);
   dir.sign_commands(ctx, scene);
   dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
   dir.record_placement(scene.hosts);

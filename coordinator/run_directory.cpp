@@ -3,8 +3,10 @@
 
 #include "bus_crypto.h"
 #include "checkpoint.h"
+#include "geometry.h"
 #include "hosts.h"
 #include "run_files.h"
+#include "scene.h"
 
 #include <fmt/format.h>
 #include <toml++/toml.h>
@@ -71,6 +73,14 @@ struct PrivateUmask {
 };
 }  // namespace
 
+void RunDirectory::keep_surface(const Scene& scene) const {
+  const fs::path surface(scene.vessel.surface_file);
+  if (surface.empty() || !surface.is_relative() || !surface_vessel(scene.vessel)) return;
+  const fs::path copy = fs::path(path) / surface;
+  fs::create_directories(copy.parent_path());
+  fs::copy_file(scene.vessel.surface_path, copy, fs::copy_options::overwrite_existing);
+}
+
 std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path, const std::string& scene_path,
                                                          int ttl) {
   const PrivateUmask umask_077;
@@ -88,7 +98,6 @@ std::pair<RunDirectory, RunContext> RunDirectory::create(const std::string& path
   RunDirectory dir;
   dir.path = fs::absolute(path).string();
   fs::copy_file(scene_path, dir.scene_copy(), fs::copy_options::overwrite_existing);
-
   const auto draw = random_bytes(8 + 32);
   auto word = [&draw](int i) {
     std::uint32_t v = 0;

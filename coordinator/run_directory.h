@@ -23,6 +23,10 @@ struct RunDirectory {
   std::string particle_command;
   HostPlacement placement;  // where the nodes run (docs/hosts.md); a resumed run uses it again
 
+  // Copies a surface vessel's STL given by a relative path (below the scene's folder: the scene
+  // refuses others) to the same path below the run directory, where the nodes' scene.toml finds
+  // it; an absolute path is read where it is.
+  void keep_surface(const Scene& scene) const;
   // Remembers the ranks the nodes run on: a resumed run must use the same decomposition.
   void record_ranks(int fluid, int particles);
   // Remembers where the nodes run (`hemocosim resume` places them the same way).

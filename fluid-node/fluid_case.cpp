@@ -114,6 +114,54 @@ std::string fv_solution(const FluidSolver& solver) {
   return s;
 }
 
+// A surface vessel's inlet (model/surface.h) faces any way: its profile is about the patch's
+// area-weighted centre, the parabola R^2 - d^2 of its equivalent radius R = sqrt(A / pi) at the
+// distance d from the line through the centre along the patch's normal, the velocity along the
+// inward normal; scaled, as the O-grid's, to the faces' flux Q.
+std::string surface_inlet_velocity(const FluidSettings& fluid, const PatchInfo& patch, const MeshGeometry& geometry) {
+  using Profile = VesselInlet::Profile;
+  if (fluid.inlet_profile == Profile::feeder) throw std::logic_error("a surface vessel's inlet has no feeder");
+  std::array<double, 3> sum{0, 0, 0}, centre{0, 0, 0};
+  double area = 0;
+  auto face_area = [&](int f) {
+    const auto& a = geometry.face_areas[static_cast<std::size_t>(f)];
+    return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  };
+  for (int f = patch.start; f < patch.start + patch.size; ++f) {
+    const double af = face_area(f);
+    for (int c = 0; c < 3; ++c) {
+      sum[static_cast<std::size_t>(c)] += geometry.face_areas[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)];
+      centre[static_cast<std::size_t>(c)] += af * geometry.face_centres[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)];
+    }
+    area += af;
+  }
+  const double norm = std::sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+  std::array<double, 3> inward{};
+  for (int c = 0; c < 3; ++c) {
+    inward[static_cast<std::size_t>(c)] = -sum[static_cast<std::size_t>(c)] / norm;
+    centre[static_cast<std::size_t>(c)] /= area;
+  }
+  const double radius2 = area / 3.14159265358979323846;
+  std::vector<double> profile;
+  double profile_flux = 0;
+  for (int f = patch.start; f < patch.start + patch.size; ++f) {
+    const auto& x = geometry.face_centres[static_cast<std::size_t>(f)];
+    std::array<double, 3> d{x[0] - centre[0], x[1] - centre[1], x[2] - centre[2]};
+    const double along = d[0] * inward[0] + d[1] * inward[1] + d[2] * inward[2];
+    const double off2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - along * along;
+    profile.push_back(fluid.inlet_profile == Profile::flat ? 1.0 : std::max(0.0, radius2 - off2));
+    // The flux through the face of a unit velocity along the inward normal.
+    const auto& a = geometry.face_areas[static_cast<std::size_t>(f)];
+    profile_flux -= profile.back() * (a[0] * inward[0] + a[1] * inward[1] + a[2] * inward[2]);
+  }
+  const double scale = fluid.inlet_flow_rate / profile_flux;
+  std::string s = "        type            fixedValue;\n        value           nonuniform List<vector>\n" +
+                  std::to_string(profile.size()) + "\n(\n";
+  for (const double w : profile)
+    s += "(" + num(scale * w * inward[0]) + " " + num(scale * w * inward[1]) + " " + num(scale * w * inward[2]) + ")\n";
+  return s + ")\n;\n";
+}
+
 // The inlet's velocity, carrying fluid.inlet_flow_rate Q through the patch's faces (the mesh's
 // section, a polygon: its area is not pi R^2). A mapped inlet (a feeder) takes the feeder's
 // section, as it is (the feeder's own flow; Q / A is only its first value) or scaled by OpenFOAM
@@ -217,11 +265,13 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
   const CellZone* feeder = nullptr;
   for (const auto& z : mesh.cell_zones)
     if (z.name == feeder_zone) feeder = &z;
-  const double inlet_radius = make_vessel_geometry(vessel)->radius_at(0);
+  const bool surface = surface_vessel(vessel);
+  const double inlet_radius = surface ? vessel.radius() : make_vessel_geometry(vessel)->radius_at(0);
 
   std::string u = header("volVectorField", "0", "U");
   u += "dimensions      [0 1 -1 0 0 0 0];\n\n";
-  if (initial == InitialFlow::rest) {
+  // A surface vessel starts at rest: the tube's profile means nothing in its branches.
+  if (initial == InitialFlow::rest || surface) {
     u += "internalField   uniform (0 0 0);\n\n";
   } else {
     // The developed particle-free flow for the imposed pressure drop (in an open vessel: of the
@@ -254,7 +304,8 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
       u_patches += entry(patch.name, "        type            cyclic;\n");
       p_patches += entry(patch.name, "        type            cyclic;\n");
     } else if (patch.name == patch_name::inlet) {
-      u_patches += entry(patch.name, inlet_velocity(fluid, patch, geometry, inlet_radius));
+      u_patches += entry(patch.name, surface ? surface_inlet_velocity(fluid, patch, geometry)
+                                             : inlet_velocity(fluid, patch, geometry, inlet_radius));
       // The gradient that makes the face flux the fixed velocity's, with the momentum at the face
       // extrapolated from the inlet's cells (pEqn.H): the developed flow's own pressure gradient
       // where the inflow is developed. (zeroGradient, OpenFOAM's usual partner of a fixed
@@ -263,7 +314,7 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
       p_patches += entry(patch.name,
                          "        type            fixedFluxExtrapolatedPressure;\n        gradient        uniform 0;\n"
                          "        value           uniform 0;\n");
-    } else if (patch.name == patch_name::outlet) {
+    } else if (patch_name::is_outlet(patch.name)) {
       // inletOutlet, not zeroGradient: where the flow leaves (everywhere in the flows tested) it is
       // zeroGradient, the developed profile's own condition; should a recirculation (downstream
       // of a stenosis at higher Re) reach the outlet, the faces it enters through take u = 0

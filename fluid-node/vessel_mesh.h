@@ -78,6 +78,9 @@ inline constexpr const char* outlet = "outlet";  // z = length
 inline constexpr const char* feeder_wall = "feeder_wall";
 inline constexpr const char* feeder_inlet = "feeder_inlet";
 inline constexpr const char* feeder_outlet = "feeder_outlet";
+// Whether a patch is an outlet holding p = 0: the O-grid's "outlet", a surface vessel's
+// "outlet_1", "outlet_2", ... (model/surface.h).
+inline bool is_outlet(const std::string& name) { return name == outlet || name.rfind("outlet_", 0) == 0; }
 }  // namespace patch_name
 
 // The cell zone of the feeder's cells, the only ones the body force G drives in an open vessel.

@@ -29,7 +29,7 @@ double nominal_flow_rate(const Scene& scene) { return flow_rate_of(scene.vessel.
 
 double vessel_volume(const Vessel& v) {
   if (!(v.diameter > 0) || !(v.length > 0)) return 0;
-  return make_vessel_geometry(v)->volume();
+  return surface_vessel(v) ? make_vessel_surface(v).volume() : make_vessel_geometry(v)->volume();
 }
 
 }  // namespace hemo

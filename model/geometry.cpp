@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "geometry.h"
 
+#include "bifurcation.h"
 #include "scene.h"
 #include "units.h"
 
@@ -8,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace hemo {
@@ -199,10 +201,62 @@ void write_stl(const std::string& path, const std::vector<WallTriangle>& triangl
 
 double stenosis_severity(double area_reduction) { return 1 - std::sqrt(1 - area_reduction); }
 
+namespace {
+
+BifurcationSpec bifurcation_spec(const Vessel& v) {
+  BifurcationSpec b;
+  b.parent_diameter = v.diameter;
+  b.parent_length = v.length;
+  b.daughter_diameter[0] = v.daughter_diameter[0];
+  b.daughter_diameter[1] = v.daughter_diameter[1];
+  b.daughter_length = v.daughter_length;
+  b.angle = v.bifurcation_angle;
+  return b;
+}
+
+// The STL's solids as the vessel's regions: the inlet and outlets the scene names become "inlet"
+// and "outlet_1", ... in the scene's order, every other solid the wall.
+Surface imported_surface(const Vessel& v) {
+  Surface s = read_stl(v.surface_path.empty() ? v.surface_file : v.surface_path);
+  const std::vector<std::string> outlets = surface_outlet_names(v);
+  if (outlets.empty()) throw SurfaceError("vessel.surface_outlets names no outlet");
+  std::vector<std::string> named = {v.surface_inlet};
+  named.insert(named.end(), outlets.begin(), outlets.end());
+  check_regions(s, named);
+  std::vector<std::string> regions = {surface_region::wall, surface_region::inlet};
+  for (std::size_t k = 0; k < outlets.size(); ++k) regions.push_back(surface_region::outlet(static_cast<int>(k) + 1));
+  std::vector<int> to(s.region_names.size(), 0);
+  for (std::size_t r = 0; r < s.region_names.size(); ++r)
+    for (std::size_t k = 0; k < named.size(); ++k)
+      if (s.region_names[r] == named[k]) to[r] = static_cast<int>(k) + 1;
+  for (int& r : s.region) r = to[static_cast<std::size_t>(r)];
+  s.region_names = regions;
+  check_surface(s);
+  return s;
+}
+
+}  // namespace
+
+std::vector<std::string> surface_outlet_names(const Vessel& v) {
+  std::vector<std::string> out;
+  std::istringstream words(v.surface_outlets);
+  for (std::string w; words >> w;) out.push_back(w);
+  return out;
+}
+
+bool surface_vessel(const Vessel& vessel) { return vessel_shape(vessel.shape).surface(); }
+
+Surface make_vessel_surface(const Vessel& vessel) {
+  const VesselShape& shape = vessel_shape(vessel.shape);
+  if (!shape.surface())
+    throw std::invalid_argument("vessel.shape \"" + shape.name + "\" is axisymmetric, not a closed surface");
+  return shape.make_surface(vessel);
+}
+
 const std::vector<VesselShape>& vessel_shapes() {
   static const std::vector<VesselShape> shapes = {
       {"straight", "a straight periodic tube of the vessel's diameter",
-       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); }, {}, "", ""},
+       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); }, nullptr, {}, "", ""},
       {"stenosis",
        "a cosine constriction of vessel.stenosis_length_um centred in the length, its throat's area reduced by "
        "vessel.stenosis_area_reduction",
@@ -214,8 +268,22 @@ const std::vector<VesselShape>& vessel_shapes() {
          return std::make_unique<Stenosis>(v.radius(), v.length, stenosis_severity(v.stenosis_area_reduction),
                                            v.stenosis_length);
        },
+       nullptr,
        {"vessel.stenosis_area_reduction", "vessel.stenosis_length_um"}, "vessel.stenosis_area_reduction",
        "stenosis_area_reduction = 0.5\nstenosis_length_um = 300"},
+      // Surface vessels: open ends, meshed by snappyHexMesh; plasma alone for now.
+      {"bifurcation",
+       "a Y bifurcation: the vessel is the parent, from its inlet at z = 0 along +z, two daughters from its end at "
+       "+-vessel.bifurcation_angle_deg / 2 in the x-z plane, each to an outlet",
+       nullptr, [](const Vessel& v) { return make_bifurcation(bifurcation_spec(v)); },
+       {"vessel.daughter_1_diameter_um", "vessel.daughter_2_diameter_um", "vessel.daughter_length_um",
+        "vessel.bifurcation_angle_deg", "mesh.surface_cell_size_um"},
+       "", "ends = \"open\"\ninlet = \"poiseuille\"\ndaughter_length_um = 600"},
+      {"imported", "a closed surface from an ASCII STL (vessel.surface), one solid per region", nullptr,
+       imported_surface,
+       {"vessel.surface", "vessel.surface_inlet", "vessel.surface_outlets", "mesh.surface_cell_size_um"}, "",
+       "ends = \"open\"\ninlet = \"poiseuille\"\nsurface = \"surfaces/y-bifurcation.stl\"\nsurface_inlet = \"in\"\n"
+       "surface_outlets = \"out_wide out_narrow\""},  // scenes/imported.toml's
   };
   return shapes;
 }
@@ -239,7 +307,12 @@ const VesselShape& vessel_shape(const std::string& name) {
 std::unique_ptr<VesselGeometry> make_vessel_geometry(const Vessel& vessel) {
   if (!(vessel.diameter > 0) || !(vessel.length > 0))
     throw std::invalid_argument("a vessel needs a positive diameter and length");
-  return vessel_shape(vessel.shape).make(vessel);
+  const VesselShape& shape = vessel_shape(vessel.shape);
+  if (!shape.make)
+    throw std::invalid_argument("vessel.shape \"" + shape.name +
+                                "\" is a closed surface, not an axisymmetric vessel r = R(z): only the fluid node "
+                                "meshes it (docs/design.md, \"Surface vessels\")");
+  return shape.make(vessel);
 }
 
 }  // namespace hemo

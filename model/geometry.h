@@ -16,6 +16,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "surface.h"
+
 #include <Eigen/Dense>
 
 #include <array>
@@ -103,10 +105,16 @@ void write_stl(const std::string& path, const std::vector<WallTriangle>& triangl
 // gets ("" when it does not narrow), which a throat too narrow for a red cell is blamed on, and
 // an example of its parameters, [vessel] lines a scene may hold (the recipe's test builds every
 // shape from it: docs/design.md, "A new vessel shape").
+//
+// A surface vessel (docs/design.md, "Surface vessels") is not axisymmetric: its shape makes a
+// closed surface (make_surface; regions "wall", "inlet", "outlet_1", ...: surface.h), which the
+// fluid node meshes with snappyHexMesh, and has no `make` (make_vessel_geometry refuses it).
 struct VesselShape {
   std::string name;
   std::string description;
   std::function<std::unique_ptr<VesselGeometry>(const Vessel&)> make;
+  std::function<Surface(const Vessel&)> make_surface;
+  bool surface() const { return static_cast<bool>(make_surface); }
   std::vector<std::string> keys;
   std::string narrowing_key;
   std::string example;
@@ -120,8 +128,18 @@ std::vector<std::string> vessel_shape_names();
 const VesselShape& vessel_shape(const std::string& name);
 
 // The geometry of a scene's vessel (vessel.shape and its parameters). Throws
-// std::invalid_argument on a vessel that is no such shape (load_scene refuses those first).
+// std::invalid_argument on a vessel that is no such shape (load_scene refuses those first), and
+// on a surface vessel, naming it.
 std::unique_ptr<VesselGeometry> make_vessel_geometry(const Vessel& vessel);
+
+// Whether the vessel is given as a closed surface, and that surface with its regions named
+// "wall", "inlet", "outlet_1", ... in order (an imported surface's inlet and outlets renamed so,
+// its other solids merged into the wall). Throws SurfaceError on a surface that cannot be a
+// vessel, std::invalid_argument on an axisymmetric vessel.
+bool surface_vessel(const Vessel& vessel);
+Surface make_vessel_surface(const Vessel& vessel);
+// The outlets an imported surface's vessel.surface_outlets names, in order.
+std::vector<std::string> surface_outlet_names(const Vessel& vessel);
 
 // The stenosis's severity s (R_throat = R0 (1 - s)) from the area reduction A at its throat.
 double stenosis_severity(double area_reduction);

@@ -24,6 +24,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <map>
@@ -218,6 +219,10 @@ class Reader {
         {"run.max_courant", {ninf, 1000}},
         {"vessel.diameter_um", {5, 1e4}},  // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
+        {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
+        {"vessel.daughter_2_diameter_um", {ninf, 1e4}},
+        {"vessel.daughter_length_um", {ninf, 1e5}},  // as the vessel's length
+        {"mesh.surface_cell_size_um", {ninf, 1e4}},
         {"mesh.core_cells", {ninf, 200}},
         {"mesh.ring_cells", {ninf, 200}},
         {"mesh.axial_cells", {ninf, 10000}},
@@ -364,6 +369,9 @@ static bool known_ends(const Vessel& v) {
 // "Open ends"): an inlet with a fixed profile has none to hand over, so it carries plasma alone.
 static void refuse_cells_without_feeder(Reader& r, const Scene& s) {
   if (!known_ends(s.vessel)) return;  // refused as read
+  const auto shapes = vessel_shape_names();
+  if (std::find(shapes.begin(), shapes.end(), s.vessel.shape) != shapes.end() && surface_vessel(s.vessel))
+    return;  // no cells at all yet, which check_surface_vessel says
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
   r.refuse_once(!cells || !open_ends(s.vessel) || fed_by_feeder(s.vessel), "vessel.inlet",
                 "cells enter an open vessel only from a feeder (vessel.inlet = \"feeder\"); a fixed profile "
@@ -372,6 +380,41 @@ static void refuse_cells_without_feeder(Reader& r, const Scene& s) {
 
 static Scene read_scene(const toml::table& root, const std::string& path, std::vector<SceneKey>& catalogue,
                         SceneCheck check = SceneCheck::values);
+
+// A vessel given as a closed surface (vessel.shape "bifurcation", "imported"; docs/design.md,
+// "Surface vessels"): its surface must be one (built here, as the fluid node will build it), and
+// for now it carries plasma alone through open ends, from a fixed inlet profile, on one rank.
+static void check_surface_vessel(Reader& r, const Scene& s) {
+  const auto names = vessel_shape_names();
+  if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return;  // refused as read
+  const VesselShape& shape = vessel_shape(s.vessel.shape);
+  if (!shape.surface()) return;
+  const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
+  r.refuse_once(!cells, "vessel.shape",
+                "a surface vessel carries plasma alone for now: the particle node knows only axisymmetric vessels "
+                "r = R(z) (model/geometry.h); remove rbc.hematocrit and platelet.number_density_per_ul");
+  if (known_ends(s.vessel)) {
+    r.refuse_once(open_ends(s.vessel), "vessel.ends",
+                  "a surface vessel has open ends (an inlet and outlets): set vessel.ends = \"open\"");
+    r.refuse_once(!open_ends(s.vessel) || !fed_by_feeder(s.vessel), "vessel.inlet",
+                  "a surface vessel's inlet takes a fixed profile (vessel.inlet = \"poiseuille\" or \"uniform\"): "
+                  "the feeder is an axisymmetric tube's");
+  }
+  r.refuse_once(s.run.fluid_ranks == 1, "run.fluid_ranks",
+                "a surface vessel's fluid runs on one rank for now (the decomposition splits the O-grid's layers)");
+  if (!r.problems().empty()) return;
+  const bool from_file = shape.takes("vessel.surface");  // a problem of the surface is blamed on its file
+  const std::string key = from_file ? "vessel.surface" : "vessel.shape";
+  if (from_file && s.vessel.surface_file.empty()) {
+    r.refuse_once(false, key, "missing: the ASCII STL of the vessel.shape \"" + shape.name + "\"");
+    return;
+  }
+  try {
+    (void)make_vessel_surface(s.vessel);
+  } catch (const std::exception& e) {
+    r.refuse_once(false, key, e.what());
+  }
+}
 
 WorkEstimate estimate_work(const Scene& s) {
   WorkEstimate w;
@@ -401,6 +444,8 @@ namespace {
 constexpr double kMinMeshWallSpan = 100 * units::um;
 
 void check_geometry_and_work(Reader& r, const Scene& s) {
+  // A surface vessel carries no particles (check_surface_vessel) and is meshed by snappyHexMesh.
+  if (surface_vessel(s.vessel)) return;
   // Blame the key the file gives (the species' diameter if it sets one, else the vessel's).
   auto blame = [&](const std::string& own, const std::string& other) {
     return r.line_of(own) > 0 || r.line_of(other) == 0 ? own : other;
@@ -495,6 +540,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
 void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
   if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
+  if (surface_vessel(s.vessel)) return;  // no particles (check_surface_vessel)
   try {
     pl::place_scene_particles(s, *make_vessel_geometry(s.vessel), 0.0);
   } catch (const pl::PlacementError& e) {
@@ -724,8 +770,35 @@ static bool uniform_vessel(const Vessel& v) {
   }
 }
 
-static void read_vessel_shape(Reader& r, Vessel& v) {
+static void read_vessel_shape(Reader& r, Vessel& v, const std::string& scene_path) {
   read_name(r, "vessel.shape", v.shape, vessel_shape_names());
+  // A bifurcation's daughters and an imported surface (model/bifurcation.h, surface.h); whether
+  // the surface can be a vessel is checked with the rest of a surface vessel
+  // (check_surface_vessel).
+  for (int i = 0; i < 2; ++i) {
+    const std::string key = fmt::format("vessel.daughter_{}_diameter_um", i + 1);
+    r.read(key, v.daughter_diameter[i], units::um);
+    r.check(v.daughter_diameter[i] >= 0, key, "must not be negative (0: Murray's law, the parent's / 2^(1/3))");
+  }
+  r.read("vessel.daughter_length_um", v.daughter_length, units::um);
+  r.check(v.daughter_length >= 0, "vessel.daughter_length_um", "must not be negative (0: the parent's length)");
+  r.read("vessel.bifurcation_angle_deg", v.bifurcation_angle, units::pi / 180);
+  r.check(v.bifurcation_angle > 0 && v.bifurcation_angle < units::pi, "vessel.bifurcation_angle_deg",
+          "must be in (0, 180)");
+  r.read("vessel.surface", v.surface_file);
+  // The run directory keeps a copy of the surface at the same path relative to its scene.toml
+  // (coordinator/run_directory.cpp): a relative path stays below the scene's folder.
+  const std::filesystem::path file(v.surface_file);
+  bool climbs = false;
+  for (const auto& part : file) climbs = climbs || part == "..";
+  r.check(file.is_absolute() || !climbs, "vessel.surface",
+          "must be absolute or a path below the scene file's folder (no ..): the run directory keeps a copy at "
+          "that path");
+  if (!v.surface_file.empty())
+    v.surface_path = file.is_absolute() ? file.string()
+                                        : (std::filesystem::path(scene_path).parent_path() / file).lexically_normal().string();
+  r.read("vessel.surface_inlet", v.surface_inlet);
+  r.read("vessel.surface_outlets", v.surface_outlets);
   r.read("vessel.stenosis_area_reduction", v.stenosis_area_reduction);
   r.check(v.stenosis_area_reduction >= 0 && v.stenosis_area_reduction < 1, "vessel.stenosis_area_reduction",
           "must be in [0, 1) (1 closes the vessel)");
@@ -784,7 +857,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
       r.refuse_once(r.line_of(key) > 0, key, "missing");  // given but refused: that problem, not also "missing"
     r.check(*value > 0, key, "must be positive");
   }
-  read_vessel_shape(r, s.vessel);
+  read_vessel_shape(r, s.vessel, path);
   read_vessel_ends(r, s.vessel);
 
   r.read("mesh.core_cells", s.mesh.core_cells);
@@ -794,6 +867,9 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.mesh.ring_cells >= 1, "mesh.ring_cells", "must be at least 1");
   r.check(s.mesh.axial_cells >= 1, "mesh.axial_cells", "must be at least 1");
   read_name(r, "mesh.wall_polygon", s.mesh.wall_polygon, {"circumscribed", "inscribed"});
+  r.read("mesh.surface_cell_size_um", s.mesh.surface_cell_size, units::um);
+  r.check(s.mesh.surface_cell_size >= 0, "mesh.surface_cell_size_um",
+          "must not be negative (0: the vessel's diameter / 12)");
 
   r.read("plasma.density_kg_m3", s.plasma.density);
   r.read("plasma.viscosity_Pa_s", s.plasma.viscosity);
@@ -818,6 +894,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);
   refuse_cells_without_feeder(r, s);
+  check_surface_vessel(r, s);
 
   auto& c = s.contact;
   r.read("contact.cell_youngs_modulus_Pa", c.cell_youngs_modulus);

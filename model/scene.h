@@ -24,6 +24,18 @@ struct Vessel {
   std::string inlet = "feeder";          // vessel_ends.h: what an open vessel's inlet takes in
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
+  // "bifurcation" (bifurcation.h): the parent is the vessel (diameter, length); its daughters'
+  // diameters (0: Murray's law), their length (0: the parent's) and the angle between them.
+  double daughter_diameter[2] = {0, 0};                              // m
+  double daughter_length = 0;                                        // m
+  double bifurcation_angle = 60 * 3.14159265358979323846 / 180;      // rad
+  // "imported": an ASCII STL as the scene gives it (relative: to the scene file's folder), that
+  // path resolved, and which of its solids are the inlet and the outlets (names separated by
+  // spaces; every other solid is wall).
+  std::string surface_file = "";
+  std::string surface_path = "";
+  std::string surface_inlet = "inlet";
+  std::string surface_outlets = "outlet_1 outlet_2";
   double radius() const { return diameter / 2; }
 };
 
@@ -41,6 +53,9 @@ struct MeshSpec {
   int ring_cells = 3;
   int axial_cells = 24;
   std::string wall_polygon = "circumscribed";
+  // A surface vessel's mesh (snappyHexMesh, fluid-node/surface_mesh.h): the edge of its cubes, m
+  // (0: the vessel's diameter / 12).
+  double surface_cell_size = 0;
   int cells() const { return (core_cells * core_cells + 4 * core_cells * ring_cells) * axial_cells; }
   int wall_sides() const { return 4 * core_cells; }
   double wall_corner_radius() const;        // the wall polygon's corners, in vessel radii

@@ -208,6 +208,9 @@ struct BuiltShape {
 std::vector<BuiltShape> built_shapes() {
   std::vector<BuiltShape> out;
   for (const auto& shape : hemo::vessel_shapes()) {
+    // A surface vessel is no wall r = R(z): its own recipe ("Surface vessels") and tests
+    // (tests/model/test_surface.cpp, tests/fluid/test_surface_mesh.cpp, test_fluid_surface.cpp).
+    if (shape.surface()) continue;
     const std::string text = "[vessel]\ndiameter_um = 100\nlength_um = 600\nshape = \"" + shape.name + "\"\n" +
                              shape.example + "\n[driving]\nwall_shear_rate_per_s = 799\n";
     const std::string path = hemo::test::write_temp(text);

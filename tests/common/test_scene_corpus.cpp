@@ -115,6 +115,10 @@ const std::set<std::string> kMayBeZero = {"run.seed",
                                           "rbc.hematocrit",
                                           "vessel.stenosis_area_reduction",  // 0: no constriction
                                           "vessel.stenosis_length_um",       // taken by "stenosis" only
+                                          "vessel.daughter_1_diameter_um",   // 0: Murray's law
+                                          "vessel.daughter_2_diameter_um",
+                                          "vessel.daughter_length_um",  // 0: the parent's length
+                                          "mesh.surface_cell_size_um",  // 0: the vessel's diameter / 12
                                           "rbc.mass_scaling",
                                           "platelet.number_density_per_ul",
                                           "platelet.mass_scaling",

@@ -20,7 +20,7 @@ std::string SceneSpec::text() const {
   if (!fluid_command.empty()) s << "fluid_command = \"" << fluid_command << "\"\n";
   s << "\n[vessel]\ndiameter_um = " << diameter_um << "\nlength_um = " << length_um << "\n" << vessel << "\n"
     << "\n[mesh]\ncore_cells = " << core << "\nring_cells = " << ring << "\naxial_cells = " << axial
-    << "\nwall_polygon = \"" << wall_polygon << "\"\n"
+    << "\nwall_polygon = \"" << wall_polygon << "\"\n" << mesh << "\n"
     << "\n[driving]\n"
     << driving << "\n"
     << "\n[time]\ncoupling_interval_s = " << dt << "\ncoupling_steps = " << steps << "\n"

@@ -26,6 +26,7 @@ struct SceneSpec {
   double diameter_um = 100, length_um = 600;
   std::string vessel;  // more [vessel] keys (the shape and its parameters)
   int core = 4, ring = 3, axial = 2;
+  std::string mesh;    // more [mesh] keys (a surface vessel's cell size)
   std::string wall_polygon = "circumscribed";  // mesh.wall_polygon
   std::string driving = "wall_shear_rate_per_s = 799";
   double dt = 2e-3;

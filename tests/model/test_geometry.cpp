@@ -193,7 +193,7 @@ TEST(VesselGeometry, SceneTakesAStenosisAndRefusesImpossibleOnes) {
   refused("shape = \"stenosis\"\nstenosis_length_um = 700", "vessel.stenosis_length_um",
           "must not exceed vessel.length_um");
   refused("shape = \"stenosis\"", "vessel.stenosis_length_um", "must be positive");
-  refused("shape = \"bulge\"", "vessel.shape", "unknown name 'bulge' (known: straight, stenosis)");
+  refused("shape = \"bulge\"", "vessel.shape", "unknown name 'bulge' (known: straight, stenosis, bifurcation, imported)");
 }
 
 // The DEM's wall surface: every vertex on r = R(z); the facets cover the wall once (their areas

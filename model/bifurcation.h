@@ -1,0 +1,66 @@
+// The Y bifurcation a scene may ask for (vessel.shape = "bifurcation"; docs/design.md, "Surface
+// vessels"): a parent tube of diameter D_p along +z from its inlet cap at z = 0 to the junction
+// at z = L_p, and two daughters of diameters D_1, D_2 and length L_d from the junction, at +theta/2
+// (daughter 1, towards +x) and -theta/2 (daughter 2) from the z axis in the x-z plane, each
+// ending in a flat outlet cap. Regions: "wall", "inlet", "outlet_1", "outlet_2" (surface.h).
+//
+// How it is built: the vessel is the union of three capsules (the points within a tube's radius
+// of its axis segment), the parent's round end and the daughters' round starts centred on the
+// junction point. The union's distance-like function (the least of the capsules' distances minus
+// radii, negative inside) is sampled on a grid and its zero level extracted by marching
+// tetrahedra: every cube of the grid split into the same six tetrahedra around its main diagonal,
+// so neighbouring cubes cut their shared faces alike and each crossing point, made once per grid
+// edge, is shared by every triangle through it. That makes the surface closed by construction,
+// whatever the angle or the diameters, with no mesh boolean to get right (check_surface verifies
+// it). The crossing points are moved onto the exact zero level (Newton along the gradient); the
+// tubes run a few steps beyond their ends, and each end is then cut off by its plane and closed
+// by a flat cap (a fan about its centre): marching tetrahedra would bevel a sharp rim by about a
+// step, the cut leaves it on the tube. The grid's step sets the accuracy: the wall's points are
+// on the exact surface, its facets' chords within about step^2 / (8 r) of it.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "surface.h"
+
+namespace hemo {
+
+// The narrowest daughter a bifurcation may have, m: a red cell's diameter (8 um). The vessel is
+// for blood; a daughter narrower than the cells the scene could carry would be shut to them.
+inline constexpr double kMinDaughterDiameter = 8e-6;
+
+// The most grid points the surface is sampled on (8 bytes each, plus the crossings): 2e7, about
+// 160 MB of samples, e.g. a 30-um parent and daughters of 24 um about 6 mm long at the default step.
+inline constexpr double kMaxBifurcationSamples = 2e7;
+
+struct BifurcationSpec {
+  double parent_diameter = 0;           // m, D_p
+  double parent_length = 0;             // m, L_p: inlet cap to junction
+  double daughter_diameter[2] = {0, 0};  // m, D_1, D_2; 0: Murray's law, D_p / 2^(1/3)
+  double daughter_length = 0;           // m, L_d: junction to outlet cap's centre; 0: L_p
+  double angle = 60 * 3.14159265358979323846 / 180;  // rad, theta: between the daughters
+  double step = 0;                      // m, the sampling grid's step; 0: the narrowest diameter / 10
+};
+
+// Murray's law for two equal daughters: D_p^3 = 2 D_d^3.
+double murray_daughter_diameter(double parent_diameter);
+
+// The spec with its defaults filled in (daughter diameters, length, step).
+BifurcationSpec resolved(const BifurcationSpec& spec);
+
+// Checks the spec and throws SurfaceError with one line on the first problem: a diameter or
+// length that is not positive, a daughter narrower than kMinDaughterDiameter, an angle outside
+// (0, 180) degrees, a daughter wider than the parent, daughters whose outlets overlap, or a
+// sampling grid of more than kMaxBifurcationSamples points.
+void check_bifurcation(const BifurcationSpec& spec);
+
+// The union's function at x: negative inside, zero on the surface (the tubes cut at their ends),
+// positive outside; a Euclidean distance away from the junction's creases and the caps' rims.
+double bifurcation_function(const BifurcationSpec& spec, const Eigen::Vector3d& x);
+
+// Builds the surface (check_bifurcation first).
+Surface make_bifurcation(const BifurcationSpec& spec);
+
+// The unit direction of daughter i (0 or 1) and the centre of its outlet cap.
+Eigen::Vector3d daughter_direction(const BifurcationSpec& spec, int i);
+
+}  // namespace hemo
