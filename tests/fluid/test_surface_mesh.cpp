@@ -11,6 +11,9 @@
 
 #include <gtest/gtest.h>
 
+#include "small_bifurcation.h"
+#include "thrown.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,13 +25,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-BifurcationSpec small() {
-  BifurcationSpec s;
-  s.parent_diameter = 30e-6;
-  s.parent_length = 60e-6;
-  s.daughter_length = 60e-6;
-  return s;
-}
+BifurcationSpec small() { return hemo::test::small_bifurcation(); }
 
 std::string fresh_case(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("hemo_surface_mesh_" + name + "_" + std::to_string(::getpid()));
@@ -37,14 +34,7 @@ std::string fresh_case(const std::string& name) {
   return dir.string();
 }
 
-std::string what(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "(nothing thrown)";
-}
+std::string what(const std::function<void()>& f) { return hemo::test::what_thrown(f); }
 
 double area_of(const PolyMesh& m, const MeshGeometry& g, const std::string& patch) {
   const PatchInfo& p = m.patch(patch);

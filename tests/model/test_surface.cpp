@@ -4,6 +4,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 
+#include "small_bifurcation.h"
+#include "thrown.h"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -29,13 +32,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // The small bifurcation of the fluid tests: D_p = 30 um, L_p = L_d = 60 um, Murray daughters at 60 degrees.
-BifurcationSpec small() {
-  BifurcationSpec s;
-  s.parent_diameter = 30e-6;
-  s.parent_length = 60e-6;
-  s.daughter_length = 60e-6;
-  return s;
-}
+BifurcationSpec small() { return hemo::test::small_bifurcation(); }
 
 // The number of triangles on each undirected edge, counted afresh from the triangles.
 std::map<std::pair<int, int>, int> edge_counts(const Surface& s) {
@@ -45,14 +42,7 @@ std::map<std::pair<int, int>, int> edge_counts(const Surface& s) {
   return n;
 }
 
-std::string what(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "(nothing thrown)";
-}
+std::string what(const std::function<void()>& f) { return hemo::test::what_thrown(f); }
 
 // The box holding the bifurcation's points, for sampling.
 struct Box {
