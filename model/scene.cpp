@@ -1025,10 +1025,11 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                                           : "ours: K from the interval's drag response"},
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
-  r.push_back({"mesh.wall_polygon", s.mesh.wall_polygon,
-               s.mesh.wall_polygon == "inscribed"
-                   ? "blockMesh's arcs: corners on the circle, hydraulic diameter d cos(pi/n)"
-                   : "ours: sides tangent to the circle, hydraulic diameter d, so d dP/(4l) is the wall's"});
+  if (!surface_vessel(s.vessel))  // the O-grid's wall; a surface vessel's is snappyHexMesh's
+    r.push_back({"mesh.wall_polygon", s.mesh.wall_polygon,
+                 s.mesh.wall_polygon == "inscribed"
+                     ? "blockMesh's arcs: corners on the circle, hydraulic diameter d cos(pi/n)"
+                     : "ours: sides tangent to the circle, hydraulic diameter d, so d dP/(4l) is the wall's"});
   if (suspension_viscosity(s.plasma.suspension_viscosity).adds_stress())  // beyond the paper: named when chosen
     r.push_back({"plasma.suspension_viscosity", s.plasma.suspension_viscosity,
                  suspension_viscosity(s.plasma.suspension_viscosity).reading});
