@@ -4,11 +4,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
-#include "synthetic_case.h"
 #include "h5_output.h"
 #include "particle_node.h"
+#include "synthetic_case.h"
 
 #include <gtest/gtest.h>
+#include <mpi.h>
 #include <unistd.h>
 
 #include <array>
@@ -72,6 +73,22 @@ inline std::filesystem::path fresh_dir(const std::string& name) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   return dir;
+}
+
+inline int world_rank() {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank;
+}
+
+// A fresh temporary directory, the same on every rank (the first rank's).
+inline std::filesystem::path shared_dir(const std::string& name) {
+  std::string path = world_rank() == 0 ? fresh_dir(name).string() : std::string();
+  int len = static_cast<int>(path.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  path.resize(static_cast<std::size_t>(len));
+  MPI_Bcast(path.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+  return path;
 }
 
 // Exact equality, or the first difference named.

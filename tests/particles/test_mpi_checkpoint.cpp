@@ -22,26 +22,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-int world_rank() {
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  return rank;
-}
-
 int world_size() {
   int size = 1;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   return size;
-}
-
-// A fresh temporary directory, the same on every rank.
-fs::path shared_dir(const std::string& name) {
-  std::string path = world_rank() == 0 ? fresh_dir(name).string() : std::string();
-  int len = static_cast<int>(path.size());
-  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
-  path.resize(static_cast<std::size_t>(len));
-  MPI_Bcast(path.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
-  return path;
 }
 
 }  // namespace
