@@ -24,15 +24,9 @@ CommandResult run_and_signal(const std::string& node, int signal, const std::str
   std::ofstream(long_scene) << text;
   auto result =
       std::async(std::launch::async, [&] { return run(bin("hemocosim") + " run " + long_scene + " --out " + dir); });
-  // Wait until the run has written a few steps of metrics, then signal the node.
-  for (int i = 0; i < 600; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    std::ifstream m(dir + "/metrics.csv");
-    std::string line;
-    int lines = 0;
-    while (std::getline(m, line)) ++lines;
-    if (lines > 60) break;
-  }
+  // Signal the node once the run steps: before that (a loaded machine can take over a minute to
+  // start both nodes) the coordinator is still checking the bus, and says so instead.
+  EXPECT_TRUE(wait_until_stepping(dir, 300)) << "the run never stepped";
   long pid = 0;
   std::ifstream(dir + "/" + node + ".pid") >> pid;
   EXPECT_GT(pid, 0);
