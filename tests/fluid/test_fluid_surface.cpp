@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -70,6 +71,13 @@ double network_ratio(double r1, double l1, double r2, double l2) {
   return (std::pow(r1, 4) / l1) / (std::pow(r2, 4) / l2);
 }
 
+// The network's two readings of Q_1 / Q_2 for daughters of radii r1, r2 (see below): each daughter
+// L_d long from the junction point, or only beyond the parent's round end.
+std::pair<double, double> network_readings(double r1, double r2) {
+  return {network_ratio(r1, kLd, r2, kLd),
+          network_ratio(r1, kLd - std::sqrt(kRp * kRp - r1 * r1), r2, kLd - std::sqrt(kRp * kRp - r2 * r2))};
+}
+
 }  // namespace
 
 // Murray's equal daughters: half the flow each. The snapped mesh is not mirror-symmetric (the
@@ -102,9 +110,7 @@ TEST(FluidSurfaceVessel, SymmetricBifurcationSplitsTheFlowInHalves) {
 TEST(FluidSurfaceVessel, UnequalDaughtersSplitTheFlowAsThePoiseuilleNetwork) {
   const Split s = run_bifurcation("bifurcation-unequal", "daughter_1_diameter_um = 24\ndaughter_2_diameter_um = 18");
   const double r1 = 12e-6, r2 = 9e-6;
-  const double from_junction = network_ratio(r1, kLd, r2, kLd);
-  const double beyond_sphere =
-      network_ratio(r1, kLd - std::sqrt(kRp * kRp - r1 * r1), r2, kLd - std::sqrt(kRp * kRp - r2 * r2));
+  const auto [from_junction, beyond_sphere] = network_readings(r1, r2);
   std::printf(
       "Unequal daughters 24 / 18 um (%.1f s): Q_in / Q - 1 = %+.2e, (Q_1 + Q_2) / Q - 1 = %+.2e;\n"
       "  Q_1 / Q_2 = %.4f; network with L_d: %.4f (error %+.2e), with the tubes beyond the junction's sphere: %.4f "
@@ -152,9 +158,7 @@ TEST(FluidSurfaceVessel, ImportedSurfaceRunsFromItsSceneWithItsSolidsAsPatches) 
   const double q_in = last(m, "fluid", "inlet_plasma_flux_m3_s");
   const double q1 = last(m, "fluid", "outlet_1_plasma_flux_m3_s"), q2 = last(m, "fluid", "outlet_2_plasma_flux_m3_s");
   const double r1 = 11e-6, r2 = 8e-6;
-  const double from_junction = network_ratio(r1, kLd, r2, kLd);
-  const double beyond_sphere =
-      network_ratio(r1, kLd - std::sqrt(kRp * kRp - r1 * r1), r2, kLd - std::sqrt(kRp * kRp - r2 * r2));
+  const auto [from_junction, beyond_sphere] = network_readings(r1, r2);
   std::printf(
       "Imported Y, 22 / 16 um at 90 degrees (%.1f s): Q_in / Q - 1 = %+.2e, (Q_1 + Q_2) / Q - 1 = %+.2e; Q_1 / Q_2 = "
       "%.4f; network %.4f (L_d, error %+.2e) to %.4f (beyond the sphere, error %+.2e)\n",
