@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <unordered_map>
 
@@ -43,9 +43,10 @@ void check_bifurcation(const BifurcationSpec& spec) {
   for (int i = 0; i < 2; ++i) {
     const double d = s.daughter_diameter[i];
     if (!(d >= kMinDaughterDiameter))
-      throw SurfaceError(fmt::format("daughter {} of the bifurcation is {:.3g} um across, narrower than a red cell "
-                                     "({:g} um): widen it or the parent",
-                                     i + 1, um(d), um(kMinDaughterDiameter)));
+      throw SurfaceError(
+          fmt::format("daughter {} of the bifurcation is {:.3g} um across, narrower than a red cell "
+                      "({:g} um): widen it or the parent",
+                      i + 1, um(d), um(kMinDaughterDiameter)));
     if (!(d <= s.parent_diameter))
       throw SurfaceError(fmt::format("daughter {} of the bifurcation ({:.3g} um) is wider than the parent ({:.3g} um)",
                                      i + 1, um(d), um(s.parent_diameter)));
@@ -57,9 +58,10 @@ void check_bifurcation(const BifurcationSpec& spec) {
     throw SurfaceError(fmt::format("the bifurcation's parent ({:.3g} um) must be longer than its radius ({:.3g} um)",
                                    um(s.parent_length), um(rp)));
   if (!(s.daughter_length > rp + std::max(r1, r2)))
-    throw SurfaceError(fmt::format("the bifurcation's daughters ({:.3g} um) must be longer than the parent's radius "
-                                   "and their own ({:.3g} um)",
-                                   um(s.daughter_length), um(rp + std::max(r1, r2))));
+    throw SurfaceError(
+        fmt::format("the bifurcation's daughters ({:.3g} um) must be longer than the parent's radius "
+                    "and their own ({:.3g} um)",
+                    um(s.daughter_length), um(rp + std::max(r1, r2))));
   // The sampling grid spans the tubes' box: a vessel very long for its narrowest diameter would
   // need more samples than memory holds.
   const double half = s.angle / 2;
@@ -67,14 +69,16 @@ void check_bifurcation(const BifurcationSpec& spec) {
   const double high = s.parent_length + s.daughter_length + 2 * rp + 4 * s.step;
   const double samples = (wide / s.step + 4) * (2 * rp / s.step + 8) * (high / s.step + 4);
   if (!(samples <= kMaxBifurcationSamples))
-    throw SurfaceError(fmt::format("the bifurcation's sampling grid would have {:.3g} points (at most {:.3g}): it is "
-                                   "too long or wide for its narrowest diameter (or its sampling step)",
-                                   samples, kMaxBifurcationSamples));
+    throw SurfaceError(
+        fmt::format("the bifurcation's sampling grid would have {:.3g} points (at most {:.3g}): it is "
+                    "too long or wide for its narrowest diameter (or its sampling step)",
+                    samples, kMaxBifurcationSamples));
   const double apart = 2 * s.daughter_length * std::sin(s.angle / 2);
   if (!(apart > r1 + r2))
-    throw SurfaceError(fmt::format("the bifurcation's outlets overlap: their centres are {:.3g} um apart, less than "
-                                   "their radii's sum {:.3g} um (widen the angle or lengthen the daughters)",
-                                   um(apart), um(r1 + r2)));
+    throw SurfaceError(
+        fmt::format("the bifurcation's outlets overlap: their centres are {:.3g} um apart, less than "
+                    "their radii's sum {:.3g} um (widen the angle or lengthen the daughters)",
+                    um(apart), um(r1 + r2)));
 }
 
 namespace {
@@ -168,6 +172,78 @@ void cut_and_cap(Surface& s, const Cap& cap, double margin) {
 }
 
 }  // namespace
+
+double network_flow_fraction(const BifurcationSpec& spec, int i) {
+  const BifurcationSpec s = resolved(spec);
+  const double r1 = s.daughter_diameter[0], r2 = s.daughter_diameter[1];
+  const double c1 = r1 * r1 * r1 * r1, c2 = r2 * r2 * r2 * r2;
+  return (i == 0 ? c1 : c2) / (c1 + c2);
+}
+
+BifurcationWall::BifurcationWall(const BifurcationSpec& spec) : spec_(resolved(spec)) {
+  check_bifurcation(spec);
+  const Point junction(0, 0, spec_.parent_length);
+  start_[0] = Point::Zero();
+  end_[0] = junction;
+  radius_[0] = spec_.parent_diameter / 2;
+  speed_scale_[0] = 1;
+  for (int i = 0; i < 2; ++i) {
+    start_[i + 1] = junction;
+    end_[i + 1] = junction + spec_.daughter_length * daughter_direction(spec_, i);
+    radius_[i + 1] = spec_.daughter_diameter[i] / 2;
+    speed_scale_[i + 1] = std::sqrt(network_flow_fraction(spec_, i)) * radius_[0] / radius_[i + 1];
+  }
+}
+
+double BifurcationWall::axis_distance(int b, const Point& x) const {
+  const Point axis = end_[b] - start_[b];
+  const double t = std::clamp((x - start_[b]).dot(axis) / axis.squaredNorm(), 0.0, 1.0);
+  return (x - (start_[b] + t * axis)).norm();
+}
+
+int BifurcationWall::branch_at(const Point& x) const {
+  int best = 0;
+  double nearest = axis_distance(0, x);
+  for (int b = 1; b < 3; ++b)
+    if (const double d = axis_distance(b, x); d < nearest) best = b, nearest = d;
+  return best;
+}
+
+double BifurcationWall::signed_distance(const Point& x) const { return bifurcation_function(spec_, x); }
+
+Point BifurcationWall::outward_normal(const Point& x) const {
+  const double h = 1e-3 * std::min({radius_[0], radius_[1], radius_[2]});
+  Point g;
+  for (int d = 0; d < 3; ++d) {
+    Point a = x, b = x;
+    a[d] += h;
+    b[d] -= h;
+    g[d] = signed_distance(a) - signed_distance(b);
+  }
+  return g.normalized();
+}
+
+VesselWall::Section BifurcationWall::section_at(const Point& x) const {
+  const int b = branch_at(x);
+  return {radius_[b], axis_distance(b, x), speed_scale_[b]};
+}
+
+std::vector<VesselWall::Opening> BifurcationWall::outlets() const {
+  return {{end_[1], daughter_direction(spec_, 0)}, {end_[2], daughter_direction(spec_, 1)}};
+}
+
+std::vector<WallTriangle> BifurcationWall::dem_wall() const {
+  const Surface s = make_bifurcation(spec_);
+  const int wall = s.region_index(surface_region::wall);
+  std::vector<WallTriangle> out;
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    if (s.region[t] != wall) continue;
+    const auto& [a, b, c] = s.triangles[t];
+    out.push_back({{s.points[static_cast<std::size_t>(a)], s.points[static_cast<std::size_t>(c)],
+                    s.points[static_cast<std::size_t>(b)]}});
+  }
+  return out;
+}
 
 double bifurcation_function(const BifurcationSpec& spec, const Point& x) {
   const BifurcationSpec s = resolved(spec);

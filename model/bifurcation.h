@@ -21,6 +21,7 @@
 #pragma once
 
 #include "surface.h"
+#include "vessel_wall.h"
 
 namespace hemo {
 
@@ -33,12 +34,12 @@ inline constexpr double kMinDaughterDiameter = 8e-6;
 inline constexpr double kMaxBifurcationSamples = 2e7;
 
 struct BifurcationSpec {
-  double parent_diameter = 0;           // m, D_p
-  double parent_length = 0;             // m, L_p: inlet cap to junction
-  double daughter_diameter[2] = {0, 0};  // m, D_1, D_2; 0: Murray's law, D_p / 2^(1/3)
-  double daughter_length = 0;           // m, L_d: junction to outlet cap's centre; 0: L_p
+  double parent_diameter = 0;                        // m, D_p
+  double parent_length = 0;                          // m, L_p: inlet cap to junction
+  double daughter_diameter[2] = {0, 0};              // m, D_1, D_2; 0: Murray's law, D_p / 2^(1/3)
+  double daughter_length = 0;                        // m, L_d: junction to outlet cap's centre; 0: L_p
   double angle = 60 * 3.14159265358979323846 / 180;  // rad, theta: between the daughters
-  double step = 0;                      // m, the sampling grid's step; 0: the narrowest diameter / 10
+  double step = 0;                                   // m, the sampling grid's step; 0: the narrowest diameter / 10
 };
 
 // Murray's law for two equal daughters: D_p^3 = 2 D_d^3.
@@ -60,7 +61,45 @@ double bifurcation_function(const BifurcationSpec& spec, const Eigen::Vector3d& 
 // Builds the surface (check_bifurcation first).
 Surface make_bifurcation(const BifurcationSpec& spec);
 
-// The unit direction of daughter i (0 or 1) and the centre of its outlet cap.
+// The unit direction of daughter i (0 or 1).
 Eigen::Vector3d daughter_direction(const BifurcationSpec& spec, int i);
+
+// The share of the parent's flow daughter i (0 or 1) takes in the Poiseuille network of the three
+// tubes with both outlets at one pressure: its conductance R_i^4 / L_d over the two's sum (the
+// daughters are equally long, so R_i^4 / (R_1^4 + R_2^4)). Lubrication theory's reading: the
+// junction's own losses are left out (the fluid node's splits are within a few per mille of it for
+// the scenes' angles: docs/fluid-verification.md).
+double network_flow_fraction(const BifurcationSpec& spec, int i);
+
+// The bifurcation's wall as the particle side asks it (model/vessel_wall.h). The signed distance is
+// bifurcation_function's; the section at a point is that of the branch whose axis segment is
+// nearest (the parent's from the inlet to the junction, each daughter's from the junction to its
+// outlet): that branch's radius, the distance from its axis segment, and its centre-line speed as
+// the network's flow share gives it relative to the parent's, u_i / u_p = (Q_i / Q_p) (R_p / R_i)^2
+// (Poiseuille in each branch); the parent's is the vessel's fastest for daughters no wider than it
+// (check_bifurcation) unless one takes nearly all the flow.
+class BifurcationWall : public VesselWall {
+ public:
+  explicit BifurcationWall(const BifurcationSpec& spec);  // check_bifurcation first
+
+  double signed_distance(const Point& x) const override;
+  // The gradient of the signed distance (central differences over a thousandth of the narrowest
+  // radius), normalised.
+  Point outward_normal(const Point& x) const override;
+  Section section_at(const Point& x) const override;
+  // The wall region of make_bifurcation's surface, each facet turned to face into the vessel.
+  std::vector<WallTriangle> dem_wall() const override;
+  // Daughter i's outlet cap: centred on its axis's end, facing along the daughter.
+  std::vector<Opening> outlets() const override;
+  // The branch whose axis segment is nearest x: 0 the parent, 1 or 2 a daughter.
+  int branch_at(const Point& x) const;
+  const BifurcationSpec& spec() const { return spec_; }
+
+ private:
+  double axis_distance(int branch, const Point& x) const;
+  BifurcationSpec spec_;  // resolved
+  Point start_[3], end_[3];
+  double radius_[3], speed_scale_[3];
+};
 
 }  // namespace hemo

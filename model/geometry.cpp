@@ -179,10 +179,16 @@ WallResolution dem_wall_resolution(const VesselGeometry& geometry) {
   const double R0 = geometry.nominal_radius(), length = geometry.length();
   double curvature = 0;
   constexpr int samples = 4096;
-  for (int i = 0; i < samples; ++i) curvature = std::max(curvature, std::abs(geometry.radius_curvature(length * i / samples)));
+  for (int i = 0; i < samples; ++i)
+    curvature = std::max(curvature, std::abs(geometry.radius_curvature(length * i / samples)));
   double spacing = R0 / 2;
   if (curvature > 0) spacing = std::min(spacing, std::sqrt(8 * tolerance * R0 / curvature));
   return {around, std::max(1, static_cast<int>(std::ceil(length / spacing)))};
+}
+
+std::vector<WallTriangle> VesselGeometry::dem_wall() const {
+  const WallResolution res = dem_wall_resolution(*this);
+  return wall_surface(*this, res.around, res.along);
 }
 
 void write_stl(const std::string& path, const std::vector<WallTriangle>& triangles) {
@@ -244,6 +250,15 @@ std::vector<std::string> surface_outlet_names(const Vessel& v) {
   return out;
 }
 
+std::unique_ptr<VesselWall> make_vessel_wall(const Vessel& vessel) {
+  const VesselShape& shape = vessel_shape(vessel.shape);
+  if (shape.make) return make_vessel_geometry(vessel);
+  if (shape.make_wall) return shape.make_wall(vessel);
+  throw std::invalid_argument("vessel.shape \"" + shape.name +
+                              "\" carries plasma alone: the particle node does not "
+                              "know its branches");
+}
+
 bool surface_vessel(const Vessel& vessel) { return vessel_shape(vessel.shape).surface(); }
 
 Surface make_vessel_surface(const Vessel& vessel) {
@@ -255,8 +270,14 @@ Surface make_vessel_surface(const Vessel& vessel) {
 
 const std::vector<VesselShape>& vessel_shapes() {
   static const std::vector<VesselShape> shapes = {
-      {"straight", "a straight periodic tube of the vessel's diameter",
-       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); }, nullptr, {}, "", ""},
+      {"straight",
+       "a straight periodic tube of the vessel's diameter",
+       [](const Vessel& v) { return std::make_unique<Straight>(v.radius(), v.length); },
+       nullptr,
+       {},
+       "",
+       "",
+       nullptr},
       {"stenosis",
        "a cosine constriction of vessel.stenosis_length_um centred in the length, its throat's area reduced by "
        "vessel.stenosis_area_reduction",
@@ -269,21 +290,30 @@ const std::vector<VesselShape>& vessel_shapes() {
                                            v.stenosis_length);
        },
        nullptr,
-       {"vessel.stenosis_area_reduction", "vessel.stenosis_length_um"}, "vessel.stenosis_area_reduction",
-       "stenosis_area_reduction = 0.5\nstenosis_length_um = 300"},
+       {"vessel.stenosis_area_reduction", "vessel.stenosis_length_um"},
+       "vessel.stenosis_area_reduction",
+       "stenosis_area_reduction = 0.5\nstenosis_length_um = 300",
+       nullptr},
       // Surface vessels: open ends, meshed by snappyHexMesh; plasma alone for now.
       {"bifurcation",
        "a Y bifurcation: the vessel is the parent, from its inlet at z = 0 along +z, two daughters from its end at "
        "+-vessel.bifurcation_angle_deg / 2 in the x-z plane, each to an outlet",
-       nullptr, [](const Vessel& v) { return make_bifurcation(bifurcation_spec(v)); },
+       nullptr,
+       [](const Vessel& v) { return make_bifurcation(bifurcation_spec(v)); },
        {"vessel.daughter_1_diameter_um", "vessel.daughter_2_diameter_um", "vessel.daughter_length_um",
         "vessel.bifurcation_angle_deg", "mesh.surface_cell_size_um"},
-       "", "ends = \"open\"\ninlet = \"poiseuille\"\ndaughter_length_um = 600"},
-      {"imported", "a closed surface from an ASCII STL (vessel.surface), one solid per region", nullptr,
+       "",
+       "ends = \"open\"\ninlet = \"poiseuille\"\ndaughter_length_um = 600",
+       [](const Vessel& v) { return std::make_unique<BifurcationWall>(bifurcation_spec(v)); }},
+      {"imported",
+       "a closed surface from an ASCII STL (vessel.surface), one solid per region",
+       nullptr,
        imported_surface,
-       {"vessel.surface", "vessel.surface_inlet", "vessel.surface_outlets", "mesh.surface_cell_size_um"}, "",
+       {"vessel.surface", "vessel.surface_inlet", "vessel.surface_outlets", "mesh.surface_cell_size_um"},
+       "",
        "ends = \"open\"\ninlet = \"poiseuille\"\nsurface = \"surfaces/y-bifurcation.stl\"\nsurface_inlet = \"in\"\n"
-       "surface_outlets = \"out_wide out_narrow\""},  // scenes/imported.toml's
+       "surface_outlets = \"out_wide out_narrow\"",  // scenes/imported.toml's
+       nullptr},
   };
   return shapes;
 }

@@ -17,10 +17,12 @@
 #pragma once
 
 #include "surface.h"
+#include "vessel_wall.h"
 
 #include <Eigen/Dense>
 
 #include <array>
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -30,11 +32,8 @@ namespace hemo {
 
 struct Vessel;
 
-class VesselGeometry {
+class VesselGeometry : public VesselWall {
  public:
-  using Point = Eigen::Vector3d;
-  virtual ~VesselGeometry() = default;
-
   double nominal_radius() const { return radius_; }  // R0, m: the radius the scene's diameter gives
   double length() const { return length_; }          // m, the periodic length along z
   // The axial coordinate of a point, wrapped into [0, length).
@@ -68,11 +67,20 @@ class VesselGeometry {
 
   // The signed distance from x to the wall, m: negative inside, zero on the wall, positive
   // outside; the exact Euclidean distance to the surface r = R(z).
-  virtual double signed_distance(const Point& x) const;
+  double signed_distance(const Point& x) const override;
   // The wall's outward unit normal at the wall point nearest x (at x itself when x is on the
   // wall); the gradient of signed_distance wherever that is differentiable.
-  virtual Point outward_normal(const Point& x) const;
-  bool inside(const Point& x) const { return signed_distance(x) < 0; }
+  Point outward_normal(const Point& x) const override;
+  // The section at x's z: radius R(z), x's distance from the z axis, u_c(z) as
+  // centreline_speed_at.
+  Section section_at(const Point& x) const override {
+    return {radius_at(x.z()), std::hypot(x.x(), x.y()), throat_radius() / radius_at(x.z())};
+  }
+  bool axisymmetric() const override { return true; }
+  // wall_surface at dem_wall_resolution.
+  std::vector<WallTriangle> dem_wall() const override;
+  // The plane z = length, facing +z.
+  std::vector<Opening> outlets() const override { return {{Point(0, 0, length()), Point::UnitZ()}}; }
 
  protected:
   VesselGeometry(double radius, double length) : radius_(radius), length_(length) {}
@@ -86,9 +94,6 @@ class VesselGeometry {
 // The wall surface the DEM collides with: triangles on r = R(z), `around` vertices per station
 // (on the station's circle: the facets' chords lie R (1 - cos(pi / around)) inside it) at `along` + 1 equally spaced
 // stations over [0, length], each quad between stations split in two; normals point into the vessel.
-struct WallTriangle {
-  std::array<VesselGeometry::Point, 3> vertex;
-};
 std::vector<WallTriangle> wall_surface(const VesselGeometry& geometry, int around, int along);
 // The resolution the DEM's wall is made with: its facets within 2e-3 R0 of the wall r = R(z)
 // (1e-3 R0 from the chords around, as much from those along).
@@ -118,6 +123,9 @@ struct VesselShape {
   std::vector<std::string> keys;
   std::string narrowing_key;
   std::string example;
+  // A surface vessel's wall as the particle side asks it; none: it carries plasma alone.
+  std::function<std::unique_ptr<VesselWall>(const Vessel&)> make_wall;
+  bool carries_cells() const { return static_cast<bool>(make) || static_cast<bool>(make_wall); }
   bool takes(const std::string& key) const;
 };
 
@@ -131,6 +139,10 @@ const VesselShape& vessel_shape(const std::string& name);
 // std::invalid_argument on a vessel that is no such shape (load_scene refuses those first), and
 // on a surface vessel, naming it.
 std::unique_ptr<VesselGeometry> make_vessel_geometry(const Vessel& vessel);
+// The wall of a scene's vessel as the particle side asks it: an axisymmetric shape's geometry, or
+// a surface vessel's wall (VesselShape::make_wall). Throws std::invalid_argument on a shape that
+// carries plasma alone, naming it.
+std::unique_ptr<VesselWall> make_vessel_wall(const Vessel& vessel);
 
 // Whether the vessel is given as a closed surface, and that surface with its regions named
 // "wall", "inlet", "outlet_1", ... in order (an imported surface's inlet and outlets renamed so,

@@ -168,7 +168,7 @@ long place_on_lattice(Packing& packing, const PlacementRequest& req, double r_ma
 
 }  // namespace
 
-std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
+std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselWall& vessel,
                                                         const FeederLayout& feeder, double z0, unsigned long long seed,
                                                         const PlacementOptions& options) {
   Scene tube = scene;
@@ -189,11 +189,14 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
   return placed;
 }
 
-std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselGeometry& vessel, double z0) {
+std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselWall& vessel, double z0) {
   if (fed_by_feeder(scene.vessel))
     return place_open_vessel_particles(scene, vessel, feeder_layout(scene.vessel, scene.mesh.axial_cells), z0,
                                        scene.run.seed);
-  return place_particles(vessel, z0, placement_requests(scene), scene.run.seed);
+  const auto* shape = dynamic_cast<const VesselGeometry*>(&vessel);
+  if (shape == nullptr)
+    throw PlacementError("a surface vessel's cells come in through its feeder: set vessel.inlet = \"feeder\"");
+  return place_particles(*shape, z0, placement_requests(scene), scene.run.seed);
 }
 
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,

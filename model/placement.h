@@ -79,14 +79,14 @@ std::vector<PlacedParticle> place_particles(const VesselGeometry& vessel, double
 // keep clear of the vessel's own wall (all of them in a straight vessel). So the cells the feeder
 // hands over at the inlet continue the suspension already there, as they do at every later step.
 // Independent placements would put the first copies onto the vessel's cells at the inlet.
-std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselGeometry& vessel,
+std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, const VesselWall& vessel,
                                                         const FeederLayout& feeder, double z0, unsigned long long seed,
                                                         const PlacementOptions& options = {});
 
 // The particles a scene starts with, in its vessel of this shape from z0: place_particles, or in
 // a vessel fed by a feeder place_open_vessel_particles (the particle node's placement, and
 // `hemocosim check`'s).
-std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselGeometry& vessel, double z0);
+std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselWall& vessel, double z0);
 
 // In the straight tube of this radius and length.
 std::vector<PlacedParticle> place_particles(double radius, double length, double z0,

@@ -542,7 +542,7 @@ void check_placement(Reader& r, const Scene& s) {
   if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
   if (surface_vessel(s.vessel)) return;  // no particles (check_surface_vessel)
   try {
-    pl::place_scene_particles(s, *make_vessel_geometry(s.vessel), 0.0);
+    pl::place_scene_particles(s, *make_vessel_wall(s.vessel), 0.0);
   } catch (const pl::PlacementError& e) {
     const Species* sp = e.species == pl::kRbc ? &s.rbc : e.species == pl::kPlatelet ? &s.platelet : nullptr;
     if (sp == nullptr) {  // not a species' (validation rules out such vessels and requests)

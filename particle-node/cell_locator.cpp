@@ -117,8 +117,7 @@ struct CellLocator::Faces {
   Vec3 hi = Vec3::Constant(std::numeric_limits<double>::lowest());
 };
 
-CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry,
-                         std::optional<FeederLayout> feeder)
+CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselWall> wall, std::optional<FeederLayout> feeder)
     : feeder_(std::move(feeder)) {
   check_counts(mesh);
   const std::vector<Vec3> points = read_points(mesh);
@@ -126,19 +125,20 @@ CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometr
   Faces faces = read_faces(mesh, points);
   const std::vector<char> wall_face = wall_faces(mesh);
   radius_ = mesh.vessel_diameter_m / 2;
-  if (geometry == nullptr) {
+  if (wall == nullptr) {
     Vessel straight;
     straight.diameter = mesh.vessel_diameter_m;
     straight.length = mesh.vessel_length_m > 0 ? mesh.vessel_length_m : faces.hi.z() - faces.lo.z();
     // A mesh without a vessel (a unit test's box): no round wall, no gap.
-    if (straight.diameter > 0 && straight.length > 0) geometry = make_vessel_geometry(straight);
-  } else if (geometry->nominal_radius() != radius_) {
-    bad_mesh("its vessel diameter differs from the vessel shape's");
+    if (straight.diameter > 0 && straight.length > 0) wall = make_vessel_geometry(straight);
   }
-  geometry_ = std::move(geometry);
+  wall_ = std::move(wall);
+  axisymmetric_ = dynamic_cast<const VesselGeometry*>(wall_.get());
+  if (axisymmetric_ && axisymmetric_->nominal_radius() != radius_)
+    bad_mesh("its vessel diameter differs from the vessel shape's");
   std::vector<char> wall_cell;
   const std::vector<char> on_wall =
-      geometry_ ? chords(mesh, points, wall_face, *geometry_, feeder_) : std::vector<char>(mesh.n_faces, 0);
+      axisymmetric_ ? chords(mesh, points, wall_face, *axisymmetric_, feeder_) : std::vector<char>(mesh.n_faces, 0);
   const std::vector<Vec3> plane_point = build_planes(mesh, faces, wall_face, on_wall, wall_cell);
   set_period(mesh, faces.lo, faces.hi);
   reach_into_wall_gap(wall_cell, faces);
@@ -236,7 +236,9 @@ std::vector<Vec3> CellLocator::build_planes(const mesh_t& mesh, const Faces& fac
         const double offset = plane.normal.dot(in_vessel_frame(face.centroid));
         plane.gap = std::max(0.0, wall_reach(plane.normal, z_lo, z_hi) - offset);
       }
-      if (plane.gap > 0) wall_cell[c] = 1;
+      // A surface vessel's wall is snapped onto the surface the DEM collides with, not chords of
+      // a circle: every cell on it may leave a gap (locate_near_surface).
+      if (plane.gap > 0 || (wall_ && !axisymmetric_ && plane.wall)) wall_cell[c] = 1;
       planes_.push_back(plane);
       plane_point.push_back(face.centroid);
     }
@@ -250,10 +252,10 @@ double CellLocator::wall_reach(const Vec3& normal, double z_lo, double z_hi) con
   // operations as before shapes); on a shape, the most of R(z) |n_xy| + n_z z at the cell's ends
   // and middle (the gap is a search margin: a little more than the true reach costs nothing).
   const double across = std::hypot(normal.x(), normal.y());
-  if (geometry_->uniform()) return radius_ * across;
+  if (axisymmetric_->uniform()) return radius_ * across;
   double reach = std::numeric_limits<double>::lowest();
   for (double z : {z_lo, (z_lo + z_hi) / 2, z_hi})
-    reach = std::max(reach, geometry_->radius_at(z) * across + normal.z() * z);
+    reach = std::max(reach, axisymmetric_->radius_at(z) * across + normal.z() * z);
   return reach;
 }
 
@@ -277,8 +279,21 @@ void CellLocator::set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi)
 }
 
 void CellLocator::reach_into_wall_gap(const std::vector<char>& wall_cell, Faces& faces) {
-  // The wall gap: how far a point inside the vessel radius can lie behind a wall face.
+  // The wall gap: how far a point inside the vessel radius can lie behind a wall face; a surface
+  // vessel's, half the largest wall cell's size, in every direction (its wall is not along z).
   for (const Plane& p : planes_) wall_gap_ = std::max(wall_gap_, p.gap);
+  if (wall_ && !axisymmetric_) {
+    for (int c = 0; c < n_cells(); ++c)
+      if (wall_cell[c]) wall_gap_ = std::max(wall_gap_, 0.5 * std::cbrt(volume_[c]));
+    for (int c = 0; c < n_cells(); ++c)
+      if (wall_cell[c]) {
+        faces.cell_lo[c] -= Vec3::Constant(wall_gap_);
+        faces.cell_hi[c] += Vec3::Constant(wall_gap_);
+      }
+    faces.lo -= Vec3::Constant(wall_gap_);
+    faces.hi += Vec3::Constant(wall_gap_);
+    return;
+  }
   // Wall cells reach out to the vessel radius for the gap search.
   for (int c = 0; c < n_cells(); ++c)
     if (wall_cell[c]) {
@@ -376,10 +391,29 @@ int CellLocator::search_bins(const Vec3& x) const {
   return -1;
 }
 
+int CellLocator::locate_near_surface(const Vec3& w) const {
+  if (wall_->signed_distance(in_vessel_frame(w)) > 1e-12 * radius_) return -1;
+  const int b = bin_of(w);
+  if (b < 0) return -1;
+  int best = -1;
+  double least = std::numeric_limits<double>::max();
+  for (int k = bin_start_[b]; k < bin_start_[b + 1]; ++k) {
+    const int c = bin_cells_[k];
+    double worst = 0;
+    for (int q = plane_start_[c]; q < plane_start_[c + 1]; ++q) worst = std::max(worst, signed_distance(planes_[q], w));
+    if (worst <= 0.5 * std::cbrt(volume_[c]) && worst < least) {
+      best = c;
+      least = worst;
+    }
+  }
+  return best;
+}
+
 int CellLocator::locate_in_wall_gap(const Vec3& x) const {
   const Vec3 w = wrap(x);
+  if (wall_ && !axisymmetric_) return locate_near_surface(w);
   const Vec3 v = in_vessel_frame(w);
-  if (!(wall_gap_ > 0) || std::hypot(v.x(), v.y()) > wall_radius(v.z()) * (1 + 1e-12)) return -1;
+  if (!(wall_gap_ > 0) || std::hypot(v.x(), v.y()) > axisymmetric_->radius_at(v.z()) * (1 + 1e-12)) return -1;
   const int b = bin_of(w);
   if (b < 0) return -1;
   int best = -1;

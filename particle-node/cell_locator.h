@@ -60,7 +60,7 @@ class CellLocator {
   // z extent other than the period). `geometry` is the vessel's shape; none: the straight tube of
   // the mesh's diameter and length. `feeder`: the mesh is an open vessel's with its feeder
   // (feeder_layout(vessel, mesh.axial_cells)); its period is the feeder's length.
-  explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselGeometry> geometry = nullptr,
+  explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselWall> wall = nullptr,
                        std::optional<FeederLayout> feeder = std::nullopt);
 
   // The cell containing x (any z; wrapped first), or -1 when x is outside the mesh.
@@ -137,11 +137,12 @@ class CellLocator {
   double z0() const { return z0_; }
   double length() const { return length_; }
   double radius() const { return radius_; }  // R0, the nominal radius (the widest a shape gets)
-  // The vessel's wall radius at axial coordinate z (any z) of the vessel frame, m.
-  double wall_radius(double z) const { return geometry_->radius_at(z); }
-  // The wall radius of the tube x is in (the vessel's at x's z, or the feeder's), m.
-  double wall_radius(const Vec3& x) const { return wall_radius(in_vessel_frame(x).z()); }
-  const VesselGeometry& geometry() const { return *geometry_; }
+  // The section of the tube x is in (the vessel's there, or the feeder's): its wall radius, x's
+  // distance from its centre line, its centre-line speed (model/vessel_wall.h).
+  VesselWall::Section section(const Vec3& x) const { return wall_->section_at(in_vessel_frame(x)); }
+  const VesselWall& wall() const { return *wall_; }
+  // The vessel's shape r = R(z) when it is axisymmetric; nullptr for a surface vessel's wall.
+  const VesselGeometry* axisymmetric() const { return axisymmetric_; }
   // x where it stands for in the vessel: a feeder point moved onto the vessel's inlet plane (at
   // its offset from the feeder's axis), any other point as it is. Not wrapped. Radial distances
   // and the shape's R(z), centre-line speeds and diameters of a point are those of this point.
@@ -196,7 +197,10 @@ class CellLocator {
   std::vector<double> tolerance_;  // per cell, absolute (m)
 
   double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
-  std::shared_ptr<const VesselGeometry> geometry_;
+  std::shared_ptr<const VesselWall> wall_;
+  const VesselGeometry* axisymmetric_ = nullptr;  // wall_'s, when it is r = R(z)
+  // A surface vessel's wall gap: the cell whose planes x violates least, by at most half its size.
+  int locate_near_surface(const Vec3& w) const;
   std::optional<FeederLayout> feeder_;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};

@@ -123,12 +123,17 @@ DemEngine::EndCounts DemEngine::end_counts() const {
   EndCounts c;
   const auto* open = liggghts_.fixes().open_ends;
   if (open == nullptr) return c;
+  const dem::OpenEndsCounts& counts = open->counts();
+  c.left_each_outlet.resize(counts.outlets());
   for (int sp = 0; sp < kSpeciesCount; ++sp) {
     const int type = liggghts_.type_of(sp);
     if (type == 0) continue;
-    c.inserted[sp] = static_cast<long>(open->counts().inserted[type]);
-    c.left_outlet[sp] = static_cast<long>(open->counts().left_outlet[type]);
-    c.left_inlet[sp] = static_cast<long>(open->counts().left_inlet[type]);
+    const auto t = static_cast<std::size_t>(type);
+    c.inserted[sp] = static_cast<long>(counts.inserted[t]);
+    c.left_outlet[sp] = static_cast<long>(counts.left_outlets(t));
+    c.left_inlet[sp] = static_cast<long>(counts.left_inlet[t]);
+    for (std::size_t o = 0; o < counts.outlets(); ++o)
+      c.left_each_outlet[o][sp] = static_cast<long>(counts.left_through(o, t));
   }
   return c;
 }

@@ -66,9 +66,11 @@ class DemEngine {
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return liggghts_.particles(); }
   // An open vessel's counts since the run started, per species: inserted at the inlet, left
-  // through the outlet, left back through the inlet (all zero for a periodic vessel).
+  // through the outlets (all, and each), left back through the inlet (all zero for a periodic
+  // vessel).
   struct EndCounts {
     std::array<long, kSpeciesCount> inserted{}, left_outlet{}, left_inlet{};
+    std::vector<std::array<long, kSpeciesCount>> left_each_outlet;
   };
   EndCounts end_counts() const;
   bool open_ends() const { return liggghts_.open(); }

@@ -183,9 +183,9 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
     flow.shear_rate = fluid.shear_rate(cell);
     // The fastest cell is at the narrowest section: the local section's own centre-line speed.
     // A feeder cell is in the section it stands for, the inlet's (the vessel frame).
-    const double z = locator_.in_vessel_frame(p.x).z();
-    flow.centreline_speed = locator_.geometry().centreline_speed_at(z, centreline_speed_);
-    flow.vessel_diameter = 2 * locator_.wall_radius(z);
+    const VesselWall::Section section = locator_.section(p.x);
+    flow.centreline_speed = section.centreline_speed(centreline_speed_);
+    flow.vessel_diameter = 2 * section.radius;
   }
   flow.axis = p.axis;
   // The plasma's stress on the particle's volume acts like its weight in the drag's exponential

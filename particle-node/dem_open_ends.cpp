@@ -25,17 +25,28 @@
 namespace hemo::particles::dem {
 
 FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp, narg, arg) {
-  if (narg != 7) error->all(FLERR, "fix hemo/open_ends needs OUTLET_Z SPLIT_X SHIFT_X BUFFER");
-  layout_.outlet_z = std::atof(arg[3]);
-  layout_.split_x = std::atof(arg[4]);
-  layout_.shift_x = std::atof(arg[5]);
-  layout_.buffer = std::atof(arg[6]);
-  if (!(layout_.buffer >= 0 && layout_.buffer < layout_.outlet_z - domain->boxlo[2]))
-    error->all(FLERR, "fix hemo/open_ends: the inlet buffer must be shorter than the vessel");
-  if (!(layout_.outlet_z > domain->boxlo[2] && layout_.outlet_z < domain->boxhi[2]))
-    error->all(FLERR, "fix hemo/open_ends: the outlet must lie inside the box, short of its upper z bound");
-  if (!(layout_.shift_x > 0) || !(layout_.split_x > 0 && layout_.split_x < layout_.shift_x))
-    error->all(FLERR, "fix hemo/open_ends: SPLIT_X must lie between the vessel's axis and the feeder's");
+  const int outlets = narg >= 7 ? std::atoi(arg[6]) : 0;
+  if (outlets < 1 || narg != 7 + 6 * outlets)
+    error->all(FLERR, "fix hemo/open_ends needs SPLIT_X SHIFT_X BUFFER N and N outlets (CX CY CZ NX NY NZ)");
+  layout_.split_x = std::atof(arg[3]);
+  layout_.shift_x = std::atof(arg[4]);
+  layout_.buffer = std::atof(arg[5]);
+  for (int o = 0; o < outlets; ++o) {
+    OpenEndsLayout::Outlet outlet;
+    for (int d = 0; d < 3; ++d) {
+      outlet.centre[d] = std::atof(arg[7 + 6 * o + d]);
+      outlet.normal[d] = std::atof(arg[10 + 6 * o + d]);
+    }
+    const double* c = outlet.centre.data();
+    if (!(c[0] > domain->boxlo[0] && c[0] < domain->boxhi[0] && c[1] > domain->boxlo[1] && c[1] < domain->boxhi[1] &&
+          c[2] > domain->boxlo[2] && c[2] < domain->boxhi[2]))
+      error->all(FLERR, "fix hemo/open_ends: an outlet must lie inside the box, short of its upper z bound");
+    if (!(layout_.buffer >= 0 && layout_.buffer < c[2] - domain->boxlo[2]))
+      error->all(FLERR, "fix hemo/open_ends: the inlet buffer must end before every outlet");
+    layout_.outlets.push_back(outlet);
+  }
+  if (!(layout_.shift_x > 0) || !(layout_.split_x < layout_.shift_x))
+    error->all(FLERR, "fix hemo/open_ends: SPLIT_X must lie between the vessel and the feeder's axis");
   force_reneighbor = 1;
   next_reneighbor = -1;
   create_attribute = 1;  // set_arrays for atoms made by create_atom (ours and LIGGGHTS's)
@@ -46,8 +57,9 @@ FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp
   // setup_pre_exchange: it would clear the links just found.
   just_created = 0;
   const std::size_t types = static_cast<std::size_t>(atom->ntypes) + 1;
-  counts_ = {std::vector<std::int64_t>(types, 0), std::vector<std::int64_t>(types, 0),
-             std::vector<std::int64_t>(types, 0)};
+  counts_.inserted.assign(types, 0);
+  counts_.left_inlet.assign(types, 0);
+  counts_.left_outlet.assign(types * layout_.outlets.size(), 0);
 }
 
 FixOpenEnds::~FixOpenEnds() {
@@ -75,17 +87,20 @@ int FixOpenEnds::setmask() {
   return LAMMPS_NS::FixConst::POST_INTEGRATE | LAMMPS_NS::FixConst::PRE_EXCHANGE | LAMMPS_NS::FixConst::END_OF_STEP;
 }
 
-FixOpenEnds::Crossing FixOpenEnds::crossing(const double* x) const {
-  if (x[0] >= layout_.split_x) return x[2] >= domain->boxhi[2] ? Crossing::feeder_end : Crossing::none;
-  if (x[2] >= layout_.outlet_z) return Crossing::outlet;
-  return x[2] < domain->boxlo[2] ? Crossing::inlet : Crossing::none;
+int FixOpenEnds::crossing(const double* x) const {
+  if (x[0] >= layout_.split_x) return x[2] >= domain->boxhi[2] ? kFeederEnd : kNone;
+  for (std::size_t o = 0; o < layout_.outlets.size(); ++o) {
+    const auto& [c, n] = layout_.outlets[o];
+    if (n[0] * (x[0] - c[0]) + n[1] * (x[1] - c[1]) + n[2] * (x[2] - c[2]) >= 0) return kOutlet + static_cast<int>(o);
+  }
+  return x[2] < domain->boxlo[2] ? kInlet : kNone;
 }
 
 void FixOpenEnds::post_integrate() {
   replay_sources();
   double** x = atom->x;
   int crossed = 0;
-  for (int i = 0; i < atom->nlocal && !crossed; ++i) crossed = crossing(x[i]) != Crossing::none;
+  for (int i = 0; i < atom->nlocal && !crossed; ++i) crossed = crossing(x[i]) != kNone;
   MPI_Allreduce(MPI_IN_PLACE, &crossed, 1, MPI_INT, MPI_MAX, world);
   if (crossed) next_reneighbor = update->ntimestep;
 }
@@ -97,10 +112,10 @@ void FixOpenEnds::hand_over() {
   std::vector<std::array<int, 2>> spawning;  // (tag, local index) of this rank's feeder atoms crossing
   double** x = atom->x;
   for (int i = 0; i < atom->nlocal; ++i) {
-    const Crossing what = crossing(x[i]);
-    if (what == Crossing::none) continue;
-    mine.insert(mine.end(), {static_cast<int>(what), atom->tag[i], atom->type[i]});
-    if (what == Crossing::feeder_end)
+    const int what = crossing(x[i]);
+    if (what == kNone) continue;
+    mine.insert(mine.end(), {what, atom->tag[i], atom->type[i]});
+    if (what == kFeederEnd)
       spawning.push_back({atom->tag[i], i});
     else
       leaving.push_back(i);
@@ -111,15 +126,18 @@ void FixOpenEnds::hand_over() {
   std::vector<OpenEndsEvent> events;
   std::vector<std::array<int, 2>> sources;  // (source tag, type) of the insertions
   for (std::size_t k = 0; k < all.size(); k += 3) {
-    const auto what = static_cast<Crossing>(all[k]);
-    const int tag = all[k + 1], type = all[k + 2];
-    if (what == Crossing::feeder_end) {
+    const int what = all[k], tag = all[k + 1], type = all[k + 2];
+    if (what == kFeederEnd) {
       sources.push_back({tag, type});
       continue;
     }
-    const bool outlet = what == Crossing::outlet;
-    events.push_back({outlet ? OpenEndsEvent::Kind::left_outlet : OpenEndsEvent::Kind::left_inlet, tag, type, 0});
-    ++(outlet ? counts_.left_outlet : counts_.left_inlet)[type];
+    if (what >= kOutlet) {
+      events.push_back({OpenEndsEvent::Kind::left_outlet, tag, type, 0, what - kOutlet});
+      ++counts_.left_through(static_cast<std::size_t>(what - kOutlet), static_cast<std::size_t>(type));
+    } else {
+      events.push_back({OpenEndsEvent::Kind::left_inlet, tag, type, 0});
+      ++counts_.left_inlet[type];
+    }
     free_.push_back(tag);
   }
   std::sort(events.begin(), events.end(), [](const auto& a, const auto& b) { return a.tag < b.tag; });
@@ -157,10 +175,13 @@ void FixOpenEnds::hand_over() {
 
 void FixOpenEnds::restore(const State& state) {
   const std::size_t types = counts_.inserted.size();
-  for (const auto* v : {&state.counts.inserted, &state.counts.left_outlet, &state.counts.left_inlet})
+  for (const auto* v : {&state.counts.inserted, &state.counts.left_inlet})
     if (v->size() != types)
       throw std::invalid_argument(
           fmt::format("open ends: {} counts, not one per atom type and a 0 ({})", v->size(), types));
+  if (state.counts.left_outlet.size() != counts_.left_outlet.size())
+    throw std::invalid_argument(fmt::format("open ends: {} outlet counts, not one per outlet and atom type ({})",
+                                            state.counts.left_outlet.size(), counts_.left_outlet.size()));
   counts_ = state.counts;
   capacity_ = state.capacity;
 }
@@ -260,8 +281,11 @@ void FixOpenEnds::insert_copy(int source, int tag) {
 }
 
 std::string open_ends_command(const OpenEndsLayout& layout) {
-  return fmt::format("fix {} all {} {:.17g} {:.17g} {:.17g} {:.17g}", kOpenEndsFix, kOpenEndsStyle, layout.outlet_z,
-                     layout.split_x, layout.shift_x, layout.buffer);
+  std::string line = fmt::format("fix {} all {} {:.17g} {:.17g} {:.17g} {}", kOpenEndsFix, kOpenEndsStyle,
+                                 layout.split_x, layout.shift_x, layout.buffer, layout.outlets.size());
+  for (const auto& [c, n] : layout.outlets)
+    line += fmt::format(" {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", c[0], c[1], c[2], n[0], n[1], n[2]);
+  return line;
 }
 
 LAMMPS_NS::Fix* create_open_ends(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) {

@@ -9,13 +9,18 @@
 // wider than any pair's reach plus the neighbour skin, so no cell near the outlet sees, through
 // the periodic images, one near the inlet (the vessel's atoms never enter the gap: see below).
 //
+// The outlets. Each is a plane through its cap's centre c with the outward normal n: a vessel atom
+// at x is past it when n . (x - c) >= 0 (the straight vessel's one outlet: z >= outlet_z). A
+// vessel with several (a bifurcation's daughters) has them apart: no vessel point is past one
+// outlet's plane but through another's cap.
+//
 // Each DEM step, after the positions moved and before LIGGGHTS decides on a list build
-// (post_integrate), the fix asks for a build in this same step when a vessel atom is past the
-// outlet (z >= outlet_z) or before the inlet (z < zlo, a backflow), or a feeder atom is past the
+// (post_integrate), the fix asks for a build in this same step when a vessel atom is past an
+// outlet or before the inlet (z < zlo, a backflow), or a feeder atom is past the
 // feeder's end (z >= zlo + P, not yet wrapped): so every crossing is handled the step it happens,
 // before any force of that step is computed. At every build, before LIGGGHTS wraps and migrates
 // the atoms (pre_exchange), it
-//   - removes each vessel atom past the outlet (counted as left through the outlet) or before the
+//   - removes each vessel atom past an outlet (counted as left through that outlet) or before the
 //     inlet (counted as left through the inlet), and
 //   - inserts, for each feeder atom past the feeder's end, a copy at (x - shift_x, y, z - P): the
 //     same type, size, mass, velocity, angular velocity and the values of the per-atom fixes it is
@@ -39,7 +44,7 @@
 // copy is a moving boundary to the cells beyond it: their contacts and the fluid push on it
 // without moving it, as on the feeder's cells.
 //
-// Counts per atom type: inserted, left through the outlet, left through the inlet. Present =
+// Counts per atom type: inserted, left through each outlet, left through the inlet. Present =
 // created + inserted - left, at every step; a listener sees each build's events, the same on
 // every rank, in the order: removals (by tag), insertions (by new tag).
 //
@@ -67,15 +72,18 @@ constexpr const char* kOpenEndsFix = "hemo_open_ends";
 constexpr const char* kOpenEndsStyle = "hemo/open_ends";
 
 struct OpenEndsLayout {
-  double outlet_z = 0;  // m, the vessel's outlet plane (its inlet is the box's lower z bound)
-  double split_x = 0;   // m, atoms at x >= split_x are the feeder's
-  double shift_x = 0;   // m, the feeder's axis from the vessel's, along x
-  double buffer = 0;    // m, the inlet buffer's length (0: none)
+  struct Outlet {
+    std::array<double, 3> centre{}, normal{};  // m; unit, out of the vessel
+  };
+  std::vector<Outlet> outlets;  // the vessel's (its inlet is the box's lower z bound)
+  double split_x = 0;           // m, atoms at x >= split_x are the feeder's
+  double shift_x = 0;           // m, the feeder's axis from the vessel's inlet centre, along x
+  double buffer = 0;            // m, the inlet buffer's length (0: none)
 };
 
 class FixOpenEnds : public LAMMPS_NS::Fix {
  public:
-  // fix ID all hemo/open_ends OUTLET_Z SPLIT_X SHIFT_X BUFFER
+  // fix ID all hemo/open_ends SPLIT_X SHIFT_X BUFFER N (CX CY CZ NX NY NZ) x N
   FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
   ~FixOpenEnds() override;
 
@@ -123,10 +131,10 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   double memory_usage() override;
 
  private:
-  // Where an atom at x is past: the feeder's end (a feeder atom), the outlet or the inlet (a
-  // vessel atom), or none.
-  enum class Crossing { none, outlet, inlet, feeder_end };
-  Crossing crossing(const double* x) const;
+  // Where an atom at x is past: the feeder's end (a feeder atom), an outlet (kOutlet + its index)
+  // or the inlet (a vessel atom), or none.
+  static constexpr int kNone = -3, kFeederEnd = -2, kInlet = -1, kOutlet = 0;
+  int crossing(const double* x) const;
   void hand_over();
   void find_free_tags();
   int take_free_tag();

@@ -35,8 +35,8 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
     const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
     sums[4] += !(feeder && feeder->in_feeder(xi.x()));
-    const Vec3 vi = locator_.in_vessel_frame(xi);  // a feeder cell's core is the feeder's
-    if (cell < 0 || std::hypot(vi.x(), vi.y()) >= 0.5 * locator_.wall_radius(vi.z())) continue;  // the core
+    const VesselWall::Section section = locator_.section(xi);            // a feeder cell's core is the feeder's
+    if (cell < 0 || section.off_axis >= 0.5 * section.radius) continue;  // the core
     sums[0] += 1;
     sums[1] += v[i][2];
     if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_.wrap(xi)).z();
@@ -65,10 +65,10 @@ double DemOutput::local_max_overlap() const {
   const int nlocal = lmp.atom->nlocal;
   double worst = 0;
   for (int i = 0; i < nlocal; ++i) {
-    // Radially, from the shape's R(z): within R'^2 / 2 of the overlap along the wall's normal. A
-    // feeder cell against the feeder's wall, in the vessel frame.
-    const Vec3 xi = locator_.in_vessel_frame(Vec3(x[i][0], x[i][1], x[i][2]));
-    worst = std::max(worst, (std::hypot(xi.x(), xi.y()) + r[i] - locator_.wall_radius(xi.z())) / (2 * r[i]));
+    // Radially, from the section's radius (the shape's R(z): within R'^2 / 2 of the overlap along
+    // the wall's normal). A feeder cell against the feeder's wall, in the vessel frame.
+    const VesselWall::Section section = locator_.section(Vec3(x[i][0], x[i][1], x[i][2]));
+    worst = std::max(worst, (section.off_axis + r[i] - section.radius) / (2 * r[i]));
   }
   const LAMMPS_NS::NeighList* list = lmp.force->pair != nullptr ? lmp.force->pair->list : nullptr;
   if (list == nullptr || lmp.neighbor->ncalls == 0) return worst;

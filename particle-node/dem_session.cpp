@@ -153,7 +153,13 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
   callback_ = callback;
   callback_target_ = target;
   if (mesh_wall()) {
-    write_wall_surface();
+    const std::vector<WallTriangle> wall = locator_.wall().dem_wall();
+    for (const WallTriangle& t : wall)
+      for (const auto& v : t.vertex) {
+        wall_lower_ = wall_lower_.cwiseMin(v);
+        wall_upper_ = wall_upper_.cwiseMax(v);
+      }
+    write_wall_surface(wall);
     // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
     // it. LAMMPS closes its screen when it ends.
     if (lmp_->screen == nullptr) lmp_->screen = std::fopen("/dev/null", "w");
@@ -187,13 +193,21 @@ int LiggghtsSession::assign_atom_types(const std::array<bool, kSpeciesCount>& us
 void LiggghtsSession::define_box_and_contacts(int n_types) {
   const double R = locator_.radius();
   const double z0 = locator_.z0();
-  const double half_box = R + 2 * species_.d_max;
-  // An open vessel's box holds its feeder beside it and is periodic with the feeder's length.
-  const double x_hi = feeder_ ? feeder_->axis_x + feeder_->radius + 2 * species_.d_max : half_box;
+  const double margin = 2 * species_.d_max;
+  const double half_box = R + margin;
+  // An open vessel's box holds its feeder beside it and is periodic with the feeder's length; a
+  // surface vessel's holds its wall (and the feeder's, which reaches a radius about its axis).
+  double x_lo = -half_box, y_lo = -half_box, y_hi = half_box;
+  if (!locator_.axisymmetric()) {
+    x_lo = wall_lower_.x() - margin;
+    y_lo = std::min(wall_lower_.y(), -R) - margin;
+    y_hi = std::max(wall_upper_.y(), R) + margin;
+  }
+  const double x_hi = feeder_ ? feeder_->axis_x + feeder_->radius + margin : half_box;
   const double period = feeder_ ? feeder_->period : locator_.length();
   if (feeder_) check_outlet_gap();
-  command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", -half_box,
-                      x_hi, -half_box, half_box, z0, z0 + period));
+  command(fmt::format("region hemo_box block {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} units box", x_lo, x_hi,
+                      y_lo, y_hi, z0, z0 + period));
   command(fmt::format("create_box {} hemo_box", n_types));
   for (const auto& line : contact_model(n_types, bookkeeping_.streaming_neighbours)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
@@ -251,15 +265,13 @@ void LiggghtsSession::check_outlet_gap() const {
         gap / units::um, reach / units::um));
 }
 
-void LiggghtsSession::write_wall_surface() const {
+void LiggghtsSession::write_wall_surface(const std::vector<WallTriangle>& wall) const {
   // Written by the first rank, read by every rank's LIGGGHTS; the error, if any, agreed on.
   int rank = 0;
   MPI_Comm_rank(comm_, &rank);
   std::string error;
   if (rank == 0) try {
-      const VesselGeometry& g = locator_.geometry();
-      const WallResolution res = dem_wall_resolution(g);
-      write_stl(wall_file_, wall_surface(g, res.around, res.along));
+      write_stl(wall_file_, wall);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -310,8 +322,11 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (!feeder_) return;
   // The inlet buffer: one largest cell diameter, so that a copy is wholly inside the vessel when
   // it is let go (dem_open_ends.h).
-  command(
-      open_ends_command({locator_.z0() + feeder_->vessel_length, feeder_->split_x, feeder_->axis_x, species_.d_max}));
+  dem::OpenEndsLayout layout{{}, feeder_->split_x, feeder_->axis_x, species_.d_max};
+  for (const VesselWall::Opening& end : locator_.wall().outlets())
+    layout.outlets.push_back({{end.centre.x(), end.centre.y(), locator_.z0() + end.centre.z()},
+                              {end.normal.x(), end.normal.y(), end.normal.z()}});
+  command(open_ends_command(layout));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the
   // source's interval impulse stays with the source, which goes on in the feeder).

@@ -27,6 +27,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -162,9 +163,11 @@ class LiggghtsSession {
   // (the wall's material the last).
   std::vector<std::string> contact_model(int n_types, bool streaming_neighbours) const;
   // Whether the wall is a triangle mesh (fix mesh/surface), and the commands that define it.
-  bool mesh_wall() const { return bookkeeping_.mesh_wall || !locator_.geometry().uniform(); }
+  bool mesh_wall() const {
+    return bookkeeping_.mesh_wall || !(locator_.axisymmetric() && locator_.axisymmetric()->uniform());
+  }
   std::vector<std::string> wall_commands(int wall_type) const;
-  void write_wall_surface() const;
+  void write_wall_surface(const std::vector<WallTriangle>& wall) const;
   void find_fixes(bool rotation, bool held_closures);
   void find_feeder_wall_history();
   LAMMPS_NS::Fix* find_fix(const char* id) const;
@@ -173,6 +176,8 @@ class LiggghtsSession {
 
   const Contact contact_;
   const CellLocator& locator_;
+  // The box the DEM's mesh wall lies in (set_up_box), which a surface vessel's box holds.
+  Vec3 wall_lower_ = Vec3::Constant(std::numeric_limits<double>::infinity()), wall_upper_ = -wall_lower_;
   const DemSpecies& species_;
   const std::string log_path_;
   const std::string wall_file_;  // the mesh wall's STL: next to the log (or in the temporary directory)

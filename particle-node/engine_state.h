@@ -26,7 +26,8 @@ struct EngineState {
   std::int64_t particles = 0;     // present
   std::int64_t created = 0;       // at the run's start
   std::int64_t tag_capacity = 0;  // tags in use lie in 1..tag_capacity
-  // An open vessel's counts per LIGGGHTS atom type (index 0 unused; empty for a periodic one).
+  // An open vessel's counts per LIGGGHTS atom type (index 0 unused; empty for a periodic one);
+  // left_outlet per outlet and type (OpenEndsCounts: one outlet, per type).
   std::vector<std::int64_t> inserted, left_outlet, left_inlet;
   std::vector<std::int64_t> type_of;     // LIGGGHTS atom type per species (0: none)
   std::int64_t dem_step = 0;             // LIGGGHTS's ntimestep

@@ -14,15 +14,29 @@ struct OpenEndsEvent {
   int tag = 0;         // the atom removed, or the copy's new tag
   int type = 0;        // LIGGGHTS atom type
   int source_tag = 0;  // an insertion's feeder atom (0 for a removal)
+  int outlet = 0;      // left_outlet: which outlet (from 0)
 };
 
 // Per LIGGGHTS atom type (index 0 unused), the same on every rank.
 struct OpenEndsCounts {
-  std::vector<std::int64_t> inserted, left_outlet, left_inlet;
+  std::vector<std::int64_t> inserted;
+  // Per outlet and type: outlet o's count of type t at o * types() + t (one outlet: per type).
+  std::vector<std::int64_t> left_outlet;
+  std::vector<std::int64_t> left_inlet;
+  std::size_t types() const { return inserted.size(); }
+  std::size_t outlets() const { return types() == 0 ? 0 : left_outlet.size() / types(); }
+  std::int64_t& left_through(std::size_t outlet, std::size_t type) { return left_outlet[outlet * types() + type]; }
+  std::int64_t left_through(std::size_t outlet, std::size_t type) const { return left_outlet[outlet * types() + type]; }
+  // Through every outlet.
+  std::int64_t left_outlets(std::size_t type) const {
+    std::int64_t n = 0;
+    for (std::size_t o = 0; o < outlets(); ++o) n += left_through(o, type);
+    return n;
+  }
   // Inserted - left, over all types.
   std::int64_t net() const {
     std::int64_t n = 0;
-    for (std::size_t t = 0; t < inserted.size(); ++t) n += inserted[t] - left_outlet[t] - left_inlet[t];
+    for (std::size_t t = 0; t < types(); ++t) n += inserted[t] - left_outlets(t) - left_inlet[t];
     return n;
   }
 };

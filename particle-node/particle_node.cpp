@@ -58,7 +58,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
     : scene_(scene),
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
-      locator_(mesh, make_vessel_geometry(scene.vessel),
+      locator_(mesh, make_vessel_wall(scene.vessel),
                fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene.vessel, scene.mesh.axial_cells))
                                            : std::nullopt),
       fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
@@ -99,7 +99,7 @@ void ParticleNode::log_particles() const {
 }
 
 void ParticleNode::start() {
-  const auto placed = place_scene_particles(scene_, locator_.geometry(), locator_.z0());
+  const auto placed = place_scene_particles(scene_, locator_.wall(), locator_.z0());
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);
@@ -350,6 +350,11 @@ Diagnostics ParticleNode::diagnostics() {
       out.emplace_back(name + "_inserted", static_cast<double>(c.inserted[sp]));
       out.emplace_back(name + "_left_outlet", static_cast<double>(c.left_outlet[sp]));
       out.emplace_back(name + "_left_inlet", static_cast<double>(c.left_inlet[sp]));
+      // Several outlets: each one's too, named as the fluid's outlet patches (outlet_1, ...).
+      if (c.left_each_outlet.size() > 1)
+        for (std::size_t o = 0; o < c.left_each_outlet.size(); ++o)
+          out.emplace_back(fmt::format("{}_left_outlet_{}", name, o + 1),
+                           static_cast<double>(c.left_each_outlet[o][sp]));
     }
   }
   // Before the first run: the particles at rest. None without drag (nothing bounds an interval).

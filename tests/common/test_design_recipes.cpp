@@ -197,6 +197,9 @@ std::map<std::string, bool> geometry_virtuals() {
   const std::regex member(R"(virtual [^(]*?(\w+)\(.*\)\s*const\s*(= 0)?)");
   const std::string body = h.substr(begin, end - begin);
   for (std::sregex_iterator m(body.begin(), body.end(), member), e; m != e; ++m) out[(*m)[1]] = (*m)[2].matched;
+  // And VesselWall's, which VesselGeometry answers from R(z) (a shape may override them too).
+  const std::regex answered(R"((\w+)\([^()]*\)\s*const\s*override)");
+  for (std::sregex_iterator m(body.begin(), body.end(), answered), e; m != e; ++m) out[(*m)[1]] = false;
   return out;
 }
 

@@ -10,13 +10,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
-#include <set>
-#include <tuple>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
+#include <tuple>
 
 #include "bifurcation.h"
 #include "geometry.h"
@@ -38,7 +38,8 @@ BifurcationSpec small() { return hemo::test::small_bifurcation(); }
 std::map<std::pair<int, int>, int> edge_counts(const Surface& s) {
   std::map<std::pair<int, int>, int> n;
   for (const auto& t : s.triangles)
-    for (int k = 0; k < 3; ++k) ++n[std::minmax(t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)])];
+    for (int k = 0; k < 3; ++k)
+      ++n[std::minmax(t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)])];
   return n;
 }
 
@@ -106,12 +107,11 @@ TEST(Bifurcation, CapsAreTheirTubesSections) {
       double diameter;
       Point centre, normal;
     };
-    const std::vector<End> ends = {
-        {"inlet", 30e-6, Point::Zero(), Point(0, 0, -1)},
-        {"outlet_1", r.daughter_diameter[0], junction + r.daughter_length * daughter_direction(r, 0),
-         daughter_direction(r, 0)},
-        {"outlet_2", r.daughter_diameter[1], junction + r.daughter_length * daughter_direction(r, 1),
-         daughter_direction(r, 1)}};
+    const std::vector<End> ends = {{"inlet", 30e-6, Point::Zero(), Point(0, 0, -1)},
+                                   {"outlet_1", r.daughter_diameter[0],
+                                    junction + r.daughter_length * daughter_direction(r, 0), daughter_direction(r, 0)},
+                                   {"outlet_2", r.daughter_diameter[1],
+                                    junction + r.daughter_length * daughter_direction(r, 1), daughter_direction(r, 1)}};
     for (const End& e : ends) {
       const int i = s.region_index(e.name);
       const double exact = kPi * e.diameter * e.diameter / 4;
@@ -253,7 +253,8 @@ TEST(Surface, StlReaderRefusesNanBinaryAndMalformedFilesNamingTheLine) {
       ".stl");
   const std::string m = what([&] { read_stl(nan); });
   EXPECT_NE(m.find(nan + ":5: vertex coordinate 'nan' is not a finite number"), std::string::npos) << m;
-  const std::string junk = hemo::test::write_temp("solid wall\nfacet normal 0 0 1\n outer loop\n  vertex 0 0\n", ".stl");
+  const std::string junk =
+      hemo::test::write_temp("solid wall\nfacet normal 0 0 1\n outer loop\n  vertex 0 0\n", ".stl");
   EXPECT_NE(what([&] { read_stl(junk); }).find(":4: a vertex needs three coordinates"), std::string::npos);
   const std::string binary = hemo::test::write_temp(std::string("solid x\0\0\0", 10), ".stl");
   EXPECT_NE(what([&] { read_stl(binary); }).find("not an ASCII STL"), std::string::npos);
@@ -373,13 +374,14 @@ TEST(SurfaceScene, ImportedSurfaceRenamesItsSolidsAndRefusesWhatItCannotUse) {
                         << more << "\n[driving]\nwall_shear_rate_per_s = 799\n";
     return path.string();
   };
-  const Scene ok = load_scene(scene("surface = \"shapes/y.stl\"\nsurface_inlet = \"in\"\nsurface_outlets = \"right left\""));
+  const Scene ok =
+      load_scene(scene("surface = \"shapes/y.stl\"\nsurface_inlet = \"in\"\nsurface_outlets = \"right left\""));
   EXPECT_EQ(ok.vessel.surface_path, (dir / "shapes" / "y.stl").string());
   const Surface t = make_vessel_surface(ok.vessel);
   EXPECT_EQ(t.region_names, (std::vector<std::string>{"wall", "inlet", "outlet_1", "outlet_2"}));
   EXPECT_NEAR(t.area(t.region_index("inlet")), s.area(1), 1e-20);
   EXPECT_NEAR(t.area(t.region_index("outlet_1")), s.area(3), 1e-20);  // "right", named first
-  EXPECT_LT(t.centroid(t.region_index("outlet_1")).x(), 0);  // "right" was daughter 2, at -x
+  EXPECT_LT(t.centroid(t.region_index("outlet_1")).x(), 0);           // "right" was daughter 2, at -x
   EXPECT_NEAR(t.area(0), s.area(0), 1e-20);
   auto refused = [&](const std::string& more, const std::string& part) {
     try {
@@ -404,4 +406,93 @@ TEST(SurfaceScene, ImportedSurfaceRenamesItsSolidsAndRefusesWhatItCannotUse) {
   refused("surface = \"shapes/open.stl\"\nsurface_inlet = \"in\"\nsurface_outlets = \"left right\"",
           "the surface is not closed");
   fs::remove_all(dir);
+}
+
+// The bifurcation's wall as the particle side asks it (BifurcationWall): each branch's section
+// (its radius, the distance from its axis, its centre-line speed from the network's split), the
+// signed distance zero on the wall and of the right sign either side, the DEM's wall facing into
+// the vessel with the wall region's area and no end caps.
+TEST(BifurcationWall, SectionsAreTheirBranchesWithTheNetworksSpeeds) {
+  BifurcationSpec spec = small();
+  spec.daughter_diameter[0] = 24e-6;
+  spec.daughter_diameter[1] = 18e-6;
+  const BifurcationWall wall(spec);
+  const BifurcationSpec r = resolved(spec);
+  const Point junction(0, 0, r.parent_length);
+  const double rp = r.parent_diameter / 2;
+  // The network's split, written out: conductances R^4 / L with equal daughter lengths.
+  const double c1 = std::pow(12e-6, 4), c2 = std::pow(9e-6, 4);
+  const double q[2] = {c1 / (c1 + c2), c2 / (c1 + c2)};
+  EXPECT_NEAR(network_flow_fraction(spec, 0), q[0], 1e-15);
+  EXPECT_NEAR(network_flow_fraction(spec, 0) + network_flow_fraction(spec, 1), 1.0, 1e-15);
+
+  const VesselWall::Section parent = wall.section_at(Point(3e-6, 4e-6, r.parent_length / 2));
+  EXPECT_EQ(wall.branch_at(Point(3e-6, 4e-6, r.parent_length / 2)), 0);
+  EXPECT_DOUBLE_EQ(parent.radius, rp);
+  EXPECT_NEAR(parent.off_axis, 5e-6, 1e-18);
+  EXPECT_DOUBLE_EQ(parent.centreline_speed(1.0), 1.0);
+  for (int i = 0; i < 2; ++i) {
+    const Point d = daughter_direction(r, i);
+    const Point side = d.cross(Point::UnitY()).normalized();
+    const Point x = junction + 0.7 * r.daughter_length * d + 2e-6 * side;
+    EXPECT_EQ(wall.branch_at(x), i + 1);
+    const VesselWall::Section s = wall.section_at(x);
+    const double ri = r.daughter_diameter[i] / 2;
+    EXPECT_DOUBLE_EQ(s.radius, ri);
+    EXPECT_NEAR(s.off_axis, 2e-6, 1e-15);
+    // Poiseuille in each branch: u_c = 2 Q / (pi R^2), so u_i / u_p = (Q_i / Q_p) (R_p / R_i)^2.
+    EXPECT_NEAR(s.centreline_speed(1.0), q[i] * (rp / ri) * (rp / ri), 1e-12);
+    // On the wall, inside and outside.
+    EXPECT_NEAR(wall.signed_distance(junction + 0.7 * r.daughter_length * d + ri * side), 0, 1e-12);
+    EXPECT_LT(wall.signed_distance(x), 0);
+    EXPECT_GT(wall.signed_distance(junction + 0.7 * r.daughter_length * d + 1.1 * ri * side), 0);
+  }
+  EXPECT_LT((wall.outward_normal(Point(rp * 0.9, 0, r.parent_length / 3)) - Point::UnitX()).norm(), 1e-6);
+}
+
+TEST(BifurcationWall, DemWallIsTheWallRegionFacingIn) {
+  const BifurcationSpec spec = small();
+  const BifurcationWall wall(spec);
+  const Surface s = make_bifurcation(spec);
+  const std::vector<WallTriangle> dem = wall.dem_wall();
+  const BifurcationSpec r = resolved(spec);
+  const Point junction(0, 0, r.parent_length);
+  double area = 0;
+  int smooth = 0, facing_in = 0;
+  for (const WallTriangle& t : dem) {
+    const Point n = (t.vertex[1] - t.vertex[0]).cross(t.vertex[2] - t.vertex[0]);
+    area += n.norm() / 2;
+    // The wall's normal is defined away from the junction's creases and the ends' rims.
+    const Point centroid = (t.vertex[0] + t.vertex[1] + t.vertex[2]) / 3;
+    double from_ends = centroid.z();
+    for (int i = 0; i < 2; ++i) {
+      const Point d = daughter_direction(r, i);
+      from_ends = std::min(from_ends, (junction + r.daughter_length * d - centroid).dot(d));
+    }
+    if ((centroid - junction).norm() > r.parent_diameter && from_ends > r.step) {
+      ++smooth;
+      facing_in += n.dot(wall.outward_normal(centroid)) < 0;
+    }
+    for (const Point& v : t.vertex) EXPECT_LT(std::abs(wall.signed_distance(v)), 1e-9) << v.transpose();
+  }
+  EXPECT_GT(smooth, static_cast<int>(dem.size()) / 2);
+  EXPECT_EQ(facing_in, smooth);
+  EXPECT_NEAR(area, s.area(s.region_index(surface_region::wall)), 1e-9 * area);
+  EXPECT_LT(area, s.area());  // the inlet and outlet caps are open
+}
+
+TEST(BifurcationWall, OnlyAShapeWhoseBranchesAreKnownCarriesCells) {
+  EXPECT_TRUE(vessel_shape("bifurcation").carries_cells());
+  EXPECT_TRUE(vessel_shape("straight").carries_cells());
+  EXPECT_FALSE(vessel_shape("imported").carries_cells());
+  Vessel v;
+  v.shape = "imported";
+  EXPECT_EQ(what([&] { (void)make_vessel_wall(v); }),
+            "vessel.shape \"imported\" carries plasma alone: the particle node does not know its branches");
+  v.shape = "bifurcation";
+  v.diameter = 30e-6;
+  v.length = 60e-6;
+  EXPECT_FALSE(make_vessel_wall(v)->axisymmetric());
+  v.shape = "straight";
+  EXPECT_TRUE(make_vessel_wall(v)->axisymmetric());
 }

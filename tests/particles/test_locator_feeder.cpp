@@ -155,7 +155,7 @@ TEST(FeederLocator, TheVesselFrame) {
   const CellLocator locator(mesh.message, hemo::make_vessel_geometry(vessel), layout);
   const Vec3 fed(layout.axis_x + 7e-6, -3e-6, 123e-6);
   EXPECT_EQ(locator.in_vessel_frame(fed), Vec3(fed.x() - layout.axis_x, -3e-6, 0));
-  EXPECT_EQ(locator.wall_radius(fed), layout.radius);
+  EXPECT_EQ(locator.section(fed).radius, layout.radius);
   const Vec3 in_vessel(7e-6, -3e-6, 123e-6);
   EXPECT_EQ(locator.in_vessel_frame(in_vessel), in_vessel);
   const hemo::Vessel periodic{100e-6, 300e-6};

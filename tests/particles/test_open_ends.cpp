@@ -88,13 +88,14 @@ class OpenEndsBox {
     command(fmt::format("create_atoms {} single {:.17g} {:.17g} {:.17g} units box", type, x, y, z));
   }
   // Sizes, the common velocity, each atom's own value (its tag), LIGGGHTS's set-up and the fix.
-  void start(double buffer = 0) {
+  // The outlets: the plane z = kOutlet unless told.
+  void start(double buffer = 0, std::vector<OpenEndsLayout::Outlet> outlets = {{{0, 0, kOutlet}, {0, 0, 1}}}) {
     command(fmt::format("set group all diameter {} density 1100", kDiameter));
     command(fmt::format("velocity all set 0 0 {} units box", kSpeed));
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
     for (int i = 0; i < lmp_->atom->nlocal; ++i) values->array_atom[i][0] = lmp_->atom->tag[i];
     command("run 0 pre yes post no");  // LIGGGHTS makes its contact history fix (before ours)
-    command(open_ends_command({kOutlet, 1.5 * kRadius, kShift, buffer}));
+    command(open_ends_command({std::move(outlets), 1.5 * kRadius, kShift, buffer}));
     open_ = static_cast<FixOpenEnds*>(fix(kOpenEndsFix));
     open_->copy_values_of({values});
     open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
@@ -219,6 +220,44 @@ TEST(OpenEnds, CellsLeaveAtTheOutletAndEnterAsTheFeedersCopiesAndEveryStepCounts
   int seen = static_cast<int>(box.before_insertion_.size());
   MPI_Allreduce(MPI_IN_PLACE, &seen, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(seen, 3);  // each source on exactly one rank
+}
+
+// Two outlets, as a bifurcation's daughters have: planes through one point on the axis, their
+// normals 30 degrees either side of it in the x-z plane. A cell 10 um off the axis towards +x is
+// past the first plane from z = 80 - 10 tan 30 = 74.23 um, the second only from 85.77 um, and
+// leaves through the first; one towards -x through the second. Each leaver is counted at its own
+// outlet, and the counts balance at every step.
+TEST(OpenEnds, EachOutletCountsTheCellsThatLeaveThroughIt) {
+  OpenEndsBox box;
+  const double s = std::sin(30 * M_PI / 180), c = std::cos(30 * M_PI / 180);
+  std::map<int, int> side;  // tag: +1 or -1 (its x)
+  int tag = 0;
+  for (int k = 0; k < 5; ++k)
+    for (const int sign : {+1, -1}) {
+      box.create(1, sign * 0.5 * kRadius, 0, 76e-6 - 8e-6 * k - (sign > 0 ? 0 : 4e-6));
+      side[++tag] = sign;
+    }
+  box.start(0, {{{0, 0, kOutlet}, {s, 0, c}}, {{0, 0, kOutlet}, {-s, 0, c}}});
+  const long created = tag;
+  for (int step = 0; step < 300; ++step) {
+    box.step(step == 0);
+    const auto& counts = box.open().counts();
+    ASSERT_EQ(counts.outlets(), 2u);
+    ASSERT_EQ(box.natoms(), created - counts.left_outlets(1)) << "step " << step;
+  }
+  const auto& counts = box.open().counts();
+  std::array<int, 2> by_side{};
+  for (const auto& e : box.events) {
+    ASSERT_EQ(e.kind, OpenEndsEvent::Kind::left_outlet);
+    EXPECT_EQ(e.outlet, side.at(e.tag) > 0 ? 0 : 1) << "tag " << e.tag;
+    ++by_side[side.at(e.tag) > 0 ? 0 : 1];
+  }
+  // 15 um in 300 steps: on the +x side the cells from 76, 68 and 60 um pass 74.23 um (the first
+  // at the set-up), on the -x side those from 72 and 64 um.
+  EXPECT_EQ(counts.left_through(0, 1), 3);
+  EXPECT_EQ(counts.left_through(1, 1), 2);
+  EXPECT_EQ(by_side[0], 3);
+  EXPECT_EQ(by_side[1], 2);
 }
 
 // A cell at rest just inside the inlet, where a copy enters overlapping it by a fifth of a

@@ -65,7 +65,7 @@ TEST(ShapeLocator, WallGapFollowsTheLocalRadius) {
       EXPECT_LT(std::abs(locator.centre(cell).z() - z), 600e-6 / 48) << z;
     }
     EXPECT_EQ(locator.locate_in_wall_gap(out), -1) << z;
-    EXPECT_EQ(locator.wall_radius(z), R);
+    EXPECT_EQ(locator.section(Vec3(0, 0, z)).radius, R);
   }
   EXPECT_EQ(found, 4);
   const CellLocator fixed(message);  // the mesh's diameter alone: the straight tube's R0
@@ -125,7 +125,7 @@ TEST(ShapePlacement, TheCheckPlacesTheStenosisSceneAsTheNode) {
   const hemo::Scene scene = hemo::load_scene(std::string(HEMO_SCENES_DIR) + "/stenosis.toml");
   const CellLocator locator(mesh_message(scene.vessel, scene.mesh), hemo::make_vessel_geometry(scene.vessel));
   const auto requests = placement_requests(scene);
-  const auto by_node = place_particles(locator.geometry(), locator.z0(), requests, scene.run.seed);
+  const auto by_node = place_particles(*locator.axisymmetric(), locator.z0(), requests, scene.run.seed);
   const auto by_check = place_particles(*hemo::make_vessel_geometry(scene.vessel), 0.0, requests, scene.run.seed);
   ASSERT_EQ(static_cast<long>(by_node.size()), rbc_count(scene) + platelet_count(scene));
   ASSERT_EQ(by_node.size(), by_check.size());
