@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
 
+#include "geometry.h"
 #include "momentum_balance.h"
 #include "observable_table.h"
+#include "surface.h"
 #include "vessel_ends.h"
 
 #include <fmt/format.h>
@@ -81,8 +83,8 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
   }
   a.discharge_hematocrit = discharge_hematocrit(a.rbc_volume_flux, a.total_volume_flux);
   const bool open = open_ends(run.scene.vessel);
-  a.balance = momentum_balance(tau, metric_series(run.metrics, "inlet_pressure_Pa"), run.scene, a.window_start,
-                               a.window_end);
+  a.balance =
+      momentum_balance(tau, metric_series(run.metrics, "inlet_pressure_Pa"), run.scene, a.window_start, a.window_end);
   if (open) a.balance_against = "the inlet's d p_in / (4 l)";
   // The paper's 8 U / d is built from the realised mean velocity of the blood, plasma and cells,
   // against the wall shear rate of the drop (imposed, or an open vessel's realised one).
@@ -115,14 +117,49 @@ std::vector<EndFlux> end_fluxes(const Analysis& a, const RunData& run) {
     const auto series = metric_series(run.metrics, name);
     return time_mean(series.time_s, series.value, a.window_start, a.window_end);
   };
-  EndFlux in{"inlet", plasma("inlet_plasma_flux_m3_s"), rate("rbc_inserted") - rate("rbc_left_inlet"),
-             rate("platelet_inserted") - rate("platelet_left_inlet")};
-  EndFlux out{"outlet", plasma("outlet_plasma_flux_m3_s"), rate("rbc_left_outlet"), rate("platelet_left_outlet")};
-  for (EndFlux* e : {&in, &out}) {
-    e->rbc_volume_flux = e->rbc_rate * a.rbc_volume;
-    e->platelet_volume_flux = e->platelet_rate * a.platelet_volume;
+  std::vector<EndFlux> ends = {{"inlet", plasma("inlet_plasma_flux_m3_s"),
+                                rate("rbc_inserted") - rate("rbc_left_inlet"),
+                                rate("platelet_inserted") - rate("platelet_left_inlet")}};
+  // A surface vessel's outlets are outlet_1, outlet_2, ... in both nodes' metrics.
+  if (surface_vessel(run.scene.vessel)) {
+    const Surface surface = make_vessel_surface(run.scene.vessel);
+    for (int n = 1; surface.region_index(surface_region::outlet(n)) >= 0; ++n) {
+      const std::string name = surface_region::outlet(n), number = std::to_string(n);
+      ends.push_back({name, plasma(name + "_plasma_flux_m3_s"), rate("rbc_left_outlet_" + number),
+                      rate("platelet_left_outlet_" + number)});
+    }
+    // One outlet's counts are the whole's (the particle node names each only when there are several).
+    if (ends.size() == 2) {
+      ends[1].rbc_rate = rate("rbc_left_outlet");
+      ends[1].platelet_rate = rate("platelet_left_outlet");
+    }
+  } else {
+    ends.push_back(
+        {"outlet", plasma("outlet_plasma_flux_m3_s"), rate("rbc_left_outlet"), rate("platelet_left_outlet")});
   }
-  return {in, out};
+  for (EndFlux& e : ends) {
+    e.rbc_volume_flux = e.rbc_rate * a.rbc_volume;
+    e.platelet_volume_flux = e.platelet_rate * a.platelet_volume;
+  }
+  return ends;
+}
+
+// A surface vessel's run: what went through each end over the window and each outlet's shares.
+// Its vessel is no tube: no radial profiles, layer, MSD or wall-shear balance.
+Analysis analyze_branches(const RunData& run, const AnalyzeOptions& opt) {
+  Analysis a;
+  a.run_dir = run.dir;
+  a.surface = true;
+  a.shape = run.scene.vessel.shape;
+  a.tube = {run.scene.vessel.radius(), run.scene.vessel.length};
+  a.rbc_diameter = run.scene.rbc.diameter;
+  a.rbc_volume = run.scene.rbc.volume;
+  a.platelet_volume = run.scene.platelet.volume;
+  choose_window(a, run, opt.window_start, opt.window_end);
+  a.ends = end_fluxes(a, run);
+  a.branches = branch_shares({a.ends.begin() + 1, a.ends.end()});
+  a.notes.push_back("a surface vessel: the ends' fluxes and each outlet's shares only (no radial observables)");
+  return a;
 }
 
 }  // namespace
@@ -153,6 +190,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   const int bins = opt.bins;
   const double t_fit = opt.t_fit;
   if (run.snapshots.empty()) throw RunDataError(run.particles_path + ": no snapshots");
+  if (surface_vessel(run.scene.vessel)) return analyze_branches(run, opt);
   if (bins < 1) throw RunDataError(fmt::format("bins must be at least 1 (got {})", bins));
   if (!(t_fit > 0)) throw RunDataError(fmt::format("t_fit must be positive (got {})", t_fit));
   Analysis a;
@@ -305,10 +343,11 @@ std::string format_table(const Analysis& a) {
     t += fmt::format("  {:<18}{}\n", label, text);
   };
   t += fmt::format("{}: analysis\n", a.run_dir);
-  line("vessel", fmt::format("d = {} µm, l = {} µm", fixed(2 * a.tube.radius, 1, kUm), fixed(a.tube.length, 1, kUm)));
+  line("vessel", fmt::format("{}d = {} µm, l = {} µm", a.surface ? a.shape + ", inlet " : "",
+                             fixed(2 * a.tube.radius, 1, kUm), fixed(a.tube.length, 1, kUm)));
   line("window", fmt::format("t = {:.4g} .. {:.4g} s, {} snapshots{}", a.window_start, a.window_end, a.window_snapshots,
                              a.window_is_default ? " (default: second half of the run)" : ""));
-  for (const auto& o : observable_table()) {
+  for (const auto& o : a.surface ? std::vector<Observable>{} : observable_table()) {
     std::string text = o.format(a);
     if (!o.shown.unit.empty()) text += fmt::format(" {}", o.shown.unit);
     if (o.detail) text = fmt::format("{:<14} [{}]", text, o.detail(a));
@@ -334,6 +373,13 @@ std::string format_table(const Analysis& a) {
       t += fmt::format("    {:<8} {:>12} {:>10} {:>12} {:>12} {:>6}\n", e.end, fixed(e.plasma_flux, 3, 1e-12),
                        fixed(e.rbc_rate, 0), fixed(e.platelet_rate, 0), fixed(e.blood_flux(), 3, 1e-12),
                        fixed(e.discharge_hematocrit(), 3));
+  }
+  if (!a.branches.empty()) {
+    t += "  each outlet's share of what leaves (phase separation: RBC against blood):\n";
+    t += fmt::format("    {:<10} {:>7} {:>7} {:>7} {:>9}\n", "", "blood", "plasma", "RBC", "platelet");
+    for (const BranchShare& b : a.branches)
+      t += fmt::format("    {:<10} {:>7} {:>7} {:>7} {:>9}\n", b.outlet, fixed(b.blood, 3), fixed(b.plasma, 3),
+                       fixed(b.rbc, 3), fixed(b.platelet, 3));
   }
   for (const auto& n : a.notes) line("note", n);
   return t;
@@ -366,10 +412,19 @@ std::string format_json(const Analysis& a) {
         {"plasma_flux_m3_s", number(e.plasma_flux)},  {"rbc_per_s", number(e.rbc_rate)},
         {"platelets_per_s", number(e.platelet_rate)}, {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
         {"blood_flux_m3_s", number(e.blood_flux())},  {"discharge_hematocrit", number(e.discharge_hematocrit())}};
+  for (const BranchShare& b : a.branches)
+    j["branches"][b.outlet] = {{"blood_fraction", number(b.blood)},
+                               {"plasma_fraction", number(b.plasma)},
+                               {"rbc_fraction", number(b.rbc)},
+                               {"platelet_fraction", number(b.platelet)}};
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},
                  {"default_second_half", a.window_is_default}};
+  if (a.surface) {  // no tube: nothing radial to report
+    j["notes"] = a.notes;
+    return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
+  }
   j["cfl"]["edge"] = {{"method", "edge"},
                       {"edge_mean_m", number(a.cfl_edge.edge_mean)},
                       {"edge_std_m", number(a.cfl_edge.edge_std)},

@@ -80,6 +80,9 @@ struct Analysis {
   std::string shape;          // vessel.shape
   AxialObservables axial;     // per axial station over the window; empty for a straight tube
   std::vector<EndFlux> ends;  // an open vessel's inlet and outlet over the window; empty when periodic
+  // A surface vessel's (a bifurcation's): each outlet's shares; its run has no radial observables.
+  bool surface = false;
+  std::vector<BranchShare> branches;
 
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
 };

@@ -359,6 +359,22 @@ double EndFlux::discharge_hematocrit() const {
   return hemo::analysis::discharge_hematocrit(rbc_volume_flux, blood_flux());
 }
 
+std::vector<BranchShare> branch_shares(const std::vector<EndFlux>& outlets) {
+  double blood = 0, plasma = 0, rbc = 0, platelet = 0;
+  for (const EndFlux& e : outlets) {
+    blood += e.blood_flux();
+    plasma += e.plasma_flux;
+    rbc += e.rbc_rate;
+    platelet += e.platelet_rate;
+  }
+  auto share = [](double part, double whole) { return whole > 0 ? part / whole : kNaN; };
+  std::vector<BranchShare> out;
+  for (const EndFlux& e : outlets)
+    out.push_back({e.end, share(e.blood_flux(), blood), share(e.plasma_flux, plasma), share(e.rbc_rate, rbc),
+                   share(e.platelet_rate, platelet)});
+  return out;
+}
+
 double window_rate(const std::vector<double>& t, const std::vector<double>& count, double t_start, double t_end) {
   if (!(t_end > t_start)) return kNaN;
   auto at = [&](double when) {

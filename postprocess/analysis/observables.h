@@ -264,6 +264,16 @@ struct EndFlux {
   double discharge_hematocrit() const;
 };
 
+// An outlet's shares of what leaves through all the outlets over the window: of the blood, the
+// plasma, the red cells and the platelets. A bifurcation's phase-separation curve plots the red
+// cells' share against the blood's (Pries et al. 1989, Am. J. Physiol. 256:H1079): a branch
+// that takes a share of the cells below its share of the blood is skimmed (plasma skimming).
+struct BranchShare {
+  std::string outlet;
+  double blood = 0, plasma = 0, rbc = 0, platelet = 0;  // fractions of the outlets' sums
+};
+std::vector<BranchShare> branch_shares(const std::vector<EndFlux>& outlets);
+
 // The increase of a cumulative count over [t_start, t_end], per second, from its values at the
 // last samples at or before each time; NaN when no sample lies at or before t_start or the window
 // is empty.

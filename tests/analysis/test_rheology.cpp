@@ -142,3 +142,27 @@ TEST(OpenEnds, CellsPerSecondAreTheCountsIncreaseOverTheWindow) {
   EXPECT_DOUBLE_EQ(e.blood_flux(), 4e-11 + 9e-12 + 1.2e-13);
   EXPECT_DOUBLE_EQ(e.discharge_hematocrit(), 9e-12 / (4e-11 + 9e-12 + 1.2e-13));
 }
+
+// A bifurcation's outlets: each one's share of the blood, the plasma, the red cells and the
+// platelets that leave through them all (the phase-separation curve's points). A branch that takes
+// 40 % of the blood but 30 % of the red cells is skimmed; the shares add to one.
+TEST(OpenEnds, EachOutletsSharesAreOfWhatLeavesThroughThemAll) {
+  const double v_rbc = 90e-18, v_plt = 6e-18;
+  EndFlux skimmed{"outlet_1", 0, 3e4, 1e4, 3e4 * v_rbc, 1e4 * v_plt};
+  EndFlux other{"outlet_2", 0, 7e4, 3e4, 7e4 * v_rbc, 3e4 * v_plt};
+  // Plasma such that the blood splits 40 / 60.
+  const double blood = 1e-10;
+  skimmed.plasma_flux = 0.4 * blood - skimmed.rbc_volume_flux - skimmed.platelet_volume_flux;
+  other.plasma_flux = 0.6 * blood - other.rbc_volume_flux - other.platelet_volume_flux;
+  const auto shares = branch_shares({skimmed, other});
+  ASSERT_EQ(shares.size(), 2u);
+  EXPECT_EQ(shares[0].outlet, "outlet_1");
+  EXPECT_NEAR(shares[0].blood, 0.4, 1e-12);
+  EXPECT_NEAR(shares[1].blood, 0.6, 1e-12);
+  EXPECT_NEAR(shares[0].rbc, 0.3, 1e-12);
+  EXPECT_NEAR(shares[0].platelet, 0.25, 1e-12);
+  EXPECT_NEAR(shares[0].plasma + shares[1].plasma, 1.0, 1e-12);
+  EXPECT_NEAR(shares[0].plasma, skimmed.plasma_flux / (skimmed.plasma_flux + other.plasma_flux), 1e-12);
+  // Nothing left yet: no share.
+  EXPECT_TRUE(std::isnan(branch_shares({EndFlux{"outlet_1"}, EndFlux{"outlet_2"}})[0].rbc));
+}
