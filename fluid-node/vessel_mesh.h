@@ -9,6 +9,7 @@
 #pragma once
 
 #include <scene.h>
+#include <vessel_ends.h>
 
 #include <array>
 #include <cstdint>
@@ -89,6 +90,19 @@ inline constexpr const char* feeder_zone = "feeder";
 // Generates the O-grid vessel mesh: the vessel's cells first (the same mesh, to the bit, whatever
 // its ends), then the feeder's when it has one. Throws std::invalid_argument on impossible input.
 PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape = {});
+
+// Appends the feeder of `layout` (model/vessel_ends.h) to a vessel's mesh whose inlet patch lies
+// in the plane z = layout.inlet_z: the O-grid of `spec` and `shape` of the feeder's radius,
+// layout.layers layers over its period, moved so that its axis runs parallel to z through
+// (axis_x, inlet_y) from z = inlet_z, as a disconnected region after the vessel's (its cells the
+// zone `feeder_zone`, its patches feeder_wall and the cyclic pair feeder_inlet / feeder_outlet).
+// The inlet becomes a mapped patch sampling, face by face, the feeder's last-layer cell that
+// holds the face centre moved to the same offset from the feeder's axis: the feeder's flow is the
+// same in every layer (periodic, uniform along z), so its end section is any one of them. The
+// faces need not match the feeder's cells (a surface vessel's snapped inlet): OpenFOAM's
+// nearestCell sampling takes the cell holding each point, or the nearest one for a point beyond
+// the feeder's wall polygon. Throws std::invalid_argument without an inlet patch.
+void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& spec, const OGridShape& shape = {});
 
 MeshGeometry compute_geometry(const PolyMesh& mesh);
 

@@ -191,8 +191,7 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
 
 std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselGeometry& vessel, double z0) {
   if (fed_by_feeder(scene.vessel))
-    return place_open_vessel_particles(scene, vessel, feeder_layout(scene.vessel, scene.mesh.axial_cells), z0,
-                                       scene.run.seed);
+    return place_open_vessel_particles(scene, vessel, feeder_layout(scene), z0, scene.run.seed);
   return place_particles(vessel, z0, placement_requests(scene), scene.run.seed);
 }
 

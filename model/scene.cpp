@@ -383,7 +383,8 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
 // A vessel given as a closed surface (vessel.shape "bifurcation", "imported"; docs/design.md,
 // "Surface vessels"): its surface must be one (built here, as the fluid node will build it), and
-// for now it carries plasma alone through open ends, from a fixed inlet profile, on one rank.
+// for now it carries plasma alone through open ends, on one rank; a feeder needs its inlet to face
+// -z (feeder_layout says why not in one line).
 static void check_surface_vessel(Reader& r, const Scene& s) {
   const auto names = vessel_shape_names();
   if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return;  // refused as read
@@ -396,9 +397,6 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
   if (known_ends(s.vessel)) {
     r.refuse_once(open_ends(s.vessel), "vessel.ends",
                   "a surface vessel has open ends (an inlet and outlets): set vessel.ends = \"open\"");
-    r.refuse_once(!open_ends(s.vessel) || !fed_by_feeder(s.vessel), "vessel.inlet",
-                  "a surface vessel's inlet takes a fixed profile (vessel.inlet = \"poiseuille\" or \"uniform\"): "
-                  "the feeder is an axisymmetric tube's");
   }
   r.refuse_once(s.run.fluid_ranks == 1, "run.fluid_ranks",
                 "a surface vessel's fluid runs on one rank for now (the decomposition splits the O-grid's layers)");
@@ -413,14 +411,25 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
     (void)make_vessel_surface(s.vessel);
   } catch (const std::exception& e) {
     r.refuse_once(false, key, e.what());
+    return;
   }
+  if (!fed_by_feeder(s.vessel)) return;
+  try {
+    (void)feeder_layout(s);
+  } catch (const std::exception& e) {
+    r.refuse_once(false, "vessel.inlet", e.what());
+  }
+}
+
+double surface_cell_size(const Scene& s) {
+  return s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : s.vessel.diameter / 12;
 }
 
 WorkEstimate estimate_work(const Scene& s) {
   WorkEstimate w;
   double volume = vessel_volume(s.vessel);
   if (known_ends(s.vessel) && fed_by_feeder(s.vessel)) {  // the feeder carries the scene's blood too
-    const FeederLayout feeder = feeder_layout(s.vessel, s.mesh.axial_cells);
+    const FeederLayout feeder = feeder_layout(s);
     volume += units::pi * feeder.radius * feeder.radius * feeder.period;
   }
   w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
@@ -539,7 +548,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
 // seed; a safe bound would refuse scenes that run, a loose one pass scenes that stop at step 0.
 void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
-  if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
+  if (!placement_checked(s)) return;     // too many to place here: the particle node will tell
   if (surface_vessel(s.vessel)) return;  // no particles (check_surface_vessel)
   try {
     pl::place_scene_particles(s, *make_vessel_geometry(s.vessel), 0.0);
