@@ -269,6 +269,7 @@ PolyMesh read_polymesh(const std::string& case_dir) {
         if (key == "type" && value.size() == 1) p.type = value[0];
         if (key == "nFaces" && value.size() == 1) p.size = std::stoi(value[0]);
         if (key == "startFace" && value.size() == 1) p.start = std::stoi(value[0]);
+        if (key == "samplePatch" && value.size() == 1) p.sample_patch = value[0];
         if (key == "offset" && value.size() == 5 && value[0] == "(" && value[4] == ")")
           for (std::size_t c = 0; c < 3; ++c) p.sample_offset[c] = std::stod(value[c + 1]);
       }
@@ -388,7 +389,8 @@ PolyMesh surface_vessel_mesh(const Scene& scene, const std::string& case_dir, bo
   spec.cell_size = surface_cell_size(scene);
   spec.location_in_mesh = point_inside_from_inlet(surface);
   PolyMesh vessel = mesh_surface(surface, spec, case_dir);
-  if (fed_by_feeder(scene.vessel)) append_feeder(vessel, feeder_layout(scene), scene.mesh);
+  if (fed_by_feeder(scene.vessel))
+    append_feeder(vessel, feeder_layout(scene), scene.mesh, {}, FeederSampling::overlap_of_faces);
   return vessel;
 }
 

@@ -375,7 +375,8 @@ void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape&
 
 }  // namespace
 
-void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& spec, const OGridShape& shape) {
+void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& spec, const OGridShape& shape,
+                   FeederSampling sampling) {
   if (!(layout.radius > 0) || !(layout.period > 0) || layout.layers < 1)
     throw std::invalid_argument("the feeder needs a positive radius and length and at least one layer");
   const auto inlet = std::find_if(mesh.patches.begin(), mesh.patches.end(),
@@ -392,7 +393,12 @@ void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& s
   for (PatchInfo& p : mesh.patches)
     if (p.name == patch_name::inlet) {
       p.type = "mappedPatch";
-      p.sample_offset = {layout.axis_x - layout.inlet_x, 0, feeder.length * (1 - 0.5 / layout.layers)};
+      if (sampling == FeederSampling::cell_above_face) {
+        p.sample_offset = {layout.axis_x - layout.inlet_x, 0, feeder.length * (1 - 0.5 / layout.layers)};
+      } else {
+        p.sample_patch = patch_name::feeder_inlet;
+        p.sample_offset = {layout.inlet_x - layout.axis_x, 0, 0};
+      }
     }
 }
 
@@ -493,6 +499,7 @@ std::string mesh_hash(const PolyMesh& mesh) {
     h.value(static_cast<std::int32_t>(p.start));
     h.value(static_cast<std::int32_t>(p.size));
     if (p.type == "mappedPatch") h.bytes(p.sample_offset.data(), sizeof(double) * 3);
+    if (!p.sample_patch.empty()) h.text(p.sample_patch);  // (none in an O-grid: its hash as it was)
   }
   // (Only a mesh with zones hashes them: a periodic vessel's hash is what it always was.)
   for (const auto& z : mesh.cell_zones) {
@@ -550,7 +557,16 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
       if (p.type == "cyclic") s += "        inGroups        1(cyclic);\n";
       s += "        nFaces          " + std::to_string(p.size) + ";\n";
       s += "        startFace       " + std::to_string(p.start) + ";\n";
-      if (p.type == "mappedPatch") {
+      if (p.type == "mappedPatch" && !p.sample_patch.empty()) {
+        // The sample patch's faces face the way the inlet's do (both out of their regions along
+        // -z): AMI wants them facing each other, hence flipNormals.
+        s += "        sampleMode      nearestPatchFaceAMI;\n";
+        s += "        samplePatch     " + p.sample_patch + ";\n";
+        s += "        flipNormals     true;\n";
+        s += "        offsetMode      uniform;\n";
+        s += "        offset          (" + fmt_double(p.sample_offset[0]) + " " + fmt_double(p.sample_offset[1]) + " " +
+             fmt_double(p.sample_offset[2]) + ");\n";
+      } else if (p.type == "mappedPatch") {
         // nearestCell: the value of the cell holding face centre + offset (no interpolation).
         s += "        sampleMode      nearestCell;\n";
         s += "        offsetMode      uniform;\n";

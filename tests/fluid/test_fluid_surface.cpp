@@ -115,19 +115,19 @@ TEST(FluidSurfaceVessel, SymmetricBifurcationSplitsTheFlowInHalves) {
 // The same symmetric bifurcation fed by a feeder (vessel.inlet = "feeder", a surface vessel's
 // default as an open O-grid's): a straight periodic tube of the inlet's equivalent radius beside
 // it, the scene's 4/3 O-grid section in 60 layers of 2.5 um, driven from rest by the scene's G
-// alone, its last layer's section mapped onto the snapped inlet (nearestCell: the inlet's cubes
-// do not match the O-grid's cells). Three fluxes: the feeder's own (its cells' u_z V over its
-// period: exact for a flow uniform along z), the periodic tube's at the scene's drop (the same
-// O-grid section of the same radius, 2 layers, driven by the same dP over the same length: the
-// same G) and the inlet's. The feeder carries the tube's flow to the solver's tolerance, as the
-// straight vessel's does (1e-6). The inlet's flux is the feeder's section sampled at its 108 face
-// centres: each face takes the value of the feeder's cell holding its point, so the flux weighs
-// the 64 cells' values by the inlet's faces' areas instead of the cells' own. That is the
-// feeder's section's resolution, not the inlet's: measured Q_in / Q_feeder - 1 = -9.0e-3 here,
-// -7.4e-3 with cubes of 1.25 um (430 inlet faces, the same feeder section) and +6.0e-3 with the
-// feeder's section at 8/6 (256 cells, cubes of 2.5 um), when we ran them; 2 % is the tolerance.
-// The vessel then carries what it takes in (1e-6) and splits it in halves as the fixed inlet's
-// does (1 %, the mesh's asymmetry: see above).
+// alone, its end faces mapped onto the snapped inlet by their overlaps (OpenFOAM's AMI: the
+// inlet's cubes do not match the O-grid's cells). Three fluxes: the feeder's own (its cells' u_z V
+// over its period: exact for a flow uniform along z), the periodic tube's at the scene's drop (the
+// same O-grid section of the same radius, 2 layers, driven by the same dP over the same length:
+// the same G) and the inlet's. The feeder carries the tube's flow to the solver's tolerance, as
+// the straight vessel's does (1e-6). The inlet takes the feeder's flux through its footprint, the
+// circle of the feeder's radius: not what the feeder's wall polygon, circumscribed, holds beyond
+// it, 1.3 % of its area in its 16 corners, where the wall cells' velocity is about a quarter of the
+// mean (their centres at ~0.93 R); that bounds the shortfall by ~3.5e-3, the tolerance 5e-3.
+// Measured -2.7e-3, and -2.0e-4 with the feeder's section at 8/6 (32 sides, thinner wall cells)
+// when we ran it; sampling one cell per inlet face (nearestCell) instead gave -9.0e-3 and
+// +6.0e-3. The vessel then carries what it takes in (1e-6) and splits it in halves as the fixed
+// inlet's does (1 %, the mesh's asymmetry: see above).
 TEST(FluidSurfaceVessel, FedSymmetricBifurcationCarriesTheFeedersFlow) {
   const SceneSpec spec = bifurcation_spec("bifurcation-fed", "", "feeder");
   const auto r = run_scene(spec);
@@ -170,7 +170,7 @@ TEST(FluidSurfaceVessel, FedSymmetricBifurcationCarriesTheFeedersFlow) {
       r.command.seconds, f.radius * 1e6, f.layers, f.period * 1e6, q_feeder / q_per - 1, q_in / q_feeder - 1,
       (q1 + q2) / q_in - 1, q1 / q2 - 1, v1 / v2 - 1, q_per / (kPi * kRp * kRp * kRp * kGamma / 4) - 1);
   EXPECT_NEAR(q_feeder / q_per, 1, 1e-6);
-  EXPECT_NEAR(q_in / q_feeder, 1, 0.02);
+  EXPECT_NEAR(q_in / q_feeder, 1, 5e-3);
   EXPECT_NEAR((q1 + q2) / q_in, 1, 1e-6);
   EXPECT_NEAR(q1 / q2, 1, 0.01);
 }
