@@ -70,7 +70,7 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
         "run.particle_command names a stand-in\n");
   if (surface_vessel(s.vessel)) {
     const Surface surface = make_vessel_surface(s.vessel);
-    const double cell = s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : s.vessel.diameter / 12;
+    const double cell = surface_cell_size(s);
     std::string regions;
     for (const auto& r : surface.region_names) regions += (regions.empty() ? "" : ", ") + r;
     fmt::print("  vessel      {}: a closed surface of {} triangles, {:.4g} um^3; regions {}; inlet d = {:.1f} um\n",
@@ -94,13 +94,13 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
             ? fmt::format("at Q = {:.4g} m^3/s (the nominal tube's at that wall shear rate)", nominal_flow_rate(s))
             : std::string("at the feeder's own flow (the periodic tube's at dP)"),
         surface_vessel(s.vessel) ? "every outlet" : "outlet",
-        fed_by_feeder(s.vessel)
-            ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
-                          s.mesh.cells() / s.mesh.axial_cells * feeder_axial_cells(s.vessel, s.mesh.axial_cells))
-            : std::string());
+        fed_by_feeder(s.vessel) ? fmt::format("; a periodic feeder beside it ({} more fluid cells)",
+                                              s.mesh.cells() / s.mesh.axial_cells * feeder_layout(s).layers)
+                                : std::string());
   if (fed_by_feeder(s.vessel) && rbcs + platelets > 0)
-    fmt::print("  feeder      the same blood: the vessel starts with copies of its cells over its length, and each "
-               "cell that crosses its end enters at the inlet (counts below: the vessel's nominal)\n");
+    fmt::print(
+        "  feeder      the same blood: the vessel starts with copies of its cells over its length, and each "
+        "cell that crosses its end enters at the inlet (counts below: the vessel's nominal)\n");
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
              rbcs + platelets == 0 ? std::string()
              : placement_checked(s)

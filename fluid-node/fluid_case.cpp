@@ -131,7 +131,8 @@ std::string surface_inlet_velocity(const FluidSettings& fluid, const PatchInfo& 
     const double af = face_area(f);
     for (int c = 0; c < 3; ++c) {
       sum[static_cast<std::size_t>(c)] += geometry.face_areas[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)];
-      centre[static_cast<std::size_t>(c)] += af * geometry.face_centres[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)];
+      centre[static_cast<std::size_t>(c)] +=
+          af * geometry.face_centres[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)];
     }
     area += af;
   }
@@ -185,9 +186,9 @@ std::string inlet_velocity(const FluidSettings& fluid, const PatchInfo& patch, c
   if (fluid.inlet_profile == Profile::feeder) {
     if (patch.type != "mappedPatch") throw std::logic_error("a feeder inlet needs the mesh's mapped inlet patch");
     const std::string mean = "(0 0 " + num(fluid.inlet_flow_rate / area) + ")";
-    const std::string average = fluid.inlet_carries_q ? "        setAverage      true;\n        average         " +
-                                                            mean + ";\n"
-                                                      : "        setAverage      false;\n";
+    const std::string average = fluid.inlet_carries_q
+                                    ? "        setAverage      true;\n        average         " + mean + ";\n"
+                                    : "        setAverage      false;\n";
     return "        type            mapped;\n        field           U;\n" + average +
            "        interpolationScheme cell;\n"
            "        value           uniform " +
@@ -304,8 +305,10 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
       u_patches += entry(patch.name, "        type            cyclic;\n");
       p_patches += entry(patch.name, "        type            cyclic;\n");
     } else if (patch.name == patch_name::inlet) {
-      u_patches += entry(patch.name, surface ? surface_inlet_velocity(fluid, patch, geometry)
-                                             : inlet_velocity(fluid, patch, geometry, inlet_radius));
+      // (A fed surface vessel's inlet faces -z, as the O-grid's: the same mapped condition.)
+      u_patches += entry(patch.name, surface && fluid.inlet_profile != VesselInlet::Profile::feeder
+                                         ? surface_inlet_velocity(fluid, patch, geometry)
+                                         : inlet_velocity(fluid, patch, geometry, inlet_radius));
       // The gradient that makes the face flux the fixed velocity's, with the momentum at the face
       // extrapolated from the inlet's cells (pEqn.H): the developed flow's own pressure gradient
       // where the inflow is developed. (zeroGradient, OpenFOAM's usual partner of a fixed

@@ -3,6 +3,7 @@
 
 #include <child_process.h>
 #include <geometry.h>
+#include <vessel_ends.h>
 
 #include <fmt/format.h>
 
@@ -91,8 +92,7 @@ std::string snappy_dict(const Surface& s, const SurfaceMeshSpec& spec) {
          "    minRefinementCells 0;\n    maxLoadUnbalance 0.10;\n    nCellsBetweenLevels 2;\n    features ();\n"
          "    refinementSurfaces\n    {\n        vessel\n        {\n            level (0 0);\n"
          "            patchInfo { type wall; }\n            regions\n            {\n" +
-         regions +
-         "            }\n        }\n    }\n    resolveFeatureAngle 30;\n    refinementRegions {}\n" +
+         regions + "            }\n        }\n    }\n    resolveFeatureAngle 30;\n    refinementRegions {}\n" +
          fmt::format("    locationInMesh ({} {} {});\n", num(p[0]), num(p[1]), num(p[2])) +
          "    allowFreeStandingZoneFaces true;\n}\n\n"
          "snapControls\n{\n    nSmoothPatch 3;\n    tolerance 2.0;\n    nSolveIter 30;\n    nRelaxIter 5;\n"
@@ -247,8 +247,8 @@ PolyMesh read_polymesh(const std::string& case_dir) {
   m.owner = read_labels(dir / "owner");
   m.neighbour = read_labels(dir / "neighbour");
   if (m.owner.size() != m.faces.size())
-    throw std::runtime_error(fmt::format("{}: {} owners for {} faces", (dir / "owner").string(), m.owner.size(),
-                                         m.faces.size()));
+    throw std::runtime_error(
+        fmt::format("{}: {} owners for {} faces", (dir / "owner").string(), m.owner.size(), m.faces.size()));
   int cells = 0;
   for (int c : m.owner) cells = std::max(cells, c + 1);
   for (int c : m.neighbour) cells = std::max(cells, c + 1);
@@ -269,9 +269,45 @@ PolyMesh read_polymesh(const std::string& case_dir) {
         if (key == "type" && value.size() == 1) p.type = value[0];
         if (key == "nFaces" && value.size() == 1) p.size = std::stoi(value[0]);
         if (key == "startFace" && value.size() == 1) p.start = std::stoi(value[0]);
+        if (key == "samplePatch" && value.size() == 1) p.sample_patch = value[0];
+        if (key == "offset" && value.size() == 5 && value[0] == "(" && value[4] == ")")
+          for (std::size_t c = 0; c < 3; ++c) p.sample_offset[c] = std::stod(value[c + 1]);
       }
       t.expect("}");
       m.patches.push_back(p);
+    }
+    t.expect(")");
+  }
+  // Cell zones as write_polymesh writes them: each a run of consecutive cells (a fed vessel's
+  // feeder), which is all a PolyMesh holds.
+  if (fs::exists(dir / "cellZones")) {
+    Tokens t(dir / "cellZones");
+    const long n = t.integer();
+    t.expect("(");
+    for (long i = 0; i < n; ++i) {
+      CellZone z;
+      z.name = t.next();
+      t.expect("{");
+      while (t.peek() != "}") {
+        const std::string key = t.next();
+        if (key != "cellLabels") {
+          while (t.next() != ";") {
+          }
+          continue;
+        }
+        if (t.next() != "List<label>") t.fail("expected the cellLabels of zone " + z.name + " as a List<label>");
+        z.size = static_cast<int>(t.integer());
+        t.expect("(");
+        for (int k = 0; k < z.size; ++k) {
+          const long c = t.integer();
+          if (k == 0) z.first = static_cast<int>(c);
+          if (c != z.first + k) t.fail("zone " + z.name + " is not a run of consecutive cells");
+        }
+        t.expect(")");
+        t.expect(";");
+      }
+      t.expect("}");
+      m.cell_zones.push_back(z);
     }
     t.expect(")");
   }
@@ -294,9 +330,10 @@ PolyMesh mesh_surface(const Surface& surface, const SurfaceMeshSpec& spec, const
   const Background box = background(surface, spec.cell_size);
   const long cells = 1L * box.cells[0] * box.cells[1] * box.cells[2];
   if (cells > 20'000'000)
-    throw std::invalid_argument(fmt::format("the surface mesh's box would have {} cells of {:.3g} um (at most "
-                                            "20,000,000): use larger cells",
-                                            cells, spec.cell_size * 1e6));
+    throw std::invalid_argument(
+        fmt::format("the surface mesh's box would have {} cells of {:.3g} um (at most "
+                    "20,000,000): use larger cells",
+                    cells, spec.cell_size * 1e6));
   fs::create_directories(dir / "constant" / "triSurface");
   write_stl((dir / "constant" / "triSurface" / "vessel.stl").string(), surface);
   write_text(dir / "system" / "controlDict",
@@ -318,27 +355,29 @@ PolyMesh mesh_surface(const Surface& surface, const SurfaceMeshSpec& spec, const
 
   PolyMesh mesh = read_polymesh(case_dir);
   // snappyHexMesh's own level and zone files: nothing of ours reads them.
-  for (const char* extra : {"cellLevel", "pointLevel", "level0Edge", "surfaceIndex", "cellZones", "faceZones",
-                            "pointZones"})
+  for (const char* extra :
+       {"cellLevel", "pointLevel", "level0Edge", "surfaceIndex", "cellZones", "faceZones", "pointZones"})
     fs::remove(dir / "constant" / "polyMesh" / extra);
   std::vector<PatchInfo> kept;
   for (const PatchInfo& p : mesh.patches) {
     const bool region = surface.region_index(p.name) >= 0;
     if (!region && p.size == 0) continue;  // the box's patch, gone with the box's cells
     if (!region)
-      throw std::runtime_error(fmt::format("the surface mesh has {} faces on patch '{}', not one of the surface's "
-                                           "regions: the vessel reaches its background box",
-                                           p.size, p.name));
+      throw std::runtime_error(
+          fmt::format("the surface mesh has {} faces on patch '{}', not one of the surface's "
+                      "regions: the vessel reaches its background box",
+                      p.size, p.name));
     kept.push_back(p);
   }
   mesh.patches = kept;
   for (const auto& name : surface.region_names) {
-    const auto it = std::find_if(mesh.patches.begin(), mesh.patches.end(),
-                                 [&](const PatchInfo& p) { return p.name == name; });
+    const auto it =
+        std::find_if(mesh.patches.begin(), mesh.patches.end(), [&](const PatchInfo& p) { return p.name == name; });
     if (it == mesh.patches.end() || it->size == 0)
-      throw std::runtime_error(fmt::format("snappyHexMesh made no faces of region '{}' (cells of {:.3g} um; see {}): "
-                                           "use smaller cells (mesh.surface_cell_size_um)",
-                                           name, spec.cell_size * 1e6, (dir / "log.snappyHexMesh").string()));
+      throw std::runtime_error(
+          fmt::format("snappyHexMesh made no faces of region '{}' (cells of {:.3g} um; see {}): "
+                      "use smaller cells (mesh.surface_cell_size_um)",
+                      name, spec.cell_size * 1e6, (dir / "log.snappyHexMesh").string()));
   }
   return mesh;
 }
@@ -347,9 +386,12 @@ PolyMesh surface_vessel_mesh(const Scene& scene, const std::string& case_dir, bo
   if (!mesh) return read_polymesh(case_dir);
   const Surface surface = make_vessel_surface(scene.vessel);
   SurfaceMeshSpec spec;
-  spec.cell_size = scene.mesh.surface_cell_size > 0 ? scene.mesh.surface_cell_size : scene.vessel.diameter / 12;
+  spec.cell_size = surface_cell_size(scene);
   spec.location_in_mesh = point_inside_from_inlet(surface);
-  return mesh_surface(surface, spec, case_dir);
+  PolyMesh vessel = mesh_surface(surface, spec, case_dir);
+  if (fed_by_feeder(scene.vessel))
+    append_feeder(vessel, feeder_layout(scene), scene.mesh, {}, FeederSampling::overlap_of_faces);
+  return vessel;
 }
 
 }  // namespace hemo

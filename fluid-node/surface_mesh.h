@@ -38,10 +38,12 @@ Vec3 point_inside_from_inlet(const Surface& surface);
 
 // The fluid mesh of a scene's surface vessel (model/geometry.h, make_vessel_surface): meshed in
 // `case_dir` with cells of mesh.surface_cell_size_um (0: the vessel's diameter / 12) from a point
-// inside its inlet, or, when `mesh` is false (a resumed run), read back from the case.
+// inside its inlet, a fed inlet's feeder appended (append_feeder, feeder_layout(scene)), or, when
+// `mesh` is false (a resumed run), read back from the case as write_case wrote it.
 PolyMesh surface_vessel_mesh(const Scene& scene, const std::string& case_dir, bool mesh);
 
-// Reads an ASCII constant/polyMesh (points, faces, owner, neighbour, boundary) under `case_dir`.
+// Reads an ASCII constant/polyMesh (points, faces, owner, neighbour, boundary, and cellZones when
+// there is one) under `case_dir`: a mapped patch's uniform offset, and zones of consecutive cells.
 // Throws std::runtime_error naming the file on anything it cannot read.
 PolyMesh read_polymesh(const std::string& case_dir);
 

@@ -362,9 +362,6 @@ PolyMesh append_region(const PolyMesh& a, const PolyMesh& b, const Vec3& shift,
 }
 
 // An open vessel's ends: the inlet takes what vessel.inlet says, the outlet is a plain patch.
-// A feeder inlet samples, with OpenFOAM's mapped patch, the cell of the feeder's last layer that
-// holds the inlet face's centre moved onto the feeder's axis; the feeder's flow is the same in
-// every layer (periodic, uniform along z), so its end section is any one of them.
 void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape, PolyMesh& mesh) {
   for (PatchInfo& p : mesh.patches) {
     if (p.type != "cyclic") continue;
@@ -373,11 +370,21 @@ void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape&
     p.separation = {0, 0, 0};
   }
   if (!fed_by_feeder(vessel)) return;
-  const double inlet_radius = make_vessel_geometry(vessel)->radius_at(0);
-  Vessel feeder{2 * inlet_radius, feeder_length(vessel, spec.axial_cells)};
-  const int nz = feeder_axial_cells(vessel, spec.axial_cells);
-  const PolyMesh region = vessel_region(feeder, spec, shape, nz);
-  const Vec3 shift{feeder_axis_x(vessel), 0, 0};
+  append_feeder(mesh, feeder_layout(vessel, spec.axial_cells), spec, shape);
+}
+
+}  // namespace
+
+void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& spec, const OGridShape& shape,
+                   FeederSampling sampling) {
+  if (!(layout.radius > 0) || !(layout.period > 0) || layout.layers < 1)
+    throw std::invalid_argument("the feeder needs a positive radius and length and at least one layer");
+  const auto inlet = std::find_if(mesh.patches.begin(), mesh.patches.end(),
+                                  [](const PatchInfo& p) { return p.name == patch_name::inlet; });
+  if (inlet == mesh.patches.end()) throw std::invalid_argument("the mesh has no inlet patch to feed");
+  const Vessel feeder{2 * layout.radius, layout.period};
+  const PolyMesh region = vessel_region(feeder, spec, shape, layout.layers);
+  const Vec3 shift{layout.axis_x, layout.inlet_y, layout.inlet_z};
   mesh = append_region(mesh, region, shift,
                        {{patch_name::wall, patch_name::feeder_wall},
                         {patch_name::inlet, patch_name::feeder_inlet},
@@ -386,11 +393,14 @@ void open_the_ends(const Vessel& vessel, const MeshSpec& spec, const OGridShape&
   for (PatchInfo& p : mesh.patches)
     if (p.name == patch_name::inlet) {
       p.type = "mappedPatch";
-      p.sample_offset = {shift[0], 0, feeder.length * (1 - 0.5 / nz)};
+      if (sampling == FeederSampling::cell_above_face) {
+        p.sample_offset = {layout.axis_x - layout.inlet_x, 0, feeder.length * (1 - 0.5 / layout.layers)};
+      } else {
+        p.sample_patch = patch_name::feeder_inlet;
+        p.sample_offset = {layout.inlet_x - layout.axis_x, 0, 0};
+      }
     }
 }
-
-}  // namespace
 
 PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape) {
   check_mesh_request(vessel, spec, shape);
@@ -489,6 +499,7 @@ std::string mesh_hash(const PolyMesh& mesh) {
     h.value(static_cast<std::int32_t>(p.start));
     h.value(static_cast<std::int32_t>(p.size));
     if (p.type == "mappedPatch") h.bytes(p.sample_offset.data(), sizeof(double) * 3);
+    if (!p.sample_patch.empty()) h.text(p.sample_patch);  // (none in an O-grid: its hash as it was)
   }
   // (Only a mesh with zones hashes them: a periodic vessel's hash is what it always was.)
   for (const auto& z : mesh.cell_zones) {
@@ -546,7 +557,16 @@ void write_polymesh(const PolyMesh& mesh, const std::string& case_dir) {
       if (p.type == "cyclic") s += "        inGroups        1(cyclic);\n";
       s += "        nFaces          " + std::to_string(p.size) + ";\n";
       s += "        startFace       " + std::to_string(p.start) + ";\n";
-      if (p.type == "mappedPatch") {
+      if (p.type == "mappedPatch" && !p.sample_patch.empty()) {
+        // The sample patch's faces face the way the inlet's do (both out of their regions along
+        // -z): AMI wants them facing each other, hence flipNormals.
+        s += "        sampleMode      nearestPatchFaceAMI;\n";
+        s += "        samplePatch     " + p.sample_patch + ";\n";
+        s += "        flipNormals     true;\n";
+        s += "        offsetMode      uniform;\n";
+        s += "        offset          (" + fmt_double(p.sample_offset[0]) + " " + fmt_double(p.sample_offset[1]) + " " +
+             fmt_double(p.sample_offset[2]) + ");\n";
+      } else if (p.type == "mappedPatch") {
         // nearestCell: the value of the cell holding face centre + offset (no interpolation).
         s += "        sampleMode      nearestCell;\n";
         s += "        offsetMode      uniform;\n";

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <scene.h>
+#include <vessel_ends.h>
 
 #include <array>
 #include <cstdint>
@@ -29,12 +30,17 @@ struct OGridShape {
 
 struct PatchInfo {
   std::string name;
-  std::string type;             // "wall", "cyclic", "patch" (open end) or "mappedPatch" (fed inlet)
-  int start = 0;                // first face
-  int size = 0;                 // number of faces
-  std::string neighbour;        // cyclic partner patch
-  Vec3 separation{0, 0, 0};     // cyclic: neighbour face centre minus this face centre
-  Vec3 sample_offset{0, 0, 0};  // mappedPatch: the point sampled (in the cell holding it) minus the face centre
+  std::string type;          // "wall", "cyclic", "patch" (open end) or "mappedPatch" (fed inlet)
+  int start = 0;             // first face
+  int size = 0;              // number of faces
+  std::string neighbour;     // cyclic partner patch
+  Vec3 separation{0, 0, 0};  // cyclic: neighbour face centre minus this face centre
+  // mappedPatch. Without a sample patch (nearestCell): each face takes the value of the cell
+  // holding its centre + sample_offset. With one (nearestPatchFaceAMI): each face takes the
+  // area-weighted mean of that patch's face values over its overlap with them, once the sample
+  // patch's points are moved by sample_offset onto this patch.
+  Vec3 sample_offset{0, 0, 0};
+  std::string sample_patch{};
 };
 
 // Cells [first, first + size) under a name (constant/polyMesh/cellZones).
@@ -89,6 +95,28 @@ inline constexpr const char* feeder_zone = "feeder";
 // Generates the O-grid vessel mesh: the vessel's cells first (the same mesh, to the bit, whatever
 // its ends), then the feeder's when it has one. Throws std::invalid_argument on impossible input.
 PolyMesh make_vessel_mesh(const Vessel& vessel, const MeshSpec& spec, const OGridShape& shape = {});
+
+// How a fed inlet takes the feeder's section: the O-grid's inlet faces each lie at the same
+// section position as one cell of the feeder's (the same O-grid), so each samples the feeder's
+// last-layer cell above it; a surface vessel's snapped faces match none of the feeder's, so they
+// take the feeder's end faces' values weighted by their overlaps (OpenFOAM's AMI), which moves
+// the feeder's flux through the inlet's footprint onto the inlet whole, where sampling one cell
+// per face would weigh each cell's velocity by the area of the faces whose centres it holds.
+enum class FeederSampling { cell_above_face, overlap_of_faces };
+
+// Appends the feeder of `layout` (model/vessel_ends.h) to a vessel's mesh whose inlet patch lies
+// in the plane z = layout.inlet_z: the O-grid of `spec` and `shape` of the feeder's radius,
+// layout.layers layers over its period, moved so that its axis runs parallel to z through
+// (axis_x, inlet_y) from z = inlet_z, as a disconnected region after the vessel's (its cells the
+// zone `feeder_zone`, its patches feeder_wall and the cyclic pair feeder_inlet / feeder_outlet).
+// The inlet becomes a mapped patch taking the feeder's section at the same offset from its axis
+// as from the inlet's centre: the feeder's flow is the same in every layer (periodic, uniform
+// along z), so its end section is any one of them. cell_above_face: the last-layer cell holding
+// each face centre moved there (nearestCell); overlap_of_faces: the faces of feeder_inlet moved
+// onto the inlet, their values weighted by their overlaps with each inlet face
+// (nearestPatchFaceAMI). Throws std::invalid_argument without an inlet patch.
+void append_feeder(PolyMesh& mesh, const FeederLayout& layout, const MeshSpec& spec, const OGridShape& shape = {},
+                   FeederSampling sampling = FeederSampling::cell_above_face);
 
 MeshGeometry compute_geometry(const PolyMesh& mesh);
 

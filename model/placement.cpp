@@ -179,8 +179,12 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
       place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed, options);
   const std::size_t fed = placed.size();
   for (std::size_t k = 0; k < fed; ++k) {
-    PlacedParticle copy = placed[k];  // on the vessel's axis
+    // Placed about the z axis: the feeder's cell on the feeder's axis, its copy on the inlet's.
+    PlacedParticle copy = placed[k];
     placed[k].position.x() += feeder.axis_x;
+    placed[k].position.y() += feeder.inlet_y;
+    copy.position.x() += feeder.inlet_x;
+    copy.position.y() += feeder.inlet_y;
     const Vec3 in_shape(copy.position.x(), copy.position.y(), copy.position.z() - z0);
     const double d = copy.diameter;
     if (in_shape.z() < feeder.vessel_length && vessel.signed_distance(in_shape) <= -(d / 2 + options.gap_fraction * d))
@@ -191,8 +195,7 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
 
 std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselWall& vessel, double z0) {
   if (fed_by_feeder(scene.vessel))
-    return place_open_vessel_particles(scene, vessel, feeder_layout(scene.vessel, scene.mesh.axial_cells), z0,
-                                       scene.run.seed);
+    return place_open_vessel_particles(scene, vessel, feeder_layout(scene), z0, scene.run.seed);
   const auto* shape = dynamic_cast<const VesselGeometry*>(&vessel);
   if (shape == nullptr)
     throw PlacementError("a surface vessel's cells come in through its feeder: set vessel.inlet = \"feeder\"");

@@ -370,8 +370,9 @@ static bool known_ends(const Vessel& v) {
 static void refuse_cells_without_feeder(Reader& r, const Scene& s) {
   if (!known_ends(s.vessel)) return;  // refused as read
   const auto shapes = vessel_shape_names();
-  if (std::find(shapes.begin(), shapes.end(), s.vessel.shape) != shapes.end() && surface_vessel(s.vessel))
-    return;  // no cells at all yet, which check_surface_vessel says
+  if (std::find(shapes.begin(), shapes.end(), s.vessel.shape) != shapes.end() &&
+      !vessel_shape(s.vessel.shape).carries_cells())
+    return;  // no cells at all, which check_surface_vessel says
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
   r.refuse_once(!cells || !open_ends(s.vessel) || fed_by_feeder(s.vessel), "vessel.inlet",
                 "cells enter an open vessel only from a feeder (vessel.inlet = \"feeder\"); a fixed profile "
@@ -383,22 +384,21 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
 // A vessel given as a closed surface (vessel.shape "bifurcation", "imported"; docs/design.md,
 // "Surface vessels"): its surface must be one (built here, as the fluid node will build it), and
-// for now it carries plasma alone through open ends, from a fixed inlet profile, on one rank.
+// for now it carries plasma alone through open ends, on one rank; a feeder needs its inlet to face
+// -z (feeder_layout says why not in one line).
 static void check_surface_vessel(Reader& r, const Scene& s) {
   const auto names = vessel_shape_names();
   if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return;  // refused as read
   const VesselShape& shape = vessel_shape(s.vessel.shape);
   if (!shape.surface()) return;
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
-  r.refuse_once(!cells, "vessel.shape",
-                "a surface vessel carries plasma alone for now: the particle node knows only axisymmetric vessels "
-                "r = R(z) (model/geometry.h); remove rbc.hematocrit and platelet.number_density_per_ul");
+  r.refuse_once(!cells || shape.carries_cells(), "vessel.shape",
+                "vessel.shape \"" + shape.name +
+                    "\" carries plasma alone for now: the particle node does not know its branches "
+                    "(model/vessel_wall.h); remove rbc.hematocrit and platelet.number_density_per_ul");
   if (known_ends(s.vessel)) {
     r.refuse_once(open_ends(s.vessel), "vessel.ends",
                   "a surface vessel has open ends (an inlet and outlets): set vessel.ends = \"open\"");
-    r.refuse_once(!open_ends(s.vessel) || !fed_by_feeder(s.vessel), "vessel.inlet",
-                  "a surface vessel's inlet takes a fixed profile (vessel.inlet = \"poiseuille\" or \"uniform\"): "
-                  "the feeder is an axisymmetric tube's");
   }
   r.refuse_once(s.run.fluid_ranks == 1, "run.fluid_ranks",
                 "a surface vessel's fluid runs on one rank for now (the decomposition splits the O-grid's layers)");
@@ -413,14 +413,25 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
     (void)make_vessel_surface(s.vessel);
   } catch (const std::exception& e) {
     r.refuse_once(false, key, e.what());
+    return;
   }
+  if (!fed_by_feeder(s.vessel)) return;
+  try {
+    (void)feeder_layout(s);
+  } catch (const std::exception& e) {
+    r.refuse_once(false, "vessel.inlet", e.what());
+  }
+}
+
+double surface_cell_size(const Scene& s) {
+  return s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : s.vessel.diameter / 12;
 }
 
 WorkEstimate estimate_work(const Scene& s) {
   WorkEstimate w;
   double volume = vessel_volume(s.vessel);
   if (known_ends(s.vessel) && fed_by_feeder(s.vessel)) {  // the feeder carries the scene's blood too
-    const FeederLayout feeder = feeder_layout(s.vessel, s.mesh.axial_cells);
+    const FeederLayout feeder = feeder_layout(s);
     volume += units::pi * feeder.radius * feeder.radius * feeder.period;
   }
   w.particles = (s.rbc.present ? s.rbc.hematocrit * volume / s.rbc.volume : 0) +
@@ -444,8 +455,6 @@ namespace {
 constexpr double kMinMeshWallSpan = 100 * units::um;
 
 void check_geometry_and_work(Reader& r, const Scene& s) {
-  // A surface vessel carries no particles (check_surface_vessel) and is meshed by snappyHexMesh.
-  if (surface_vessel(s.vessel)) return;
   // Blame the key the file gives (the species' diameter if it sets one, else the vessel's).
   auto blame = [&](const std::string& own, const std::string& other) {
     return r.line_of(own) > 0 || r.line_of(other) == 0 ? own : other;
@@ -454,6 +463,18 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
     r.problem(key, r.line_of(key), message, value);
   };
   const double d_vessel = s.vessel.diameter;
+  // A surface vessel's cells are snapped cubes (fluid-node/surface_mesh.h): unresolved CFD-DEM
+  // needs them wider than the cells it carries.
+  if (surface_vessel(s.vessel)) {
+    const double cube = s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : d_vessel / 12;
+    for (const Species* sp : {&s.rbc, &s.platelet})
+      if (sp->present && sp->diameter >= cube)
+        fail("mesh.surface_cell_size_um", fmt::format("{:g}", cube / units::um),
+             fmt::format("the snapped cubes ({:g} um) must be wider than a {} ({:g} um): the particles are unresolved "
+                         "in the fluid's cells (CFD-DEM); widen mesh.surface_cell_size_um",
+                         cube / units::um, sp->name, sp->diameter / units::um));
+    return;
+  }
   // The mesh's cell size: the edge of a cube of the mean cell volume (the O-grid's cells differ
   // little in volume; postprocess/study/study_file.h uses the same measure).
   const double cells =
@@ -539,8 +560,7 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
 // seed; a safe bound would refuse scenes that run, a loose one pass scenes that stop at step 0.
 void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
-  if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
-  if (surface_vessel(s.vessel)) return;  // no particles (check_surface_vessel)
+  if (!placement_checked(s)) return;     // too many to place here: the particle node will tell
   try {
     pl::place_scene_particles(s, *make_vessel_wall(s.vessel), 0.0);
   } catch (const pl::PlacementError& e) {

@@ -380,6 +380,10 @@ struct WorkEstimate {
 };
 WorkEstimate estimate_work(const Scene& scene);
 
+// The edge of a surface vessel's cubes (fluid-node/surface_mesh.h), m: mesh.surface_cell_size_um,
+// or, when it is 0, the vessel's diameter / 12.
+double surface_cell_size(const Scene& scene);
+
 // Every key a scene may hold, with its default in the file's units, in reading order
 // (`hemocosim check --keys`; docs/scenes.md is made from it). What a key accepts is recorded by
 // the checks that validate it, as they run, so the listing cannot drift from the validation.

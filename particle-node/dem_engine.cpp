@@ -26,7 +26,7 @@ DemBookkeeping with_neighbour_policy(DemBookkeeping bookkeeping, const Scene& sc
 // An open vessel fed by a feeder: the layout its box holds (model/vessel_ends.h).
 std::optional<FeederLayout> feeder_of(const Scene& scene) {
   if (!fed_by_feeder(scene.vessel)) return std::nullopt;
-  return feeder_layout(scene.vessel, scene.mesh.axial_cells);
+  return feeder_layout(scene);
 }
 
 }  // namespace

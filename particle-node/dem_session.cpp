@@ -200,8 +200,9 @@ void LiggghtsSession::define_box_and_contacts(int n_types) {
   double x_lo = -half_box, y_lo = -half_box, y_hi = half_box;
   if (!locator_.axisymmetric()) {
     x_lo = wall_lower_.x() - margin;
-    y_lo = std::min(wall_lower_.y(), -R) - margin;
-    y_hi = std::max(wall_upper_.y(), R) + margin;
+    const double feeder_y = feeder_ ? feeder_->inlet_y : 0;
+    y_lo = std::min(wall_lower_.y(), feeder_y - R) - margin;
+    y_hi = std::max(wall_upper_.y(), feeder_y + R) + margin;
   }
   const double x_hi = feeder_ ? feeder_->axis_x + feeder_->radius + margin : half_box;
   const double period = feeder_ ? feeder_->period : locator_.length();
@@ -233,14 +234,14 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool stream
 }
 
 std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
-  auto cylinder = [&](const char* id, double radius, double axis_x) {
+  auto cylinder = [&](const char* id, double radius, double axis_x, double axis_y) {
     return fmt::format(
-        "fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} {:.17g} 0", id,
-        wall_type, radius, axis_x);
+        "fix {} all wall/gran model hertz tangential history primitive type {} zcylinder {:.17g} {:.17g} {:.17g}", id,
+        wall_type, radius, axis_x, axis_y);
   };
   std::vector<std::string> lines;
   if (!mesh_wall()) {
-    lines.push_back(cylinder(kWallFix, locator_.radius(), 0));
+    lines.push_back(cylinder(kWallFix, locator_.radius(), 0, 0));
   } else {
     // The mesh's z origin is the shape's; LIGGGHTS takes the facets as they are in the box.
     lines.push_back(fmt::format("fix {} all mesh/surface file {} type {}", kWallMeshFix, wall_file_, wall_type));
@@ -249,7 +250,7 @@ std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
   }
   // The feeder is straight: the primitive, whatever the vessel's wall. Each wall reaches the
   // cells of the other tube not at all (they are a radius or more away from it).
-  if (feeder_) lines.push_back(cylinder(kFeederWallFix, feeder_->radius, feeder_->axis_x));
+  if (feeder_) lines.push_back(cylinder(kFeederWallFix, feeder_->radius, feeder_->axis_x, feeder_->inlet_y));
   return lines;
 }
 
@@ -322,7 +323,7 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (!feeder_) return;
   // The inlet buffer: one largest cell diameter, so that a copy is wholly inside the vessel when
   // it is let go (dem_open_ends.h).
-  dem::OpenEndsLayout layout{{}, feeder_->split_x, feeder_->axis_x, species_.d_max};
+  dem::OpenEndsLayout layout{{}, feeder_->split_x, feeder_->axis_x - feeder_->inlet_x, species_.d_max};
   for (const VesselWall::Opening& end : locator_.wall().outlets())
     layout.outlets.push_back({{end.centre.x(), end.centre.y(), locator_.z0() + end.centre.z()},
                               {end.normal.x(), end.normal.y(), end.normal.z()}});

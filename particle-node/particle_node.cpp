@@ -59,8 +59,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       mesh_hash_(mesh.mesh_hash),
       comm_(comm),
       locator_(mesh, make_vessel_wall(scene.vessel),
-               fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene.vessel, scene.mesh.axial_cells))
-                                           : std::nullopt),
+               fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene)) : std::nullopt),
       fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
       run_dir_(run_dir) {

@@ -63,7 +63,7 @@ TEST(OpenRun, CellsFlowThroughAndTheCountsBalanceAtEveryStep) {
   const auto r = run(bin("hemocosim") + " run " + scene("open_small.toml") + " --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const hemo::Scene s = hemo::load_scene(dir + "/scene.toml");
-  const hemo::FeederLayout feeder = hemo::feeder_layout(s.vessel, s.mesh.axial_cells);
+  const hemo::FeederLayout feeder = hemo::feeder_layout(s);
 
   const auto m = read_metrics(dir);
   const auto& present = m.at({"particles", "particles"});

@@ -5,10 +5,12 @@
 
 #include <cmath>
 
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <set>
 #include <tuple>
+#include <utility>
 
 #include "minimal_scene.h"
 #include "momentum_forms.h"
@@ -239,6 +241,40 @@ TEST(Scene, TheFeederLayoutSplitsTheBoxBetweenTheTwoWalls) {
   EXPECT_THROW(feeder_layout(v, 24), std::invalid_argument);
 }
 
+// Both nodes take a scene's layout from feeder_layout(scene): for the O-grid, the vessel's with
+// mesh.axial_cells to the bit (the inlet's centre the origin), whatever the shape; and the
+// surface vessels' rule for the feeder's axis, the widest x plus the feeder's diameter, is the
+// O-grid's 3 R0 for the straight tube.
+TEST(Scene, TheScenesFeederLayoutIsTheOGridsToTheBit) {
+  for (const std::string shape :
+       {"", "shape = \"stenosis\"\nstenosis_area_reduction = 0.5\nstenosis_length_um = 300\n"}) {
+    const Scene s =
+        load_scene(test::write_temp("[vessel]\ndiameter_um = 100\nlength_um = 600\nends = \"open\"\n" + shape +
+                                    "[mesh]\naxial_cells = 30\n[driving]\nwall_shear_rate_per_s = 799\n"));
+    const FeederLayout a = feeder_layout(s), b = feeder_layout(s.vessel, 30);
+    const std::vector<std::pair<double, double>> fields{{a.vessel_length, b.vessel_length},
+                                                        {a.period, b.period},
+                                                        {a.axis_x, b.axis_x},
+                                                        {a.split_x, b.split_x},
+                                                        {a.radius, b.radius}};
+    for (const auto& [x, y] : fields) EXPECT_EQ(std::memcmp(&x, &y, sizeof x), 0) << shape;
+    EXPECT_EQ(a.inlet_x, 0.0);
+    EXPECT_EQ(a.inlet_y, 0.0);
+    EXPECT_EQ(a.inlet_z, 0.0);
+    EXPECT_EQ(a.layers, feeder_axial_cells(s.vessel, 30));
+    EXPECT_EQ(a.layers, 35);
+  }
+  Vessel v;
+  v.diameter = 100e-6;
+  v.length = 600e-6;
+  for (const double d : {100e-6, 30e-6, 7.3e-6, 1.0 / 3}) {
+    v.diameter = d;
+    const double by_rule = feeder_axis_x(v.radius(), v.radius()), o_grid = feeder_axis_x(v);
+    EXPECT_EQ(std::memcmp(&by_rule, &o_grid, sizeof by_rule), 0) << d;
+  }
+  EXPECT_THROW(feeder_layout(load_scene(test::write_temp(test::kMinimalScene))), std::invalid_argument);
+}
+
 // vessel.ends (periodic by default) and vessel.inlet (the feeder by default; periodic ends ignore
 // it), each a registered name (model/vessel_ends.h).
 TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
@@ -259,9 +295,9 @@ TEST(Scene, VesselEndsArePeriodicByDefaultAndOpenOnesTakeAnInlet) {
   EXPECT_EQ(vessel_inlet(parabola.vessel.inlet).profile, VesselInlet::Profile::parabola);
   EXPECT_TRUE(problems_of(with("inlet = \"uniform\"")).empty());  // ignored by periodic ends
   EXPECT_TRUE(problems_of(with("ends = \"open\"\nshape = \"stenosis\"\nstenosis_length_um = 300")).empty());
-  for (const auto& [line, key, known] :
-       {std::tuple{"ends = \"closed\"", "vessel.ends", "known: periodic, open"},
-        std::tuple{"ends = \"open\"\ninlet = \"plug\"", "vessel.inlet", "known: feeder, feeder_at_q, poiseuille, uniform"}}) {
+  for (const auto& [line, key, known] : {std::tuple{"ends = \"closed\"", "vessel.ends", "known: periodic, open"},
+                                         std::tuple{"ends = \"open\"\ninlet = \"plug\"", "vessel.inlet",
+                                                    "known: feeder, feeder_at_q, poiseuille, uniform"}}) {
     const auto ps = problems_of(with(line));
     ASSERT_EQ(ps.size(), 1u) << line;
     EXPECT_EQ(ps[0].key, key);

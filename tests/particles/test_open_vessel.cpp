@@ -72,7 +72,7 @@ long left_and_entered(const Diagnostic& d, const char* what) {
 
 TEST(OpenVessel, CountsBalanceAtEveryStepAndTheCellsFlowThrough) {
   const auto scene = open_scene();
-  const auto feeder = hemo::feeder_layout(scene.vessel, scene.mesh.axial_cells);
+  const auto feeder = hemo::feeder_layout(scene);
   const auto mesh = mesh_of(scene);
   const auto fluid = synthetic::fluid_state(mesh, through_both_tubes(feeder));
   const fs::path dir = checkpoint_case::shared_dir("hemo_open_vessel");
@@ -130,7 +130,7 @@ TEST(OpenVessel, CountsBalanceAtEveryStepAndTheCellsFlowThrough) {
 
 TEST(OpenVessel, ResumedNodeGoesOnBitForBitWithItsCounts) {
   const auto scene = open_scene();
-  const auto feeder = hemo::feeder_layout(scene.vessel, scene.mesh.axial_cells);
+  const auto feeder = hemo::feeder_layout(scene);
   const auto mesh = mesh_of(scene);
   const auto fluid = synthetic::fluid_state(mesh, through_both_tubes(feeder));
   const long K = 40, N = 8;  // by step 40 cells have left and entered
