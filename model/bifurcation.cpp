@@ -202,10 +202,12 @@ double BifurcationWall::axis_distance(int b, const Point& x) const {
 }
 
 int BifurcationWall::branch_at(const Point& x) const {
+  // The tube x is deepest in: by the nearest axis alone, a point inside the parent's wall just
+  // before the junction can be nearer a narrower daughter's axis, and outside that daughter.
   int best = 0;
-  double nearest = axis_distance(0, x);
+  double deepest = axis_distance(0, x) - radius_[0];
   for (int b = 1; b < 3; ++b)
-    if (const double d = axis_distance(b, x); d < nearest) best = b, nearest = d;
+    if (const double d = axis_distance(b, x) - radius_[b]; d < deepest) best = b, deepest = d;
   return best;
 }
 

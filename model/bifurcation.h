@@ -72,9 +72,10 @@ Eigen::Vector3d daughter_direction(const BifurcationSpec& spec, int i);
 double network_flow_fraction(const BifurcationSpec& spec, int i);
 
 // The bifurcation's wall as the particle side asks it (model/vessel_wall.h). The signed distance is
-// bifurcation_function's; the section at a point is that of the branch whose axis segment is
-// nearest (the parent's from the inlet to the junction, each daughter's from the junction to its
-// outlet): that branch's radius, the distance from its axis segment, and its centre-line speed as
+// bifurcation_function's; the section at a point is that of the branch whose tube it is deepest
+// in (the least distance from the branch's axis segment less its radius; the parent's segment
+// from the inlet to the junction, each daughter's from the junction to its outlet): that branch's
+// radius, the distance from its axis segment, and its centre-line speed as
 // the network's flow share gives it relative to the parent's, u_i / u_p = (Q_i / Q_p) (R_p / R_i)^2
 // (Poiseuille in each branch); the parent's is the vessel's fastest for daughters no wider than it
 // (check_bifurcation) unless one takes nearly all the flow.
@@ -91,7 +92,7 @@ class BifurcationWall : public VesselWall {
   std::vector<WallTriangle> dem_wall() const override;
   // Daughter i's outlet cap: centred on its axis's end, facing along the daughter.
   std::vector<Opening> outlets() const override;
-  // The branch whose axis segment is nearest x: 0 the parent, 1 or 2 a daughter.
+  // The branch whose tube x is deepest in: 0 the parent, 1 or 2 a daughter.
   int branch_at(const Point& x) const;
   const BifurcationSpec& spec() const { return spec_; }
 

@@ -267,7 +267,8 @@ void CellLocator::set_period(const mesh_t& mesh, const Vec3& lo, const Vec3& hi)
     if (!(length_ > 0) || std::abs((hi.z() - lo.z()) - length_) > 1e-6 * length_)
       bad_mesh("its z extent " + std::to_string(hi.z() - lo.z()) + " m differs from the feeder's period " +
                std::to_string(length_) + " m");
-    if (std::abs(mesh.vessel_length_m - feeder_->vessel_length) > 1e-6 * length_)
+    // A surface vessel's mesh names the parent's length (the scene's), the layout its z extent.
+    if (axisymmetric_ && std::abs(mesh.vessel_length_m - feeder_->vessel_length) > 1e-6 * length_)
       bad_mesh("its vessel_length_m " + std::to_string(mesh.vessel_length_m) +
                " m differs from the feeder layout's vessel length " + std::to_string(feeder_->vessel_length) + " m");
     return;

@@ -154,15 +154,25 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
   callback_target_ = target;
   if (mesh_wall()) {
     const std::vector<WallTriangle> wall = locator_.wall().dem_wall();
-    for (const WallTriangle& t : wall)
+    for (const WallTriangle& t : wall) {
       for (const auto& v : t.vertex) {
         wall_lower_ = wall_lower_.cwiseMin(v);
         wall_upper_ = wall_upper_.cwiseMax(v);
       }
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 a = t.vertex[(k + 1) % 3] - t.vertex[k], b = t.vertex[(k + 2) % 3] - t.vertex[k];
+        wall_min_angle_deg_ = std::min(wall_min_angle_deg_, std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / units::pi);
+      }
+    }
+    // Below LIGGGHTS's hard limit (doc/fix_mesh_surface) no curvature helps.
+    if (!(wall_min_angle_deg_ > 0.0182))
+      throw std::invalid_argument(
+          fmt::format("the DEM's wall has a facet angle of {:.3g} degrees, below the least LIGGGHTS takes (0.0181)",
+                      wall_min_angle_deg_));
     write_wall_surface(wall);
     // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
     // it. LAMMPS closes its screen when it ends.
-    if (lmp_->screen == nullptr) lmp_->screen = std::fopen("/dev/null", "w");
+    if (lmp_->screen == nullptr) lmp_->screen = std::fopen(getenv("HEMO_DEBUG_SCREEN") ? getenv("HEMO_DEBUG_SCREEN") : "/dev/null", "w");
   }
   define_box_and_contacts(assign_atom_types(used));
   // A pair's tangential history is cleared when it separates, not at the next neighbour-list
@@ -233,6 +243,11 @@ std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool stream
   return lines;
 }
 
+namespace {
+// LIGGGHTS's default mesh curvature, acos(1 - EPSILON_CURVATURE) with EPSILON_CURVATURE = 1e-5.
+const double kLiggghtsCurvatureDeg = std::acos(1 - 1e-5) * 180 / units::pi;
+}  // namespace
+
 std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
   auto cylinder = [&](const char* id, double radius, double axis_x, double axis_y) {
     return fmt::format(
@@ -244,7 +259,16 @@ std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
     lines.push_back(cylinder(kWallFix, locator_.radius(), 0, 0));
   } else {
     // The mesh's z origin is the shape's; LIGGGHTS takes the facets as they are in the box.
-    lines.push_back(fmt::format("fix {} all mesh/surface file {} type {}", kWallMeshFix, wall_file_, wall_type));
+    // LIGGGHTS refuses a facet with an angle below its `curvature` (acos(1 - 1e-5) = 0.256
+    // degrees unless told; doc/fix_mesh_surface, src/surface_mesh_I.h): a surface vessel's
+    // marching-tetrahedra wall has such slivers, so its curvature is then half the smallest angle
+    // (LIGGGHTS's own error advises lowering it). It is also the angle below which two facets
+    // count as one surface, so only nearly coplanar pairs change.
+    const std::string curvature = wall_min_angle_deg_ < kLiggghtsCurvatureDeg
+                                      ? fmt::format(" curvature {:.6g}", wall_min_angle_deg_ / 2)
+                                      : std::string();
+    lines.push_back(
+        fmt::format("fix {} all mesh/surface file {} type {}{}", kWallMeshFix, wall_file_, wall_type, curvature));
     lines.push_back(fmt::format("fix {} all wall/gran model hertz tangential history mesh n_meshes 1 meshes {}",
                                 kWallFix, kWallMeshFix));
   }

@@ -178,6 +178,7 @@ class LiggghtsSession {
   const CellLocator& locator_;
   // The box the DEM's mesh wall lies in (set_up_box), which a surface vessel's box holds.
   Vec3 wall_lower_ = Vec3::Constant(std::numeric_limits<double>::infinity()), wall_upper_ = -wall_lower_;
+  double wall_min_angle_deg_ = 180;  // its facets' smallest angle
   const DemSpecies& species_;
   const std::string log_path_;
   const std::string wall_file_;  // the mesh wall's STL: next to the log (or in the temporary directory)

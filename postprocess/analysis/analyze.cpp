@@ -178,6 +178,7 @@ WallShearBalance momentum_balance(const MetricSeries& tau, const MetricSeries& i
 }
 
 std::string closing_balance_line(const std::string& run_dir, const Scene& scene) {
+  if (surface_vessel(scene.vessel)) return "";  // no tube: no wall-shear balance
   const auto tau = read_metric_series(run_dir + "/metrics.csv", "wall_shear_stress_Pa");
   if (tau.empty()) return "";
   const auto [first, last] = std::minmax_element(tau.time_s.begin(), tau.time_s.end());

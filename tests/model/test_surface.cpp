@@ -597,3 +597,19 @@ TEST(SurfaceScene, AFeederRefusesAnInletThatDoesNotFaceMinusZ) {
   EXPECT_NEAR(feeder_layout(slightly).radius / 15e-6, 1, 0.01);
   fs::remove_all(dir);
 }
+
+// Just before the junction, near the parent's wall, a point can be nearer a daughter's axis than
+// the parent's while outside that daughter's tube: its section is the parent's, the tube it is in.
+TEST(BifurcationWall, APointInTheParentBeforeTheJunctionIsInTheParentsSection) {
+  BifurcationSpec spec;
+  spec.parent_diameter = 100e-6;
+  spec.parent_length = 100e-6;
+  spec.daughter_length = 120e-6;
+  const BifurcationWall wall(spec);
+  const Point x(47.5e-6, -4.4e-6, 87.8e-6);  // where a placed cell was given a daughter's section
+  ASSERT_LT(wall.signed_distance(x), 0);
+  EXPECT_EQ(wall.branch_at(x), 0);
+  const VesselWall::Section s = wall.section_at(x);
+  EXPECT_DOUBLE_EQ(s.radius, 50e-6);
+  EXPECT_LT(s.off_axis, s.radius);
+}
