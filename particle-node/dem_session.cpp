@@ -172,7 +172,8 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
     write_wall_surface(wall);
     // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
     // it. LAMMPS closes its screen when it ends.
-    if (lmp_->screen == nullptr) lmp_->screen = std::fopen(getenv("HEMO_DEBUG_SCREEN") ? getenv("HEMO_DEBUG_SCREEN") : "/dev/null", "w");
+    if (lmp_->screen == nullptr)
+      lmp_->screen = std::fopen(getenv("HEMO_DEBUG_SCREEN") ? getenv("HEMO_DEBUG_SCREEN") : "/dev/null", "w");
   }
   define_box_and_contacts(assign_atom_types(used));
   // A pair's tangential history is cleared when it separates, not at the next neighbour-list

@@ -159,3 +159,41 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
   EXPECT_GT(count_at(m, "rbc_inserted", 120), count_at(m, "rbc_inserted", k)) << "cells entered after the swap";
   EXPECT_GE(count_at(m, "rbc_inserted", k + 1), count_at(m, "rbc_inserted", k)) << "the counts went on";
 }
+
+// Blood through a fed Y bifurcation (scenes/bifurcation.toml's, small): cells leave through both
+// outlets within the run, each outlet's count is named, the two add to the whole, and the counts
+// balance at every step with none lost and none outside the mesh; analyze's shares of each kind add
+// to one over the two outlets.
+TEST(BifurcationRun, CellsLeaveThroughBothOutletsCountedEachAndTheCountsBalance) {
+  const std::string dir = fresh_run_dir("bifurcation-small");
+  const auto r = run(bin("hemocosim") + " run " + scene("bifurcation_small.toml") + " --out " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto m = read_metrics(dir);
+  expect_counts_balance(m);
+  const auto& present = m.at({"particles", "particles"});
+  ASSERT_EQ(present.size(), 21u);  // step 0 and 20 steps
+  for (const auto& [step, n] : present) {
+    for (const char* species : {"rbc", "platelet"}) {
+      const std::string s(species);
+      EXPECT_EQ(count_at(m, s + "_left_outlet_1", step) + count_at(m, s + "_left_outlet_2", step),
+                count_at(m, s + "_left_outlet", step))
+          << s << " at step " << step;
+    }
+    EXPECT_EQ(count_at(m, "particles_outside_mesh", step), 0) << "step " << step;
+  }
+  const long last = present.rbegin()->first;
+  EXPECT_GT(count_at(m, "rbc_left_outlet_1", last), 0);
+  EXPECT_GT(count_at(m, "rbc_left_outlet_2", last), 0);
+  EXPECT_GT(count_at(m, "rbc_inserted", last), 0);
+
+  const auto a = run(bin("hemocosim") + " analyze " + dir + " --json");
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const auto j = nlohmann::json::parse(a.output);
+  for (const char* share : {"blood_fraction", "rbc_fraction", "platelet_fraction"}) {
+    const double one = j["branches"]["outlet_1"][share].get<double>(),
+                 two = j["branches"]["outlet_2"][share].get<double>();
+    EXPECT_NEAR(one + two, 1.0, 1e-12) << share;
+    EXPECT_GT(one, 0) << share;
+  }
+  std::filesystem::remove_all(dir);
+}
