@@ -120,7 +120,8 @@ std::string fv_solution(const FluidSolver& solver) {
 // inward normal; scaled, as the O-grid's, to the faces' flux Q.
 std::string surface_inlet_velocity(const FluidSettings& fluid, const PatchInfo& patch, const MeshGeometry& geometry) {
   using Profile = VesselInlet::Profile;
-  if (fluid.inlet_profile == Profile::feeder) throw std::logic_error("a surface vessel's inlet has no feeder");
+  if (fluid.inlet_profile == Profile::feeder)
+    throw std::logic_error("a fed surface inlet is mapped, not a fixed profile");
   std::array<double, 3> sum{0, 0, 0}, centre{0, 0, 0};
   double area = 0;
   auto face_area = [&](int f) {
