@@ -593,12 +593,13 @@ struct SolveEveryRun {
   Published published;
 };
 
-SolveEveryRun solve_every_run(const std::string& name, int n, long last, std::set<long> checkpoints) {
+SolveEveryRun solve_every_run(const std::string& name, int n, long last, std::set<long> checkpoints, int ranks = 1) {
   SolveEveryRun r;
   r.scene = small_scene(name, 1e-4);
   r.scene.extra = "[fluid]\nsolve_every = " + std::to_string(n) + "\n";
   r.drive.run_dir = fresh_run_dir(name);
   r.drive.scene_file = write_scene(r.scene, r.drive.run_dir);
+  r.drive.ranks = ranks;
   r.drive.last = last;
   r.drive.dt = r.scene.dt;
   r.drive.output_every = 2;
@@ -675,16 +676,19 @@ TEST(FluidSolveEvery, SolvesEveryNthStepOnTheBlocksMeanFeedback) {
   EXPECT_GT(latest_gap, 0.05) << "the test's feedback must make the mean differ from the latest";
 }
 
+namespace {
+
 // A checkpoint inside a fluid step (step 4 of the block 4..6) and one at its end (step 6):
 // resumed from either, the run publishes the uninterrupted one's states and diagnostics bit for
-// bit (the block's collected feedback is in the checkpoint).
-TEST(FluidSolveEvery, ResumedInsideAndAtTheEndOfAFluidStepEqualsTheUninterruptedRun) {
+// bit (the block's collected feedback is in the checkpoint). On 2 ranks from step 4 only.
+void solve_every_resumed_equals_uninterrupted(int ranks, const std::vector<long>& from) {
   constexpr int n = 3;
   constexpr long L = 10;
-  const SolveEveryRun r = solve_every_run("fluid-solve-every-checkpoint", n, L, {4, 6});
+  const std::string tag = ranks == 1 ? "" : "-" + std::to_string(ranks) + "-ranks";
+  const SolveEveryRun r = solve_every_run("fluid-solve-every-checkpoint" + tag, n, L, {4, 6}, ranks);
   const Published& pa = r.published;
   ASSERT_TRUE(pa.complete) << pa.failure << "\n" << pa.command.output;
-  for (const long K : {4L, 6L}) {
+  for (const long K : from) {
     Drive b = r.drive;
     b.run_dir = fresh_run_dir(r.scene.name + "-resumed-" + std::to_string(K));
     fs::copy(r.drive.run_dir, b.run_dir, fs::copy_options::recursive);
@@ -695,9 +699,10 @@ TEST(FluidSolveEvery, ResumedInsideAndAtTheEndOfAFluidStepEqualsTheUninterrupted
     const Difference diff = compare_states(pa, pb, K);
     const auto differing = differing_diagnostics(pa, pb, K);
     std::printf(
-        "fluid.solve_every = %d resumed from step %ld (%s a fluid step), steps %ld..%ld: max |du| = %.3e m/s, "
-        "max |dG| = %.3e 1/s; %zu of the diagnostics differ\n",
-        n, K, K % n ? "inside" : "at the end of", K, L, diff.velocity, diff.gradient, differing.size());
+        "fluid.solve_every = %d (%d rank%s) resumed from step %ld (%s a fluid step), steps %ld..%ld: max |du| = "
+        "%.3e m/s, max |dG| = %.3e 1/s; %zu of the diagnostics differ\n",
+        n, ranks, ranks > 1 ? "s" : "", K, K % n ? "inside" : "at the end of", K, L, diff.velocity, diff.gradient,
+        differing.size());
     EXPECT_EQ(diff.steps, L - K + 1);
     EXPECT_EQ(diff.velocity, 0.0) << "bit for bit";
     EXPECT_EQ(diff.gradient, 0.0) << "bit for bit";
@@ -705,6 +710,16 @@ TEST(FluidSolveEvery, ResumedInsideAndAtTheEndOfAFluidStepEqualsTheUninterrupted
     EXPECT_EQ(pb.diagnostics.at(L).at("fluid_solves"), 3.0);
     for (const auto& line : differing) ADD_FAILURE() << line;
   }
+}
+
+}  // namespace
+
+TEST(FluidSolveEvery, ResumedInsideAndAtTheEndOfAFluidStepEqualsTheUninterruptedRun) {
+  solve_every_resumed_equals_uninterrupted(1, {4, 6});
+}
+
+TEST(FluidSolveEvery, ResumedInsideAFluidStepOnTwoRanksEqualsTheUninterruptedRun) {
+  solve_every_resumed_equals_uninterrupted(2, {4});
 }
 
 TEST(FluidCheckpoint, StoppedAndResumedRunEqualsTheRunInOneGo) { coordinator_resume_equals_one_go(1); }
