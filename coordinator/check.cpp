@@ -115,7 +115,12 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   else
     fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.end_time());
-  fmt::print("  coupling    {} scheme\n", s.coupling_scheme);
+  fmt::print("  coupling    {} scheme{}\n", s.coupling_scheme,
+             s.fluid.solve_every > 1
+                 ? fmt::format("; the fluid solved every {} steps, one step of {:.3g} s on the feedback averaged over "
+                               "them (fluid.solve_every)",
+                               s.fluid.solve_every, s.fluid.solve_every * s.time.coupling_interval)
+                 : std::string());
   fmt::print("  numerics    (readings the paper leaves open; docs/validation.md)\n");
   for (const auto& n : numerical_readings(s)) fmt::print("    {:<34} {:<20} {}\n", n.key, n.value, n.reading);
   if (const auto w = estimate_work(s); w.substeps > 0)

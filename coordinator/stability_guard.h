@@ -14,7 +14,8 @@ namespace hemo {
 
 // One line naming the cause and its cure, or "" when the step is within the limits:
 //  - any non-finite diagnostic value (NaN or infinity), from any node;
-//  - the fluid's Courant number `courant_max` above run.max_courant;
+//  - the fluid's Courant number `courant_max` above run.max_courant (over its step: with
+//    fluid.solve_every > 1, whose steps report `fluid_step_s`, several coupling intervals);
 //  - the particles' deepest contact overlap `max_overlap` above run.max_overlap.
 std::string unstable_step(const std::string& node, long step, const std::vector<std::string>& names,
                           const std::vector<double>& values, const RunSettings& limits);

@@ -57,14 +57,17 @@ int main(int argc, char* argv[])
         {
             #include "advanceTime.H"
             #include "applyFeedback.H"
+            #include "fluidStep.H"
 
-            if (fluidSteady)
+            if (fluidSteady || !solveNow)
             {
-                // One-way scene, steady flow: nothing can change it; publish it again.
+                // One-way scene, steady flow: nothing can change it; or (fluid.solve_every) a
+                // step inside a fluid step of several intervals: publish the last state again.
                 #include "republishSteady.H"
             }
             else
             {
+                resumedDiagnostics.clear();     // the solve reports its own
                 auto phaseStart = std::chrono::steady_clock::now();
 
                 // PISO: momentum predictor, then pressure correctors (nCorrectors, and more
@@ -96,6 +99,13 @@ int main(int argc, char* argv[])
                 hemo::set_diagnostic(diagnostics, "phase_fluid_pressure_s", pressureSeconds);
                 hemo::set_diagnostic(diagnostics, "phase_fluid_diagnostics_s", diagnosticsSeconds);
                 hemo::set_diagnostic(diagnostics, "phase_fluid_publish_s", publishSeconds);
+                if (solveEvery > 1)
+                {
+                    hemo::set_diagnostic(diagnostics, "fluid_step_s", fluidStepSeconds);
+                    hemo::set_diagnostic(diagnostics, "applied_source_x_N", appliedSource.x());
+                    hemo::set_diagnostic(diagnostics, "applied_source_y_N", appliedSource.y());
+                    hemo::set_diagnostic(diagnostics, "applied_source_z_N", appliedSource.z());
+                }
             }
 
             if (step->order.write_output)

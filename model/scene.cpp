@@ -263,6 +263,7 @@ class Reader {
         {"fluid.max_correctors", {ninf, 1000}},
         {"fluid.corrector_tolerance", {ninf, 1}},
         {"fluid.steady_tolerance", {ninf, 1}},
+        {"fluid.solve_every", {ninf, 1e4}},
     };
     return b;
   }
@@ -983,6 +984,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("fluid.corrector_tolerance", f.corrector_tolerance);
   r.read("fluid.skip_when_steady", f.skip_when_steady);
   r.read("fluid.steady_tolerance", f.steady_tolerance);
+  r.read("fluid.solve_every", f.solve_every);
   read_name(r, "fluid.pressure_solver", f.pressure_solver, {"GAMG", "PCG"});
   r.check(f.pressure_tolerance > 0, "fluid.pressure_tolerance", "must be positive");
   r.check(f.pressure_relative_tolerance >= 0 && f.pressure_relative_tolerance < 1, "fluid.pressure_relative_tolerance",
@@ -992,6 +994,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(f.max_correctors >= f.min_correctors, "fluid.max_correctors", "must be at least fluid.min_correctors");
   r.check(f.corrector_tolerance > 0, "fluid.corrector_tolerance", "must be positive");
   r.check(f.steady_tolerance > 0, "fluid.steady_tolerance", "must be positive");
+  r.check(f.solve_every >= 1, "fluid.solve_every", "must be at least 1 (1: the fluid solved every coupling step)");
 
   r.read("coupling.two_way", s.two_way);
   read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
@@ -1005,6 +1008,12 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
             "replaced by coupling.momentum (\"cfdem_A\": -V_p grad P and the viscous force on the particles; "
             "docs/scenes.md)");
   read_name(r, "coupling.plasma_velocity", s.plasma_velocity, {"cell_centre", "face_flux"});
+  // A fluid step of several intervals averages feedback computed in one published state (serial
+  // scheme: the state of the block's start) over intervals of one length.
+  r.check(f.solve_every == 1 || s.coupling_scheme == "serial", "fluid.solve_every",
+          "above 1 needs coupling.scheme = \"serial\" (the parallel scheme's particles see two states in a block)");
+  r.check(f.solve_every == 1 || !s.time.adaptive_interval(), "fluid.solve_every",
+          "above 1 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
   r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 

@@ -166,6 +166,12 @@ struct FluidSolver {
   // step is below steady_tolerance, and publish the same state every later step.
   bool skip_when_steady = true;
   double steady_tolerance = 1e-8;
+  // The fluid solved every this many coupling steps: one fluid step of solve_every intervals at
+  // the end of each block of them, on the particles' momentum feedback (S, K) averaged over the
+  // block's intervals and their latest solid fraction; the steps in between publish the last
+  // solved state again (fluid-node/README.md, docs/performance.md measures the error). 1: every
+  // step. Serial coupling scheme and fixed intervals only.
+  int solve_every = 1;
 };
 
 struct Output {

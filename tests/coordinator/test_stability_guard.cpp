@@ -33,6 +33,16 @@ TEST(StabilityGuard, CourantNumberAboveTheLimitIsNamedWithItsCure) {
   EXPECT_NE(why.find("time.coupling_interval_s"), std::string::npos) << why;
 }
 
+// A fluid step of several intervals (fluid.solve_every > 1: the step reports fluid_step_s) has
+// its own cure.
+TEST(StabilityGuard, CourantNumberOfAFluidStepOfSeveralIntervalsNamesFluidSolveEvery) {
+  const auto why =
+      unstable_step("fluid", 20, {"courant_max", "fluid_solved", "fluid_step_s"}, {1.5, 1, 2e-3}, limits());
+  EXPECT_NE(why.find("fluid Courant number 1.5 at step 20"), std::string::npos) << why;
+  EXPECT_NE(why.find("lower fluid.solve_every"), std::string::npos) << why;
+  EXPECT_EQ(why.find("time.coupling_interval_s"), std::string::npos) << why;
+}
+
 TEST(StabilityGuard, OverlapAboveTheLimitIsNamedWithItsCure) {
   const auto why = unstable_step("particles", 7, {"max_overlap"}, {0.35}, limits());
   EXPECT_NE(why.find("cells overlap by 0.35 of a diameter at step 7"), std::string::npos) << why;

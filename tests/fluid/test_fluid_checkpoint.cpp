@@ -92,7 +92,8 @@ struct Published {
   std::string failure;                                        // a STEP_DONE with ok = false
   long failed_at = -1;
   hemo::test::CommandResult command;
-  bool complete = false;  // every ordered step done and the node exited
+  bool complete = false;             // every ordered step done and the node exited
+  std::optional<hemo::mesh_t> mesh;  // as the node published it
 };
 
 std::string shell_quoted(const std::string& s) { return "'" + s + "'"; }
@@ -192,6 +193,7 @@ Published drive(const Drive& d) {
   while (!exited() && seconds_now() - start < 120) poll();
   out.command = process.get();
   out.complete = ok && out.command.exit_code == 0;
+  out.mesh = mesh;
   return out;
 }
 
@@ -566,7 +568,159 @@ void coordinator_resume_equals_one_go(int ranks) {
   EXPECT_EQ(repeats_b, 0) << "each step's fluid metrics once";
 }
 
+// fluid.solve_every = n (fluid-node/fluidStep.H): the moving blob with its drag and source
+// scaled by 1 + (step mod 4), so that a block's mean feedback is not its latest.
+hemo::particle_feedback_t pulsing_blob(const hemo::mesh_t& mesh, long step, double time_s) {
+  hemo::particle_feedback_t fb = moving_blob(mesh, step, time_s);
+  const double f = 1.0 + static_cast<double>(step % 4);
+  for (double& k : fb.drag_coefficient) k *= f;
+  for (double& v : fb.source_explicit) v *= f;
+  return fb;
+}
+
+// sum_c S_z V_c of the feedback of step `step` (what a fluid step that applies it sees as
+// source_force_z_N).
+double source_z(const hemo::mesh_t& mesh, long step, double dt) {
+  const auto fb = pulsing_blob(mesh, step, static_cast<double>(step) * dt);
+  double sum = 0;
+  for (std::size_t c = 0; c < fb.drag_coefficient.size(); ++c) sum += hemo::source_of(fb, c)[2] * mesh.cell_volumes[c];
+  return sum;
+}
+
+struct SolveEveryRun {
+  SceneSpec scene;
+  Drive drive;
+  Published published;
+};
+
+SolveEveryRun solve_every_run(const std::string& name, int n, long last, std::set<long> checkpoints, int ranks = 1) {
+  SolveEveryRun r;
+  r.scene = small_scene(name, 1e-4);
+  r.scene.extra = "[fluid]\nsolve_every = " + std::to_string(n) + "\n";
+  r.drive.run_dir = fresh_run_dir(name);
+  r.drive.scene_file = write_scene(r.scene, r.drive.run_dir);
+  r.drive.ranks = ranks;
+  r.drive.last = last;
+  r.drive.dt = r.scene.dt;
+  r.drive.output_every = 2;
+  r.drive.checkpoints = std::move(checkpoints);
+  r.drive.feedback = pulsing_blob;
+  r.published = drive(r.drive);
+  return r;
+}
+
 }  // namespace
+
+// fluid.solve_every = 3, two-way, 10 steps: the fluid solves at steps 3, 6 and 9 only, each a
+// step of 3 intervals; the steps in between publish the last solved state bit for bit with their
+// own time. Each solve applies the mean of its block's three feedbacks: its source_force_z_N is
+// the mean of sum S_z V over the feedbacks of steps m-3..m-1 (computed here from the
+// prescription, not the latest's), and its applied_source_*, the mean exchange at U_seen, is the
+// mean of the received_source_* the node reported for the block's steps: the fluid gets the
+// momentum the particles handed over, over the block. Its momentum budget closes with the
+// fluid step's dt.
+TEST(FluidSolveEvery, SolvesEveryNthStepOnTheBlocksMeanFeedback) {
+  constexpr int n = 3;
+  constexpr long L = 10;
+  const SolveEveryRun r = solve_every_run("fluid-solve-every-3", n, L, {});
+  const Published& p = r.published;
+  ASSERT_TRUE(p.complete) << p.failure << "\n" << p.command.output;
+  ASSERT_TRUE(p.mesh);
+  const double dt = r.scene.dt;
+  long last_solve = 0;
+  double worst_applied = 0, worst_source = 0, worst_budget = 0, latest_gap = 0;
+  for (long k = 1; k <= L; ++k) {
+    const auto& d = p.diagnostics.at(k);
+    const bool solves = k % n == 0;
+    EXPECT_EQ(d.at("fluid_solved"), solves ? 1.0 : 0.0) << "step " << k;
+    EXPECT_EQ(d.at("fluid_solves"), double(k / n)) << "step " << k;
+    EXPECT_NEAR(p.states.at(k).time_s, static_cast<double>(k) * dt, 1e-9 * dt) << "step " << k;
+    if (!solves) {
+      EXPECT_EQ(p.states.at(k).velocity, p.states.at(last_solve).velocity) << "step " << k << " republishes";
+      EXPECT_EQ(p.states.at(k).velocity_gradient, p.states.at(last_solve).velocity_gradient) << "step " << k;
+      EXPECT_EQ(d.at("applied_source_z_N"), 0.0) << "step " << k;
+      continue;
+    }
+    EXPECT_NE(p.states.at(k).velocity, p.states.at(last_solve).velocity) << "step " << k << " solves";
+    EXPECT_DOUBLE_EQ(d.at("fluid_step_s"), n * dt);
+    // The node's own report of each interval's exchange, against what its step applied
+    // (relative to the largest component: y is round-off of a near-zero sum).
+    double mean[3] = {0, 0, 0}, scale = 0;
+    const char* axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      for (long m = k - n + 1; m <= k; ++m)
+        mean[a] += p.diagnostics.at(m).at(std::string("received_source_") + axes[a] + "_N") / n;
+      scale = std::max(scale, std::abs(mean[a]));
+    }
+    for (int a = 0; a < 3; ++a)
+      worst_applied =
+          std::max(worst_applied, std::abs(d.at(std::string("applied_source_") + axes[a] + "_N") - mean[a]) / scale);
+    latest_gap = std::max(latest_gap, std::abs(d.at("received_source_z_N") - mean[2]) / std::abs(mean[2]));
+    // The source in the momentum equation, against the prescription's feedbacks of the block
+    // (the node received feedback k-1 with order k).
+    double source = 0;
+    for (long m = k - n; m <= k - 1; ++m) source += source_z(*p.mesh, m, dt) / n;
+    worst_source = std::max(worst_source, std::abs(d.at("source_force_z_N") - source) / std::abs(source));
+    const double forces = std::max(std::abs(d.at("driving_force_z_N")), std::abs(d.at("source_force_z_N")));
+    worst_budget = std::max(worst_budget, std::abs(d.at("momentum_budget_residual_z_N")) / forces);
+    last_solve = k;
+  }
+  std::printf(
+      "fluid.solve_every = %d (4/3/4, dt = 1e-4 s, %ld steps): applied_source vs the block's mean received_source: "
+      "max rel %.3e (the latest interval's differs by %.3e); source_force_z vs the block's mean prescribed source: "
+      "max rel %.3e; momentum budget residual / largest force %.3e\n",
+      n, L, worst_applied, latest_gap, worst_source, worst_budget);
+  EXPECT_LT(worst_applied, 1e-12);
+  EXPECT_LT(worst_source, 1e-12);
+  EXPECT_LT(worst_budget, 1e-6);
+  EXPECT_GT(latest_gap, 0.05) << "the test's feedback must make the mean differ from the latest";
+}
+
+namespace {
+
+// A checkpoint inside a fluid step (step 4 of the block 4..6) and one at its end (step 6):
+// resumed from either, the run publishes the uninterrupted one's states and diagnostics bit for
+// bit (the block's collected feedback is in the checkpoint). On 2 ranks from step 4 only.
+void solve_every_resumed_equals_uninterrupted(int ranks, const std::vector<long>& from) {
+  constexpr int n = 3;
+  constexpr long L = 10;
+  const std::string tag = ranks == 1 ? "" : "-" + std::to_string(ranks) + "-ranks";
+  const SolveEveryRun r = solve_every_run("fluid-solve-every-checkpoint" + tag, n, L, {4, 6}, ranks);
+  const Published& pa = r.published;
+  ASSERT_TRUE(pa.complete) << pa.failure << "\n" << pa.command.output;
+  for (const long K : from) {
+    Drive b = r.drive;
+    b.run_dir = fresh_run_dir(r.scene.name + "-resumed-" + std::to_string(K));
+    fs::copy(r.drive.run_dir, b.run_dir, fs::copy_options::recursive);
+    b.first = K;
+    b.checkpoints = {};
+    const Published pb = drive(b);
+    ASSERT_TRUE(pb.complete) << pb.failure << "\n" << pb.command.output;
+    const Difference diff = compare_states(pa, pb, K);
+    const auto differing = differing_diagnostics(pa, pb, K);
+    std::printf(
+        "fluid.solve_every = %d (%d rank%s) resumed from step %ld (%s a fluid step), steps %ld..%ld: max |du| = "
+        "%.3e m/s, max |dG| = %.3e 1/s; %zu of the diagnostics differ\n",
+        n, ranks, ranks > 1 ? "s" : "", K, K % n ? "inside" : "at the end of", K, L, diff.velocity, diff.gradient,
+        differing.size());
+    EXPECT_EQ(diff.steps, L - K + 1);
+    EXPECT_EQ(diff.velocity, 0.0) << "bit for bit";
+    EXPECT_EQ(diff.gradient, 0.0) << "bit for bit";
+    EXPECT_EQ(diff.time, 0.0);
+    EXPECT_EQ(pb.diagnostics.at(L).at("fluid_solves"), 3.0);
+    for (const auto& line : differing) ADD_FAILURE() << line;
+  }
+}
+
+}  // namespace
+
+TEST(FluidSolveEvery, ResumedInsideAndAtTheEndOfAFluidStepEqualsTheUninterruptedRun) {
+  solve_every_resumed_equals_uninterrupted(1, {4, 6});
+}
+
+TEST(FluidSolveEvery, ResumedInsideAFluidStepOnTwoRanksEqualsTheUninterruptedRun) {
+  solve_every_resumed_equals_uninterrupted(2, {4});
+}
 
 TEST(FluidCheckpoint, StoppedAndResumedRunEqualsTheRunInOneGo) { coordinator_resume_equals_one_go(1); }
 

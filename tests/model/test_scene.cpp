@@ -343,6 +343,24 @@ TEST(Scene, StreamingNeighbourListsRunOnOneParticleRank) {
   EXPECT_NE(ps[0].message.find("one particle rank"), std::string::npos) << ps[0].message;
 }
 
+// fluid.solve_every: 1 by default; above 1 in the serial scheme with fixed intervals; one
+// problem, on the key and in one line, for 0 and for each combination it cannot serve.
+TEST(Scene, FluidSolveEveryIsAtLeastOneAndNeedsTheSerialSchemeAndFixedIntervals) {
+  const std::string base = test::kMinimalScene;
+  EXPECT_EQ(load_scene(test::write_temp(base)).fluid.solve_every, 1);
+  EXPECT_TRUE(problems_of(base + "[fluid]\nsolve_every = 5\n").empty());
+  for (const auto& [extra, words] :
+       {std::pair<std::string, std::string>{"[fluid]\nsolve_every = 0\n", "at least 1"},
+        {"[fluid]\nsolve_every = 4\n[coupling]\nscheme = \"parallel\"\n", "serial"},
+        {"[fluid]\nsolve_every = 4\n[time]\ncoupling_relaxation_times = 100\n", "fixed coupling intervals"}}) {
+    const auto ps = problems_of(base + extra);
+    ASSERT_EQ(ps.size(), 1u) << extra;
+    EXPECT_EQ(ps[0].key, "fluid.solve_every");
+    EXPECT_EQ(ps[0].message.find('\n'), std::string::npos);
+    EXPECT_NE(ps[0].message.find(words), std::string::npos) << ps[0].message;
+  }
+}
+
 // Every committed scene (scenes/*.toml and the bench suites' base) passes what `hemocosim check`
 // and `run` check, its particles' placement included (the studies' and suites' scenes: ctest
 // study_check.*, bench_check.*).
