@@ -561,7 +561,10 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
 // seed; a safe bound would refuse scenes that run, a loose one pass scenes that stop at step 0.
 void check_placement(Reader& r, const Scene& s) {
   namespace pl = particles;
-  if (!placement_checked(s)) return;     // too many to place here: the particle node will tell
+  if (!placement_checked(s)) return;  // too many to place here: the particle node will tell
+  // A surface vessel places cells only from its feeder and in a shape whose branches are known;
+  // anything else is refused already (check_surface_vessel, refuse_cells_without_feeder).
+  if (surface_vessel(s.vessel) && !(vessel_shape(s.vessel.shape).carries_cells() && fed_by_feeder(s.vessel))) return;
   try {
     pl::place_scene_particles(s, *make_vessel_wall(s.vessel), 0.0);
   } catch (const pl::PlacementError& e) {

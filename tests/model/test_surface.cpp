@@ -349,8 +349,8 @@ TEST(SurfaceScene, RefusesWhatASurfaceVesselCannotHaveInOneLineEach) {
   EXPECT_TRUE(scene_problems(bifurcation_scene("")).empty());
   one(bifurcation_scene("daughter_2_diameter_um = 7"), "vessel.shape",
       "daughter 2 of the bifurcation is 7 um across, narrower than a red cell (8 um)");
-  one(bifurcation_scene("", "[rbc]\nhematocrit = 0.1\n"), "vessel.shape",
-      "a surface vessel carries plasma alone for now: the particle node knows only axisymmetric vessels");
+  one(bifurcation_scene("", "[rbc]\nhematocrit = 0.1\n"), "vessel.inlet",
+      "cells enter an open vessel only from a feeder (vessel.inlet = \"feeder\")");
   one("[vessel]\ndiameter_um = 30\nlength_um = 60\nshape = \"bifurcation\"\n[driving]\nwall_shear_rate_per_s = 799\n",
       "vessel.ends", "a surface vessel has open ends");
   one(bifurcation_scene("", "[run]\nfluid_ranks = 2\n"), "run.fluid_ranks", "runs on one rank for now");
