@@ -197,6 +197,17 @@ Published drive(const Drive& d) {
   return out;
 }
 
+// The run `a` drove, driven again from its checkpoint of step K in a copy of its run directory,
+// writing no checkpoints of its own.
+Published resume_copy(const Drive& a, const std::string& name, long K) {
+  Drive b = a;
+  b.run_dir = fresh_run_dir(name + "-resumed-" + std::to_string(K));
+  fs::copy(a.run_dir, b.run_dir, fs::copy_options::recursive);
+  b.first = K;
+  b.checkpoints = {};
+  return drive(b);
+}
+
 // Per-step difference of two runs' published states: max |du| and max |dG|, over the steps of
 // `b` from `from` on (all must be in `a`).
 struct Difference {
@@ -474,12 +485,7 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
       << "a republished step does not acknowledge the earlier checkpoint again";
 
   for (const long K : {K1, K2}) {
-    Drive b = a;
-    b.run_dir = fresh_run_dir(scene.name + "-resumed-" + std::to_string(K));
-    fs::copy(a.run_dir, b.run_dir, fs::copy_options::recursive);
-    b.first = K;
-    b.checkpoints = {};
-    const Published pb = drive(b);
+    const Published pb = resume_copy(a, scene.name, K);
     ASSERT_TRUE(pb.complete) << pb.failure << "\n" << pb.command.output;
     const Difference diff = compare_states(pa, pb, K);
     const auto differing = differing_diagnostics(pa, pb, K);
@@ -689,12 +695,7 @@ void solve_every_resumed_equals_uninterrupted(int ranks, const std::vector<long>
   const Published& pa = r.published;
   ASSERT_TRUE(pa.complete) << pa.failure << "\n" << pa.command.output;
   for (const long K : from) {
-    Drive b = r.drive;
-    b.run_dir = fresh_run_dir(r.scene.name + "-resumed-" + std::to_string(K));
-    fs::copy(r.drive.run_dir, b.run_dir, fs::copy_options::recursive);
-    b.first = K;
-    b.checkpoints = {};
-    const Published pb = drive(b);
+    const Published pb = resume_copy(r.drive, r.scene.name, K);
     ASSERT_TRUE(pb.complete) << pb.failure << "\n" << pb.command.output;
     const Difference diff = compare_states(pa, pb, K);
     const auto differing = differing_diagnostics(pa, pb, K);
