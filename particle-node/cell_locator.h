@@ -57,9 +57,10 @@ struct LocateCache {
 class CellLocator {
  public:
   // Throws std::invalid_argument when the mesh is inconsistent (sizes, indices, empty cells, a
-  // z extent other than the period). `geometry` is the vessel's shape; none: the straight tube of
-  // the mesh's diameter and length. `feeder`: the mesh is an open vessel's with its feeder
-  // (feeder_layout(vessel, mesh.axial_cells)); its period is the feeder's length.
+  // z extent other than the period). `wall` is the vessel's (make_vessel_wall: an axisymmetric
+  // shape, or a surface vessel's); none: the straight tube of the mesh's diameter and length.
+  // `feeder`: the mesh is an open vessel's with its feeder (feeder_layout(scene)); its period is
+  // the feeder's length.
   explicit CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselWall> wall = nullptr,
                        std::optional<FeederLayout> feeder = std::nullopt);
 
