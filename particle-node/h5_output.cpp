@@ -3,6 +3,8 @@
 
 #include <hdf5.h>
 
+#include <fcntl.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -46,6 +48,25 @@ std::vector<T> read_dataset(hid_t group, const char* name, hid_t mem_type, std::
   H5Dclose(set);
   if (st < 0) fail(std::string("cannot read dataset ") + name);
   return out;
+}
+
+// HDF5 writes a snapshot's metadata when its cache chooses and in no order: on a disk that fills
+// halfway through, the link to a new group can reach the file while the group's header, past the
+// end, does not, and the file then lists a snapshot nobody can open. So the blocks a snapshot will
+// take are reserved before HDF5 touches the file: a full disk then fails here, with the file as it
+// was. FALLOC_FL_KEEP_SIZE leaves the file's size alone (HDF5 checks it against its end of
+// allocation). New objects go at the end of the allocation, so the reserve starts there and holds
+// the data twice over plus a mebibyte for headers and the name index growing (it doubles).
+void reserve_space(hid_t file, const std::string& path, std::size_t data_bytes) {
+  void* handle = nullptr;
+  if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) < 0 || handle == nullptr) return;  // not a POSIX file
+  hsize_t end = 0;
+  if (H5Fget_filesize(file, &end) < 0) fail("cannot read the size of " + path);
+  const off_t length = static_cast<off_t>(2 * data_bytes + (std::size_t{1} << 20));
+  errno = 0;
+  if (::fallocate(*static_cast<int*>(handle), FALLOC_FL_KEEP_SIZE, static_cast<off_t>(end), length) == 0) return;
+  if (errno == EOPNOTSUPP || errno == ENOSYS) return;  // a file system that cannot reserve: write and hope
+  fail("cannot reserve " + std::to_string(length) + " bytes for the next snapshot");
 }
 
 }  // namespace
@@ -109,6 +130,8 @@ bool H5Output::write(const ParticleSnapshot& s) {
   const std::string name = snapshot_name(s.step);
   const hid_t parent = static_cast<hid_t>(snapshots_);
   if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) > 0) return false;
+  reserve_space(static_cast<hid_t>(file_), path_,
+                n * (sizeof(std::int64_t) + sizeof(std::int8_t) + (3 + 3 + 4) * sizeof(double)));
   // The snapshot is built in a group with no name and linked under its name only when whole: a
   // write the disk cuts short (ENOSPC) leaves no half snapshot for a reader or a resume to find.
   hid_t g = H5Gcreate_anon(parent, H5P_DEFAULT, H5P_DEFAULT);
