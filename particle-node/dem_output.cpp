@@ -54,6 +54,12 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
   return d;
 }
 
+DemOutput::DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking, const DemSpecies& species,
+                     const CellLocator& locator, MPI_Comm comm)
+    : liggghts_(liggghts), tracking_(tracking), species_(species), locator_(locator), comm_(comm) {
+  if (locator_.axisymmetric() == nullptr) facets_.emplace(locator_.wall().dem_wall(), species_.d_max / 2);
+}
+
 double DemOutput::local_max_overlap() const {
   // The pairs LIGGGHTS keeps for its contacts: every pair that touches is in the neighbour list
   // (LIGGGHTS's check or ours keeps it so: dem_streaming_neighbours.h) and ghosts carry this step's positions,
@@ -64,10 +70,17 @@ double DemOutput::local_max_overlap() const {
   double** x = lmp.atom->x;
   const int nlocal = lmp.atom->nlocal;
   double worst = 0;
+  const auto& feeder = locator_.feeder();
   for (int i = 0; i < nlocal; ++i) {
+    const Vec3 xi(x[i][0], x[i][1], x[i][2]);
+    if (facets_ && !(feeder && feeder->in_feeder(xi.x()))) {
+      const double d = facets_->distance(xi);
+      if (d < r[i]) worst = std::max(worst, (r[i] - d) / (2 * r[i]));
+      continue;
+    }
     // Radially, from the section's radius (the shape's R(z): within R'^2 / 2 of the overlap along
-    // the wall's normal). A feeder cell against the feeder's wall, in the vessel frame.
-    const VesselWall::Section section = locator_.section(Vec3(x[i][0], x[i][1], x[i][2]));
+    // the wall's normal). A feeder cell against the feeder's wall (a cylinder), in the vessel frame.
+    const VesselWall::Section section = locator_.section(xi);
     worst = std::max(worst, (section.off_axis + r[i] - section.radius) / (2 * r[i]));
   }
   const LAMMPS_NS::NeighList* list = lmp.force->pair != nullptr ? lmp.force->pair->list : nullptr;

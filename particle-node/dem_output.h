@@ -10,7 +10,10 @@
 #include "fluid_sampler.h"
 #include "h5_output.h"
 
+#include <facet_distance.h>
 #include <mpi.h>
+
+#include <optional>
 
 namespace hemo::particles {
 
@@ -32,8 +35,7 @@ struct EngineDiagnostics {
 class DemOutput {
  public:
   DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking, const DemSpecies& species,
-            const CellLocator& locator, MPI_Comm comm)
-      : liggghts_(liggghts), tracking_(tracking), species_(species), locator_(locator), comm_(comm) {}
+            const CellLocator& locator, MPI_Comm comm);
 
   // The particles at the current state in `fluid` (null: no fluid state yet): count, core
   // velocities, wall gap, largest speed and overlap. What the last run found is the caller's.
@@ -51,6 +53,9 @@ class DemOutput {
   const DemSpecies& species_;
   const CellLocator& locator_;
   MPI_Comm comm_;
+  // A surface vessel's DEM wall, which its wall overlap is measured against as the DEM measures
+  // its contacts (facet_distance.h); an axisymmetric vessel's overlap is radial, from R(z).
+  std::optional<FacetDistance> facets_;
 };
 
 }  // namespace hemo::particles
