@@ -32,6 +32,17 @@ Point nearest_on_triangle(const Point& x, const Point& a, const Point& b, const 
   return a + ab * (vb * denominator) + ac * (vc * denominator);
 }
 
+double furthest_outside(const VesselWall& wall, const std::vector<WallTriangle>& facets) {
+  double most = 0;
+  for (const auto& f : facets) {
+    const auto& v = f.vertex;
+    for (const Point& x : {Point(v[0]), Point(v[1]), Point(v[2]), Point((v[0] + v[1]) / 2), Point((v[1] + v[2]) / 2),
+                           Point((v[2] + v[0]) / 2), Point((v[0] + v[1] + v[2]) / 3)})
+      most = std::max(most, wall.signed_distance(x));
+  }
+  return most;
+}
+
 FacetDistance::FacetDistance(std::vector<WallTriangle> facets, double reach)
     : facets_(std::move(facets)), reach_(reach) {
   if (!(reach > 0)) throw std::invalid_argument("facet distance: the reach must be positive");

@@ -23,6 +23,11 @@ namespace hemo {
 Eigen::Vector3d nearest_on_triangle(const Eigen::Vector3d& x, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                     const Eigen::Vector3d& c);
 
+// How far outside the wall's analytic shape its facets reach, m (0 if nowhere): the most of the
+// wall's signed distance over each facet's vertices, edge midpoints and centroid. A point farther
+// outside the analytic shape than this is outside the DEM's wall too.
+double furthest_outside(const VesselWall& wall, const std::vector<WallTriangle>& facets);
+
 class FacetDistance {
  public:
   // `reach`, m: the largest distance a query needs (a particle's radius); facets farther away are

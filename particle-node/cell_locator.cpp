@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "cell_locator.h"
 
+#include <facet_distance.h>
+
 #include <scene.h>
 
 #include <algorithm>
@@ -136,6 +138,7 @@ CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselWall> w
   axisymmetric_ = dynamic_cast<const VesselGeometry*>(wall_.get());
   if (axisymmetric_ && axisymmetric_->nominal_radius() != radius_)
     bad_mesh("its vessel diameter differs from the vessel shape's");
+  if (wall_ && !axisymmetric_) facets_outside_ = furthest_outside(*wall_, wall_->dem_wall());
   std::vector<char> wall_cell;
   const std::vector<char> on_wall =
       axisymmetric_ ? chords(mesh, points, wall_face, *axisymmetric_, feeder_) : std::vector<char>(mesh.n_faces, 0);
@@ -393,7 +396,7 @@ int CellLocator::search_bins(const Vec3& x) const {
 }
 
 int CellLocator::locate_near_surface(const Vec3& w) const {
-  if (wall_->signed_distance(in_vessel_frame(w)) > 1e-12 * radius_) return -1;
+  if (wall_->signed_distance(in_vessel_frame(w)) > facets_outside_ + 1e-12 * radius_) return -1;
   const int b = bin_of(w);
   if (b < 0) return -1;
   int best = -1;

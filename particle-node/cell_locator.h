@@ -200,8 +200,11 @@ class CellLocator {
   double z0_ = 0, length_ = 0, radius_ = 0, wall_gap_ = 0;
   std::shared_ptr<const VesselWall> wall_;
   const VesselGeometry* axisymmetric_ = nullptr;  // wall_'s, when it is r = R(z)
-  // A surface vessel's wall gap: the cell whose planes x violates least, by at most half its size.
+  // A surface vessel's wall gap: the cell whose planes x violates least, by at most half its size,
+  // for a point not farther outside the analytic wall than the DEM's facets reach (the mesh is
+  // snapped to those facets, which bevel the analytic shape's ridges: facet_distance.h).
   int locate_near_surface(const Vec3& w) const;
+  double facets_outside_ = 0;  // m, furthest_outside of the DEM's wall, for a surface vessel
   std::optional<FeederLayout> feeder_;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};

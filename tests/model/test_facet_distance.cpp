@@ -84,4 +84,9 @@ TEST(FacetDistance, TheDemWallBevelsTheDividersRidge) {
   const double bevel = facets.distance(apex);
   EXPECT_GT(bevel, 0.05 * spec.step) << "step " << spec.step;
   EXPECT_LT(bevel, spec.step);
+  // The facets across the ridge lie outside the analytic wall (the solid wedge's nearer face is
+  // nearer them than its edge is), and nowhere by more than a facet's size.
+  const double outside = furthest_outside(wall, wall.dem_wall());
+  EXPECT_GT(outside, 0.1 * spec.step);
+  EXPECT_LT(outside, std::sqrt(3.0) * spec.step);
 }
