@@ -365,6 +365,14 @@ std::string fixed(double v, int digits, double scale = 1) {
 // JSON has no NaN: an undefined number is null.
 nlohmann::ordered_json number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nullptr; }
 
+// An outlet's shares as analysis.json names them, over the window ("branches") and per interval
+// ("shares_over_time").
+constexpr std::pair<const char*, double BranchShare::*> kShareFields[] = {
+    {"blood_fraction", &BranchShare::blood},
+    {"plasma_fraction", &BranchShare::plasma},
+    {"rbc_fraction", &BranchShare::rbc},
+    {"platelet_fraction", &BranchShare::platelet}};
+
 nlohmann::ordered_json::json_pointer pointer(const std::string& dotted) {
   std::string p;
   for (char c : dotted) p += c == '.' ? '/' : c;
@@ -473,10 +481,7 @@ std::string format_json(const Analysis& a) {
         {"platelets_per_s", number(e.platelet_rate)}, {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
         {"blood_flux_m3_s", number(e.blood_flux())},  {"discharge_hematocrit", number(e.discharge_hematocrit())}};
   for (const BranchShare& b : a.branches)
-    j["branches"][b.outlet] = {{"blood_fraction", number(b.blood)},
-                               {"plasma_fraction", number(b.plasma)},
-                               {"rbc_fraction", number(b.rbc)},
-                               {"platelet_fraction", number(b.platelet)}};
+    for (const auto& [name, share] : kShareFields) j["branches"][b.outlet][name] = number(b.*share);
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},
@@ -489,10 +494,7 @@ std::string format_json(const Analysis& a) {
       over["end_s"].push_back(number(interval.end));
       for (const BranchShare& b : interval.shares) {
         auto& o = over["outlets"][b.outlet];
-        o["blood_fraction"].push_back(number(b.blood));
-        o["plasma_fraction"].push_back(number(b.plasma));
-        o["rbc_fraction"].push_back(number(b.rbc));
-        o["platelet_fraction"].push_back(number(b.platelet));
+        for (const auto& [name, share] : kShareFields) o[name].push_back(number(b.*share));
       }
     }
     j["shares_over_time"] = over;
