@@ -100,10 +100,12 @@ struct Stations {
   int sectors = 24;
   int count() const { return axial * sectors; }
 };
-// About `per_station` RBCs per station (docs/model.md §5), with the shape of the calibration case's
+// RBCs per CFL station (docs/model.md §5): enough for a station to have an edge in most snapshots,
+// few enough that a stray cell moves one station's edge only.
+inline constexpr double kRbcsPerStation = 20;
+// About `per_station` RBCs per station, with the shape of the calibration case's
 // 16 x 24 stations kept for other vessels: sectors / slices = 18 R / L, i.e. a station's arc
 // at the wall is about a third of its axial length whatever the vessel.
-inline constexpr double kRbcsPerStation = 20;
 Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station = kRbcsPerStation);
 
 // Outer edge of the RBC core at every occupied station of one snapshot: max(r_i + d_RBC/2)
