@@ -159,7 +159,8 @@ int main(int argc, char** argv) {
   auto* ana_cmd =
       app.add_subcommand("analyze",
                          "Observables of a finished run: CFL, profiles, MSD and D, viscosity, hematocrit, momentum "
-                         "balance, platelets on the axis");
+                         "balance, platelets on the axis; a bifurcation's outlet shares, and per branch H_D, "
+                         "platelet flux and CFL");
   ana_cmd->add_option("run_dir", ana.run_dir, "Run directory")->required()->check(CLI::ExistingDirectory);
   ana_cmd->add_flag("--json", ana.json, "Print JSON instead of the table");
   ana_cmd->add_option("--bins", ana.bins, "Radial bins over [0, R]")->capture_default_str()->check(CLI::PositiveNumber);
@@ -169,14 +170,19 @@ int main(int argc, char** argv) {
   ana_cmd->add_option("--window-start", ana.window_start,
                       "s: start of the averaging window (default: second half of the run, or of [0, end])");
   ana_cmd->add_option("--window-end", ana.window_end, "s: end of the averaging window (default: the last snapshot)");
-  ana_cmd->add_option("--slices", ana.slices, "CFL stations: axial slices (default: about 20 RBCs per station)")
+  ana_cmd
+      ->add_option("--slices", ana.slices,
+                   "CFL stations: axial slices (default: about 20 RBCs per station; a bifurcation's: " +
+                       std::to_string(hemo::analysis::kBranchSlices) + " along each branch)")
       ->check(CLI::NonNegativeNumber);
   ana_cmd->add_option("--sectors", ana.sectors, "CFL stations: angular sectors (default: about 20 RBCs per station)")
       ->check(CLI::NonNegativeNumber);
 
   hemo::PlotOptions plot;
   auto* plot_cmd = app.add_subcommand(
-      "plot", "PNG figures of analysed runs: profiles over time, MSD and D, observables against the swept key");
+      "plot",
+      "PNG figures of analysed runs: profiles over time, MSD and D, observables against the swept key; a "
+      "bifurcation's outlet shares over time against the blood's (phase separation) and CFL along each branch");
   plot_cmd
       ->add_option("run_dirs", plot.run_dirs, "Run directories (analysed first when analysis.json is missing or stale)")
       ->required();

@@ -211,6 +211,10 @@ int BifurcationWall::branch_at(const Point& x) const {
   return best;
 }
 
+std::vector<VesselWall::Branch> BifurcationWall::branches() const {
+  return {{start_[0], end_[0], radius_[0]}, {start_[1], end_[1], radius_[1]}, {start_[2], end_[2], radius_[2]}};
+}
+
 double BifurcationWall::signed_distance(const Point& x) const { return bifurcation_function(spec_, x); }
 
 Point BifurcationWall::outward_normal(const Point& x) const {

@@ -92,8 +92,11 @@ class BifurcationWall : public VesselWall {
   std::vector<WallTriangle> dem_wall() const override;
   // Daughter i's outlet cap: centred on its axis's end, facing along the daughter.
   std::vector<Opening> outlets() const override;
+  // The parent's axis from the inlet to the junction, each daughter's from the junction to its
+  // outlet.
+  std::vector<Branch> branches() const override;
   // The branch whose tube x is deepest in: 0 the parent, 1 or 2 a daughter.
-  int branch_at(const Point& x) const;
+  int branch_at(const Point& x) const override;
   const BifurcationSpec& spec() const { return spec_; }
 
  private:

@@ -56,6 +56,17 @@ class VesselWall {
 
   // Whether the wall is r = R(z) about the z axis (VesselGeometry); else a surface vessel's.
   virtual bool axisymmetric() const { return false; }
+
+  // A branching vessel's branches, each a tube of its radius about an axis segment that runs with
+  // the flow: the parent (from the inlet) first, then the daughters in the order of their outlets.
+  // None for a vessel that does not branch.
+  struct Branch {
+    Point start, end;
+    double radius = 0;  // m
+  };
+  virtual std::vector<Branch> branches() const { return {}; }
+  // The index into branches() of the branch x is in; -1 for a vessel that does not branch.
+  virtual int branch_at(const Point& /*x*/) const { return -1; }
 };
 
 }  // namespace hemo

@@ -105,17 +105,17 @@ void fluid_observables(Analysis& a, const RunData& run, double mean_cells_flux) 
     a.notes.push_back(a.balance_verdict.line);
 }
 
-// An open vessel's ends over the window: the plasma's flux (the fluid node's) and the cells the
-// particle node counted through each (into the vessel at the inlet: inserted - left back).
-std::vector<EndFlux> end_fluxes(const Analysis& a, const RunData& run) {
+// An open vessel's ends over [t_start, t_end]: the plasma's flux (the fluid node's) and the cells
+// the particle node counted through each (into the vessel at the inlet: inserted - left back).
+std::vector<EndFlux> end_fluxes(const Analysis& a, const RunData& run, double t_start, double t_end) {
   if (!open_ends(run.scene.vessel)) return {};
   auto rate = [&](const std::string& name) {
     const auto series = metric_series(run.metrics, name);
-    return series.empty() ? 0.0 : window_rate(series.time_s, series.value, a.window_start, a.window_end);
+    return series.empty() ? 0.0 : window_rate(series.time_s, series.value, t_start, t_end);
   };
   auto plasma = [&](const std::string& name) {
     const auto series = metric_series(run.metrics, name);
-    return time_mean(series.time_s, series.value, a.window_start, a.window_end);
+    return time_mean(series.time_s, series.value, t_start, t_end);
   };
   std::vector<EndFlux> ends = {{"inlet", plasma("inlet_plasma_flux_m3_s"),
                                 rate("rbc_inserted") - rate("rbc_left_inlet"),
@@ -144,8 +144,26 @@ std::vector<EndFlux> end_fluxes(const Analysis& a, const RunData& run) {
   return ends;
 }
 
-// A surface vessel's run: what went through each end over the window and each outlet's shares.
-// Its vessel is no tube: no radial profiles, layer, MSD or wall-shear balance.
+// The outlets' shares over consecutive intervals of the run, each of about the same number of the
+// particle node's count samples and bounded by two of them (a count is read at the last sample at
+// or before a time: a bound between samples would take a step's cells into the wrong interval).
+constexpr int kShareIntervals = 20;
+std::vector<Analysis::ShareInterval> shares_over_time(const Analysis& a, const RunData& run) {
+  const std::vector<double> t = metric_series(run.metrics, "rbc_inserted").time_s;
+  const int n = std::min(kShareIntervals, static_cast<int>(t.size()) - 1);
+  std::vector<Analysis::ShareInterval> out;
+  for (int k = 0; k < n; ++k) {
+    const double t0 = t[static_cast<std::size_t>(std::lround(double(k) * double(t.size() - 1) / n))];
+    const double t1 = t[static_cast<std::size_t>(std::lround(double(k + 1) * double(t.size() - 1) / n))];
+    const auto ends = end_fluxes(a, run, t0, t1);
+    out.push_back({t0, t1, branch_shares({ends.begin() + 1, ends.end()})});
+  }
+  return out;
+}
+
+// A surface vessel's run: what went through each end over the window and each outlet's shares, and
+// along a branching vessel's branches the cell-free layer. Its vessel is no tube: no radial
+// profiles, MSD or wall-shear balance.
 Analysis analyze_branches(const RunData& run, const AnalyzeOptions& opt) {
   Analysis a;
   a.run_dir = run.dir;
@@ -156,9 +174,26 @@ Analysis analyze_branches(const RunData& run, const AnalyzeOptions& opt) {
   a.rbc_volume = run.scene.rbc.volume;
   a.platelet_volume = run.scene.platelet.volume;
   choose_window(a, run, opt.window_start, opt.window_end);
-  a.ends = end_fluxes(a, run);
+  a.ends = end_fluxes(a, run, a.window_start, a.window_end);
   a.branches = branch_shares({a.ends.begin() + 1, a.ends.end()});
-  a.notes.push_back("a surface vessel: the ends' fluxes and each outlet's shares only (no radial observables)");
+  a.shares_over_time = shares_over_time(a, run);
+  const std::unique_ptr<VesselWall> wall =
+      vessel_shape(run.scene.vessel.shape).carries_cells() ? make_vessel_wall(run.scene.vessel) : nullptr;
+  std::optional<BranchAccumulator> layers;
+  if (wall && !wall->branches().empty())
+    layers.emplace(*wall, opt.slices > 0 ? opt.slices : kBranchSlices, opt.sectors, a.rbc_diameter);
+  for (std::size_t i = 0; i < run.snapshots.size(); ++i) {
+    const double t = run.snapshots[i].time_s;
+    if (t < a.window_start || t > a.window_end) continue;
+    if (layers) layers->add(run.load(i));
+    ++a.window_snapshots;
+  }
+  if (layers) a.branch_layers = layers->result();
+  for (const BranchLayer& l : a.branch_layers)
+    if (!(l.span.length() > 0)) a.notes.push_back(l.name + ": no section is the branch's own: no cell-free layer");
+  a.notes.push_back(
+      "a surface vessel: the ends' fluxes, each outlet's shares and the layer along each branch only (no radial "
+      "observables)");
   return a;
 }
 
@@ -314,7 +349,7 @@ Analysis analyze_run(const RunData& run, const AnalyzeOptions& opt) {
   a.tube_hematocrit = hematocrit_sum / n;
   a.rbc_volume_flux = rbc_flux_sum / n;
   fluid_observables(a, run, cells_flux_sum / n);
-  a.ends = end_fluxes(a, run);
+  a.ends = end_fluxes(a, run, a.window_start, a.window_end);
   return a;
 }
 
@@ -329,6 +364,14 @@ std::string fixed(double v, int digits, double scale = 1) {
 
 // JSON has no NaN: an undefined number is null.
 nlohmann::ordered_json number(double v) { return std::isfinite(v) ? nlohmann::ordered_json(v) : nullptr; }
+
+// An outlet's shares as analysis.json names them, over the window ("branches") and per interval
+// ("shares_over_time").
+constexpr std::pair<const char*, double BranchShare::*> kShareFields[] = {
+    {"blood_fraction", &BranchShare::blood},
+    {"plasma_fraction", &BranchShare::plasma},
+    {"rbc_fraction", &BranchShare::rbc},
+    {"platelet_fraction", &BranchShare::platelet}};
 
 nlohmann::ordered_json::json_pointer pointer(const std::string& dotted) {
   std::string p;
@@ -382,6 +425,27 @@ std::string format_table(const Analysis& a) {
       t += fmt::format("    {:<10} {:>7} {:>7} {:>7} {:>9}\n", b.outlet, fixed(b.blood, 3), fixed(b.plasma, 3),
                        fixed(b.rbc, 3), fixed(b.platelet, 3));
   }
+  if (!a.branch_layers.empty()) {
+    t += "  each branch (what passes its end; δ: the edge method in the branch's own sections):\n";
+    t += fmt::format("    {:<11} {:<9} {:>6} {:>11} {:>7} {:>6} {:>6} {:>12} {:>10}\n", "", "end", "R µm", "span µm",
+                     "δ µm", "δ/R", "H_D", "platelet 1/s", "plt/µl");
+    for (std::size_t b = 0; b < a.branch_layers.size() && b < a.ends.size(); ++b) {
+      const BranchLayer& l = a.branch_layers[b];
+      const EndFlux& e = a.ends[b];
+      t += fmt::format("    {:<11} {:<9} {:>6} {:>11} {:>7} {:>6} {:>6} {:>12} {:>10}\n", l.name, e.end,
+                       fixed(l.radius, 1, kUm), fixed(l.span.start, 0, kUm) + ".." + fixed(l.span.end, 0, kUm),
+                       fixed(l.whole.thickness, 2, kUm), fixed(l.whole.thickness / l.radius, 3),
+                       fixed(e.discharge_hematocrit(), 3), fixed(e.platelet_rate, 0),
+                       fixed(e.discharge_platelet_density(), 0, 1e9));
+    }
+    t += "  δ along each branch (µm, at s µm from its start: the inlet's or the junction's):\n";
+    for (const BranchLayer& l : a.branch_layers) {
+      std::string row;
+      for (std::size_t k = 0; k < l.s.size(); ++k)
+        row += fmt::format("  {}: {}", fixed(l.s[k], 0, kUm), fixed(l.station[k].thickness, 2, kUm));
+      t += fmt::format("    {:<11}{}  ({} slices x {} sectors)\n", l.name, row, l.stations.axial, l.stations.sectors);
+    }
+  }
   for (const auto& n : a.notes) line("note", n);
   return t;
 }
@@ -391,7 +455,10 @@ std::string format_json(const Analysis& a) {
   nlohmann::ordered_json j;
   j["run_dir"] = a.run_dir;
   j["units"] = "SI (m, s, m^2/s, m^3/s, Pa)";
-  j["vessel"] = {{"radius_m", number(a.tube.radius)}, {"length_m", number(a.tube.length)}, {"shape", a.shape}};
+  j["vessel"] = {{"radius_m", number(a.tube.radius)},
+                 {"length_m", number(a.tube.length)},
+                 {"shape", a.shape},
+                 {"surface", a.surface}};
   if (!a.axial.z.empty()) {
     auto series = [](const std::vector<double>& v) {
       nlohmann::ordered_json out = nlohmann::ordered_json::array();
@@ -414,14 +481,52 @@ std::string format_json(const Analysis& a) {
         {"platelets_per_s", number(e.platelet_rate)}, {"rbc_volume_flux_m3_s", number(e.rbc_volume_flux)},
         {"blood_flux_m3_s", number(e.blood_flux())},  {"discharge_hematocrit", number(e.discharge_hematocrit())}};
   for (const BranchShare& b : a.branches)
-    j["branches"][b.outlet] = {{"blood_fraction", number(b.blood)},
-                               {"plasma_fraction", number(b.plasma)},
-                               {"rbc_fraction", number(b.rbc)},
-                               {"platelet_fraction", number(b.platelet)}};
+    for (const auto& [name, share] : kShareFields) j["branches"][b.outlet][name] = number(b.*share);
   j["window"] = {{"start_s", number(a.window_start)},
                  {"end_s", number(a.window_end)},
                  {"snapshots", a.window_snapshots},
                  {"default_second_half", a.window_is_default}};
+  if (!a.shares_over_time.empty()) {
+    nlohmann::ordered_json over = {{"start_s", nlohmann::ordered_json::array()},
+                                   {"end_s", nlohmann::ordered_json::array()}};
+    for (const auto& interval : a.shares_over_time) {
+      over["start_s"].push_back(number(interval.start));
+      over["end_s"].push_back(number(interval.end));
+      for (const BranchShare& b : interval.shares) {
+        auto& o = over["outlets"][b.outlet];
+        for (const auto& [name, share] : kShareFields) o[name].push_back(number(b.*share));
+      }
+    }
+    j["shares_over_time"] = over;
+  }
+  for (std::size_t b = 0; b < a.branch_layers.size() && b < a.ends.size(); ++b) {
+    const BranchLayer& l = a.branch_layers[b];
+    const EndFlux& e = a.ends[b];
+    nlohmann::ordered_json s = nlohmann::ordered_json::array(), delta = nlohmann::ordered_json::array(),
+                           samples = nlohmann::ordered_json::array();
+    for (std::size_t k = 0; k < l.s.size(); ++k) {
+      s.push_back(number(l.s[k]));
+      delta.push_back(number(l.station[k].thickness));
+      samples.push_back(l.station[k].samples);
+    }
+    j["per_branch"][l.name] = {{"end", e.end},
+                               {"radius_m", number(l.radius)},
+                               {"axis_length_m", number(l.length)},
+                               {"discharge_hematocrit", number(e.discharge_hematocrit())},
+                               {"platelets_per_s", number(e.platelet_rate)},
+                               {"discharge_platelet_density_per_m3", number(e.discharge_platelet_density())},
+                               {"cfl",
+                                {{"method", "edge, in the branch's own sections"},
+                                 {"thickness_m", number(l.whole.thickness)},
+                                 {"span_start_m", number(l.span.start)},
+                                 {"span_end_m", number(l.span.end)},
+                                 {"slices", l.stations.axial},
+                                 {"sectors", l.stations.sectors},
+                                 {"samples", l.whole.samples},
+                                 {"empty_samples", l.whole.empty_samples},
+                                 {"mean_rbc_count", number(l.mean_rbc_count)},
+                                 {"stations", {{"s_m", s}, {"thickness_m", delta}, {"samples", samples}}}}}};
+  }
   if (a.surface) {  // no tube: nothing radial to report
     j["notes"] = a.notes;
     return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";

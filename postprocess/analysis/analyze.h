@@ -18,7 +18,8 @@ struct AnalyzeOptions {
   double t_fit = 0.1;        // s: D from the MSD over [0, t_fit]
   double window_start = -1;  // s: start of the averaging window; < 0: the second half of [first, end]
   double window_end = -1;    // s: its end; < 0: the last snapshot
-  int slices = 0;            // CFL stations: axial slices; 0: about 20 RBCs per station
+  int slices = 0;            // CFL stations: axial slices (a bifurcation's: per branch); 0: about 20 RBCs
+                             // per station (a bifurcation's: kBranchSlices per branch)
   int sectors = 0;           // CFL stations: angular sectors; 0: about 20 RBCs per station
 };
 
@@ -80,9 +81,19 @@ struct Analysis {
   std::string shape;          // vessel.shape
   AxialObservables axial;     // per axial station over the window; empty for a straight tube
   std::vector<EndFlux> ends;  // an open vessel's inlet and outlet over the window; empty when periodic
-  // A surface vessel's (a bifurcation's): each outlet's shares; its run has no radial observables.
+  // A surface vessel's (a bifurcation's): each outlet's shares over the window, and over
+  // consecutive intervals of the run (the phase-separation points over time); its run has no
+  // radial observables. A branching vessel that carries cells adds the cell-free layer along each
+  // branch; what passes a branch is its end's (ends[b]: the parent's the inlet's, daughter i's
+  // outlet_i's).
   bool surface = false;
   std::vector<BranchShare> branches;
+  struct ShareInterval {
+    double start = 0, end = 0;  // s
+    std::vector<BranchShare> shares;
+  };
+  std::vector<ShareInterval> shares_over_time;
+  std::vector<BranchLayer> branch_layers;
 
   std::vector<std::string> notes;  // caveats worth reading (short run, few points, ...)
 };

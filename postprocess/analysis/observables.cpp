@@ -7,6 +7,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <tuple>
 #include <unordered_map>
 
 namespace hemo::analysis {
@@ -359,6 +361,11 @@ double EndFlux::discharge_hematocrit() const {
   return hemo::analysis::discharge_hematocrit(rbc_volume_flux, blood_flux());
 }
 
+double EndFlux::discharge_platelet_density() const {
+  const double blood = blood_flux();
+  return blood != 0 ? platelet_rate / blood : kNaN;
+}
+
 std::vector<BranchShare> branch_shares(const std::vector<EndFlux>& outlets) {
   double blood = 0, plasma = 0, rbc = 0, platelet = 0;
   for (const EndFlux& e : outlets) {
@@ -519,6 +526,150 @@ double in_vitro_relative_viscosity(double diameter, double hd) {
 double in_vitro_fahraeus_ratio(double diameter, double hd) {
   const double D = in_micrometres(diameter);
   return hd + (1 - hd) * (1 + 1.7 * std::exp(-0.415 * D) - 0.6 * std::exp(-0.011 * D));
+}
+
+// ---- Along a branching vessel's branches ------------------------------------------------------
+
+std::string branch_name(int branch) { return branch == 0 ? "parent" : "daughter_" + std::to_string(branch); }
+
+namespace {
+
+using Point = VesselWall::Point;
+
+// Two unit normals of a unit axis, the first in the plane of the axis and the coordinate axis it
+// leans least towards (the parent along z: x and y, so that theta is a straight tube's).
+std::pair<Point, Point> normals_of(const Point& axis) {
+  int least = 0;
+  for (int d = 1; d < 3; ++d)
+    if (std::abs(axis[d]) < std::abs(axis[least])) least = d;
+  Point u = Point::Unit(least) - axis[least] * axis;
+  u.normalize();
+  return {u, axis.cross(u)};
+}
+
+}  // namespace
+
+BranchSpan own_section_span(const VesselWall& wall, int branch) {
+  const VesselWall::Branch b = wall.branches().at(static_cast<std::size_t>(branch));
+  const Point axis = (b.end - b.start).normalized();
+  const double length = (b.end - b.start).norm();
+  const auto [u, v] = normals_of(axis);
+  // A point of the circle inside the vessel is in another branch's tube; rounding leaves the
+  // branch's own wall within a few ulps of zero.
+  const double inside = -1e-9 * b.radius;
+  auto clear = [&](double s) {
+    constexpr int points = 64;
+    for (int k = 0; k < points; ++k) {
+      const double phi = 2 * kPi * k / points;
+      if (wall.signed_distance(b.start + s * axis + b.radius * (std::cos(phi) * u + std::sin(phi) * v)) < inside)
+        return false;
+    }
+    return true;
+  };
+  // From one end inward, to the first clear section, then bisected between it and the last shared one.
+  auto first_clear = [&](double from, double towards) -> std::optional<double> {
+    const double step = b.radius / 10;
+    const int steps = static_cast<int>(std::ceil(std::abs(towards - from) / step));
+    const double direction = towards > from ? 1 : -1;
+    double shared = from;
+    for (int n = 0; n <= steps; ++n) {
+      const double s = n == steps ? towards : from + direction * n * step;
+      if (!clear(s)) {
+        shared = s;
+        continue;
+      }
+      if (n == 0) return s;
+      double hi = s;
+      while (std::abs(hi - shared) > 1e-4 * b.radius) {
+        const double mid = 0.5 * (hi + shared);
+        (clear(mid) ? hi : shared) = mid;
+      }
+      return hi;
+    }
+    return std::nullopt;
+  };
+  const auto start = first_clear(0, length);
+  if (!start) return {};
+  return {*start, *first_clear(length, *start)};
+}
+
+BranchAccumulator::BranchAccumulator(const VesselWall& wall, int slices, int sectors, double rbc_diameter)
+    : wall_(wall), slices_(std::max(1, slices)), sectors_(sectors), rbc_diameter_(rbc_diameter) {
+  const auto branches = wall.branches();
+  for (std::size_t b = 0; b < branches.size(); ++b) {
+    Frame f;
+    f.start = branches[b].start;
+    f.length = (branches[b].end - branches[b].start).norm();
+    f.axis = (branches[b].end - branches[b].start) / f.length;
+    std::tie(f.u, f.v) = normals_of(f.axis);
+    f.radius = branches[b].radius;
+    f.span = own_section_span(wall, static_cast<int>(b));
+    f.edges.resize(static_cast<std::size_t>(slices_));
+    branches_.push_back(std::move(f));
+  }
+}
+
+void BranchAccumulator::add(const Snapshot& s) {
+  // Each slice's red cells in its branch's cylindrical coordinates, z from the slice's start.
+  std::vector<std::vector<Cells>> slice(branches_.size(), std::vector<Cells>(static_cast<std::size_t>(slices_)));
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.species[i] != kRbc) continue;
+    const Point x(s.position[3 * i], s.position[3 * i + 1], s.position[3 * i + 2]);
+    const int b = wall_.branch_at(x);
+    if (b < 0) continue;
+    const Frame& f = branches_[static_cast<std::size_t>(b)];
+    const Point d = x - f.start;
+    const double z = d.dot(f.axis) - f.span.start, width = f.span.length() / slices_;
+    if (!(z >= 0 && z < f.span.length())) continue;
+    const int k = std::min(slices_ - 1, static_cast<int>(z / width));
+    const Point across = d - d.dot(f.axis) * f.axis;
+    Cells& c = slice[static_cast<std::size_t>(b)][static_cast<std::size_t>(k)];
+    c.id.push_back(s.id[i]);
+    c.r.push_back(across.norm());
+    c.theta.push_back(std::atan2(across.dot(f.v), across.dot(f.u)));
+    c.z.push_back(z - k * width);
+    c.vz.push_back(Point(s.velocity[3 * i], s.velocity[3 * i + 1], s.velocity[3 * i + 2]).dot(f.axis));
+  }
+  for (std::size_t b = 0; b < branches_.size(); ++b) {
+    Frame& f = branches_[b];
+    long count = 0;
+    for (const Cells& c : slice[b]) count += static_cast<long>(c.size());
+    f.rbc_sum += count;
+    if (f.sectors == 0)
+      f.sectors =
+          sectors_ > 0 ? sectors_ : std::max(1, static_cast<int>(std::lround(count / (slices_ * kRbcsPerStation))));
+    if (!(f.span.length() > 0)) continue;
+    const Tube tube{f.radius, f.span.length() / slices_};
+    for (int k = 0; k < slices_; ++k)
+      f.edges[static_cast<std::size_t>(k)].push_back(
+          rbc_core_edges(slice[b][static_cast<std::size_t>(k)], rbc_diameter_, tube, Stations{1, f.sectors}));
+  }
+  ++snapshots_;
+}
+
+std::vector<BranchLayer> BranchAccumulator::result() const {
+  std::vector<BranchLayer> out;
+  for (std::size_t b = 0; b < branches_.size(); ++b) {
+    const Frame& f = branches_[b];
+    BranchLayer l;
+    l.name = branch_name(static_cast<int>(b));
+    l.radius = f.radius;
+    l.length = f.length;
+    l.span = f.span;
+    l.stations = {slices_, f.sectors};
+    const Tube tube{f.radius, f.span.length() / slices_};
+    std::vector<StationEdges> all;
+    for (int k = 0; k < slices_; ++k) {
+      const auto& edges = f.edges[static_cast<std::size_t>(k)];
+      l.s.push_back(f.span.start + (k + 0.5) * tube.length);
+      l.station.push_back(cfl_thickness_edge(edges, tube));
+      all.insert(all.end(), edges.begin(), edges.end());
+    }
+    l.whole = cfl_thickness_edge(all, {f.radius, f.span.length()});
+    l.mean_rbc_count = snapshots_ > 0 ? static_cast<double>(f.rbc_sum) / snapshots_ : kNaN;
+    out.push_back(std::move(l));
+  }
+  return out;
 }
 
 // ---- Margination -----------------------------------------------------------------------------

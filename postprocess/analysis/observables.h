@@ -9,6 +9,7 @@
 #pragma once
 
 #include <geometry.h>
+#include <vessel_wall.h>
 
 #include <cstdint>
 #include <string>
@@ -99,10 +100,13 @@ struct Stations {
   int sectors = 24;
   int count() const { return axial * sectors; }
 };
-// About `per_station` RBCs per station (docs/model.md §5), with the shape of the calibration case's
+// RBCs per CFL station (docs/model.md §5): enough for a station to have an edge in most snapshots,
+// few enough that a stray cell moves one station's edge only.
+inline constexpr double kRbcsPerStation = 20;
+// About `per_station` RBCs per station, with the shape of the calibration case's
 // 16 x 24 stations kept for other vessels: sectors / slices = 18 R / L, i.e. a station's arc
 // at the wall is about a third of its axial length whatever the vessel.
-Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station = 20);
+Stations default_stations(double mean_rbc_count, const Tube& tube, double per_station = kRbcsPerStation);
 
 // Outer edge of the RBC core at every occupied station of one snapshot: max(r_i + d_RBC/2)
 // over the station's RBCs. Empty stations give no edge and are counted.
@@ -262,6 +266,9 @@ struct EndFlux {
   double blood_flux() const { return plasma_flux + rbc_volume_flux + platelet_volume_flux; }
   // H_D = Q_RBC / Q through this end.
   double discharge_hematocrit() const;
+  // The platelets' count in the blood that passes, 1/m^3: their rate over the blood's flux (the
+  // platelets' H_D, as a number density to hold against the scene's).
+  double discharge_platelet_density() const;
 };
 
 // An outlet's shares of what leaves through all the outlets over the window: of the blood, the
@@ -331,6 +338,70 @@ class AxialAccumulator {
   std::vector<long> edge_samples_;
   std::vector<std::int64_t> touching_;  // platelet ids touching the wall at the last snapshot, sorted
   double first_time_ = 0, last_time_ = 0;
+  int snapshots_ = 0;
+};
+
+// ---- Along a branching vessel's branches (model/vessel_wall.h) ---------------------------------
+
+// Branch 0 is "parent", branch i "daughter_<i>": the one that leaves through outlet_<i>.
+std::string branch_name(int branch);
+
+// Where a branch's sections are its own tube's: the span along its axis, in m from the axis's
+// start, over which the wall runs round the whole circle of the branch's radius about it (the
+// wall's signed distance at 64 points of the circle: none inside the vessel). Near the junction a
+// section meets another branch's tube: two daughters of radius r at an angle theta share their
+// sections up to r cot(theta/2) from the junction, and a gap R - r there would be to no wall. Each
+// end of the span is bisected to 1e-4 R between the last section found shared and the first found
+// clear, stepping in from the axis's ends by R / 10. Empty (start = end = 0) when no section is clear.
+struct BranchSpan {
+  double start = 0, end = 0;  // m
+  double length() const { return end - start; }
+};
+BranchSpan own_section_span(const VesselWall& wall, int branch);
+
+// The stations along a branch when none are asked for: a few, so that a change along it shows.
+inline constexpr int kBranchSlices = 4;
+
+// The cell-free layer along each branch of a branching vessel, by the straight tube's edge method
+// (rbc_core_edges, cfl_thickness_edge) in the branch's own cylindrical coordinates: r the
+// distance from its axis, theta about it, z along it from its span's start (own_section_span).
+// The span is cut into equal slices, each into sectors; a slice's δ is R_b - <max(r + d/2)> over
+// its occupied sectors and the snapshots, the branch's the same over all its slices. A red cell
+// counts in the branch it is in (VesselWall::branch_at), and only within that branch's span.
+struct BranchLayer {
+  std::string name;
+  double radius = 0;                  // m, R_b
+  double length = 0;                  // m, the axis segment's
+  BranchSpan span;                    // m along the axis
+  Stations stations;                  // axial: slices of the span; sectors: of each slice
+  std::vector<double> s;              // m along the axis from its start, the slices' centres
+  std::vector<CflThickness> station;  // per slice
+  CflThickness whole;                 // over the span
+  double mean_rbc_count = 0;          // red cells in the span, mean per snapshot
+};
+
+class BranchAccumulator {
+ public:
+  // `slices` along each branch; `sectors` 0: about kRbcsPerStation red cells per station, sized
+  // per branch from the first snapshot's count in its span (so a branch with few cells keeps whole
+  // slices).
+  BranchAccumulator(const VesselWall& wall, int slices, int sectors, double rbc_diameter);
+  void add(const Snapshot& s);
+  std::vector<BranchLayer> result() const;
+
+ private:
+  struct Frame {
+    VesselWall::Point start, axis, u, v;  // the axis's start, its unit direction and two normals
+    double radius = 0, length = 0;
+    BranchSpan span;
+    int sectors = 0;
+    std::vector<std::vector<StationEdges>> edges;  // per slice, per snapshot
+    long rbc_sum = 0;
+  };
+  const VesselWall& wall_;
+  int slices_, sectors_;
+  double rbc_diameter_;
+  std::vector<Frame> branches_;
   int snapshots_ = 0;
 };
 

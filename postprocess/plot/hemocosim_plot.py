@@ -15,10 +15,18 @@
 #             <run>_axial.png     a vessel shape that narrows: along the axis, the wall R(z) with the RBC
 #                                 core's edge R - CFL, the hematocrit, the platelets near the wall and
 #                                 their arrivals at it (analysis.json "axial")
+# A surface vessel's run (a bifurcation) has no radial profiles; instead:
+#             <run>_phase_separation.png  each outlet's share of the blood, the red cells and the
+#                                 platelets over the run, and each species' share against the blood's
+#                                 (the phase-separation points; the diagonal: no separation)
+#                                 (analysis.json "shares_over_time", "branches")
+#             <run>_branches.png  per branch: the cell-free layer along it, the discharge hematocrit
+#                                 and the platelet flux through its end (analysis.json "per_branch")
 # Several:    sweep.png           the observables analysis.json declares for it (CFL thickness by the
 #                                 edge and profile methods, D, mu_app/mu) against the swept scene
 #                                 key (--key, or the one key whose value differs)
 #             compare_profiles.png, compare_msd.png: the runs' window-mean profiles and MSD overlaid
+#                                 (of tube runs only: a surface run has neither)
 #
 # Reads only analysis.json, profiles.csv and scene.toml (no HDF5): the observables are computed
 # once, by `hemocosim analyze` (docs/model.md §5), never here.
@@ -71,6 +79,10 @@ class Run:
             with open(scene_path, "rb") as f:
                 self.scene = tomllib.load(f)
         self.mean = None  # (t0, t1, r_mid_over_R, rbc, plt, rbc_fraction)
+        self.frames = []
+        self.surface = bool(self.get("vessel", "surface"))
+        if self.surface:
+            return  # no tube: no radial profiles
         frames = {}
         with open(os.path.join(path, "profiles.csv")) as f:
             rows = list(csv.DictReader(f))
@@ -299,6 +311,103 @@ def plot_axial(run, out):
     plt.close(fig)
 
 
+# The species of an outlet's shares (analysis.json "branches", "shares_over_time"), as drawn.
+SPECIES = (("blood_fraction", "blood", "-", "s"), ("rbc_fraction", "RBC", "--", "o"),
+           ("platelet_fraction", "platelets", ":", "^"))
+
+
+def plot_phase_separation(run, out):
+    over = run.get("shares_over_time") or {}
+    t = (np.array([num(v) for v in over.get("start_s", [])]) + np.array([num(v) for v in over.get("end_s", [])])) / 2
+    outlets = sorted(set(over.get("outlets", {})) | set(run.get("branches") or {}))
+    colours = dict(zip(outlets, plt.cm.tab10(np.arange(len(outlets)))))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
+    for outlet in outlets:
+        series = (over.get("outlets") or {}).get(outlet, {})
+        for key, species, style, _ in SPECIES:
+            values = np.array([num(v) for v in series.get(key, [])])
+            if len(values) == len(t) and len(t):
+                axes[0].plot(t * 1e3, values, style, lw=1.3, color=colours[outlet], label=f"{outlet}, {species}")
+        blood = np.array([num(v) for v in series.get("blood_fraction", [])])
+        for key, species, _, marker in SPECIES[1:]:
+            values = np.array([num(v) for v in series.get(key, [])])
+            if len(values) == len(blood) and len(blood):
+                axes[1].plot(blood, values, marker, ms=3.5, alpha=0.45, color=colours[outlet], ls="none")
+        mean = (run.get("branches") or {}).get(outlet)
+        if mean:
+            for key, species, _, marker in SPECIES[1:]:
+                axes[1].plot(num(mean.get("blood_fraction")), num(mean.get(key)), marker, ms=10, mec="k",
+                             color=colours[outlet], ls="none", label=f"{outlet}, {species} (window mean)")
+    axes[0].set_xlabel("t (ms), each interval's middle")
+    axes[0].set_ylabel("share of what leaves through the outlets")
+    axes[0].set_ylim(0, 1)
+    axes[0].set_title("each outlet's shares over the run")
+    axes[1].plot([0, 1], [0, 1], "k-", lw=0.8, label="no separation")
+    axes[1].set_xlim(0, 1)
+    axes[1].set_ylim(0, 1)
+    axes[1].set_aspect("equal")
+    axes[1].set_xlabel("blood flow fraction")
+    axes[1].set_ylabel("flux fraction (RBC: o, platelets: ^)")
+    axes[1].set_title("phase separation: small points per interval")
+    for a in axes:
+        a.grid(alpha=0.3)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=7)
+    fig.suptitle(f"{run.name}: flux fractions at the outlets ({run.get('vessel', 'shape')})")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
+def plot_branches(run, out):
+    branches = run.get("per_branch") or {}
+    names = list(branches)
+    # Along the vessel from the inlet: the parent from its inlet, a daughter from the junction.
+    parent_length = num((branches.get("parent") or {}).get("axis_length_m"))
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True,
+                             gridspec_kw={"width_ratios": [2, 1, 1]})
+    for i, name in enumerate(names):
+        b = branches[name]
+        cfl = b.get("cfl") or {}
+        st = cfl.get("stations") or {}
+        offset = 0 if name == "parent" else parent_length
+        s = (np.array([num(v) for v in st.get("s_m", [])]) + offset) / UM
+        delta = np.array([num(v) for v in st.get("thickness_m", [])]) / UM
+        colour = plt.cm.tab10(i)
+        axes[0].plot(s, delta, "-o", ms=4, color=colour, label=f"{name} (R = {num(b.get('radius_m')) / UM:.1f} µm)")
+        whole = num(cfl.get("thickness_m"))
+        if math.isfinite(whole):
+            span = (np.array([num(cfl.get("span_start_m")), num(cfl.get("span_end_m"))]) + offset) / UM
+            axes[0].plot(span, [whole / UM] * 2, "--", lw=1, color=colour)
+    axes[0].set_xlabel("distance along the branch's axis (µm; a daughter's from the junction at the parent's end)")
+    axes[0].set_ylabel("cell-free layer δ (µm)")
+    axes[0].set_ylim(bottom=0)
+    axes[0].set_title("δ per slice of each branch's own sections (dashed: over the branch)")
+    x = np.arange(len(names))
+    hd = [num(branches[n].get("discharge_hematocrit")) for n in names]
+    axes[1].bar(x, hd, color=[plt.cm.tab10(i) for i in x])
+    axes[1].set_ylabel("discharge hematocrit H_D")
+    axes[1].set_title("H_D per branch")
+    rate = [num(branches[n].get("platelets_per_s")) for n in names]
+    axes[2].bar(x, rate, color=[plt.cm.tab10(i) for i in x])
+    for xi, n in zip(x, names):
+        density = num(branches[n].get("discharge_platelet_density_per_m3"))
+        if math.isfinite(density):
+            axes[2].annotate(f"{density * PER_UL:.3g}/µl", (xi, 0), xytext=(0, 3), textcoords="offset points",
+                             ha="center", fontsize=7)
+    axes[2].set_ylabel("platelets per second")
+    axes[2].set_title("platelet flux per branch")
+    for a in axes[1:]:
+        a.set_xticks(x)
+        a.set_xticklabels([f"{n}\n({branches[n].get('end')})" for n in names], fontsize=8)
+    for a in axes:
+        a.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{run.name}: along each branch (window {num(run.get('window', 'start_s')):.3g}.."
+                 f"{num(run.get('window', 'end_s')):.3g} s)")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+
+
 def flatten(table, prefix=""):
     out = {}
     for k, v in table.items():
@@ -455,16 +564,20 @@ def main():
     stems = [f"{i + 1:02d}-{n}" if names.count(n) > 1 else n for i, n in enumerate(names)]
     written = []
     for run, stem in zip(runs, stems):
-        for kind, draw in (("profiles", plot_profiles), ("msd", plot_msd), ("balance", plot_balance),
-                           ("axial", plot_axial)):
-            if kind == "balance" and not len(balance_points(run)[0]):
-                continue  # the fluid reported no wall shear stress
-            if kind == "axial" and run.get("axial") is None:
-                continue  # a straight tube
+        if run.surface:
+            figures = (("phase_separation", plot_phase_separation, run.get("branches") or run.get("shares_over_time")),
+                       ("branches", plot_branches, run.get("per_branch")))
+        else:
+            figures = (("profiles", plot_profiles, True), ("msd", plot_msd, True),
+                       ("balance", plot_balance, len(balance_points(run)[0])),  # the fluid reported tau_w
+                       ("axial", plot_axial, run.get("axial") is not None))  # a vessel that narrows
+        for kind, draw, drawn in figures:
+            if not drawn:
+                continue
             path = os.path.join(args.out, f"{stem}_{kind}.png")
             draw(run, path)
             written.append(path)
-    if len(runs) > 1:
+    if len(runs) > 1 and not any(r.surface for r in runs):
         key = args.key or guess_key(runs)
         names = run_labels(runs, key, labels)
         for fname, draw in (("sweep.png", lambda o: plot_sweep(runs, key, labels, o, args.xlabel)),

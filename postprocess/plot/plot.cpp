@@ -38,15 +38,17 @@ bool up_to_date(const fs::path& file, const fs::path& than) {
   return fs::last_write_time(file, ec) >= fs::last_write_time(than, ec);
 }
 
-// An analysis.json that a reader of this version can use: it parses, declares its observables
-// (the plot script draws the sweep figure from that declaration) and has the momentum balance
-// over time (the balance figure) and names the vessel's shape (a narrowing one's "axial" figure).
+// An analysis.json that a reader of this version can use: it parses, names the vessel's shape (a
+// narrowing one's "axial" figure) and says whether it is a surface vessel's (whose figures are its
+// outlets' and branches'); a tube's declares its observables (the plot script draws the sweep
+// figure from that declaration) and has the momentum balance over time (the balance figure).
 bool current_analysis(const fs::path& json) {
   std::ifstream in(json);
   try {
     const auto j = nlohmann::json::parse(in);
-    return j.contains("observables") && j.contains("momentum_balance") && j["momentum_balance"].contains("over_time") &&
-           j.contains("vessel") && j["vessel"].contains("shape");
+    if (!j.contains("vessel") || !j["vessel"].contains("shape") || !j["vessel"].contains("surface")) return false;
+    if (j["vessel"]["surface"].get<bool>()) return true;
+    return j.contains("observables") && j.contains("momentum_balance") && j["momentum_balance"].contains("over_time");
   } catch (const nlohmann::json::exception&) {
     return false;
   }

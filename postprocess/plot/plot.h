@@ -1,6 +1,7 @@
 // hemocosim plot RUN_DIR [RUN_DIR...]: the paper-style figures as PNG (radial number-density
-// profiles over time, MSD with the fitted D, the momentum balance over time, and for several runs CFL, D and mu_app/mu against
-// the swept parameter). The drawing is hemocosim_plot.py (matplotlib, headless); this side makes
+// profiles over time, MSD with the fitted D, the momentum balance over time, and for several runs CFL, D and mu_app/mu
+// against the swept parameter; a bifurcation's outlet shares over time and against the blood's, and its branches'
+// cell-free layer, H_D and platelet flux). The drawing is hemocosim_plot.py (matplotlib, headless); this side makes
 // sure every run is analysed first and finds the script and a Python that can run it.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once

@@ -163,8 +163,9 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
 // Blood through a fed Y bifurcation (scenes/bifurcation.toml's, small): cells leave through both
 // outlets within the run, each outlet's count is named, the two add to the whole, and the counts
 // balance at every step with none lost and none outside the mesh; the cells that reach the flow
-// divider do not stop the run on the overlap guard (bifurcation_small.toml); analyze's shares of each kind add to one over the two
-// outlets.
+// divider do not stop the run on the overlap guard (bifurcation_small.toml); analyze's shares of
+// each kind add to one over the two outlets, each branch reports its end's H_D and platelets and a
+// layer, and plot draws the two figures.
 TEST(BifurcationRun, CellsLeaveThroughBothOutletsCountedEachAndTheCountsBalance) {
   const std::string dir = fresh_run_dir("bifurcation-small");
   const auto r = run(bin("hemocosim") + " run " + scene("bifurcation_small.toml") + " --out " + dir);
@@ -195,6 +196,27 @@ TEST(BifurcationRun, CellsLeaveThroughBothOutletsCountedEachAndTheCountsBalance)
                  two = j["branches"]["outlet_2"][share].get<double>();
     EXPECT_NEAR(one + two, 1.0, 1e-12) << share;
     EXPECT_GT(one, 0) << share;
+  }
+  // Per branch: what passes its end (the parent's the inlet's, daughter i's outlet_i's), and the
+  // cell-free layer in its own sections, of cells that are there: between 0 and its radius.
+  const std::pair<const char*, const char*> branch_ends[] = {
+      {"parent", "inlet"}, {"daughter_1", "outlet_1"}, {"daughter_2", "outlet_2"}};
+  for (const auto& [branch, end] : branch_ends) {
+    const auto& b = j["per_branch"][branch];
+    EXPECT_EQ(b["end"], end) << branch;
+    EXPECT_EQ(b["discharge_hematocrit"], j["ends"][end]["discharge_hematocrit"]) << branch;
+    EXPECT_EQ(b["platelets_per_s"], j["ends"][end]["platelets_per_s"]) << branch;
+    EXPECT_GT(b["cfl"]["mean_rbc_count"].get<double>(), 0) << branch;
+    const double delta = b["cfl"]["thickness_m"].get<double>();
+    EXPECT_GT(delta, 0) << branch;
+    EXPECT_LT(delta, b["radius_m"].get<double>()) << branch;
+  }
+  // `plot` draws a surface run's two figures.
+  const auto p = run(bin("hemocosim") + " plot " + dir);
+  ASSERT_EQ(p.exit_code, 0) << p.output;
+  for (const char* figure : {"_phase_separation.png", "_branches.png"}) {
+    const std::string png = dir + "/figures/" + std::filesystem::path(dir).filename().string() + figure;
+    EXPECT_GT(std::filesystem::exists(png) ? std::filesystem::file_size(png) : 0, 1000u) << png;
   }
   std::filesystem::remove_all(dir);
 }

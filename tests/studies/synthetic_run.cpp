@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "synthetic_run.h"
 
+#include "geometry.h"
 #include "scene.h"
 
 #include <fmt/format.h>
@@ -32,6 +33,81 @@ void dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, hsi
   H5Sclose(space);
 }
 
+void write_snapshot(hid_t root, long step, double t, const std::vector<std::int64_t>& id,
+                    const std::vector<std::int8_t>& species, const std::vector<double>& pos,
+                    const std::vector<double>& vel) {
+  const std::string name = fmt::format("{:08d}", step);
+  const hid_t g = H5Gcreate2(root, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t scalar = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, H5T_NATIVE_DOUBLE, &t);
+  H5Aclose(attr);
+  H5Sclose(scalar);
+  const hsize_t n = id.size();
+  dataset(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, id.data());
+  dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, species.data());
+  dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, pos.data());
+  dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, vel.data());
+  H5Gclose(g);
+}
+
+// A bifurcation's run: the cells spread over its branches (moving along their axes), and the ends'
+// metrics of SyntheticRun.
+void write_surface_run(const std::string& dir, const Scene& scene, const SyntheticRun& spec,
+                       const std::vector<std::int8_t>& species, const std::vector<std::int64_t>& id,
+                       std::mt19937& rng) {
+  const auto wall = make_vessel_wall(scene.vessel);
+  const auto branches = wall->branches();
+  if (branches.empty()) throw std::runtime_error("a synthetic surface run needs a branching vessel");
+  std::uniform_real_distribution<double> u(0, 1);
+  const double pi = 3.14159265358979323846, speed = 0.01;
+  const std::size_t n = id.size();
+  std::vector<double> pos(3 * n), vel(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const VesselWall::Branch& b = branches[i % branches.size()];
+    const VesselWall::Point axis = (b.end - b.start).normalized();
+    // The bifurcation's axes lie in the x-z plane: y is across every one.
+    const VesselWall::Point across = VesselWall::Point::UnitY(), other = axis.cross(across);
+    const double r = 0.8 * b.radius * std::sqrt(u(rng)), phi = 2 * pi * u(rng);
+    const VesselWall::Point x =
+        b.start + (0.5 + 0.5 * u(rng)) * (b.end - b.start) + r * (std::cos(phi) * across + std::sin(phi) * other);
+    for (int d = 0; d < 3; ++d) {
+      pos[3 * i + d] = x[d];
+      vel[3 * i + d] = speed * axis[d];
+    }
+  }
+  const hid_t f = H5Fcreate((fs::path(dir) / "particles.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) throw std::runtime_error("cannot create particles.h5 in " + dir);
+  const hid_t root = H5Gcreate2(f, "snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  for (int s = 0; s < spec.snapshots; ++s)
+    write_snapshot(root, static_cast<long>(s) * spec.steps_per_snapshot, s * spec.dt_s, id, species, pos, vel);
+  H5Gclose(root);
+  H5Fclose(f);
+
+  std::ofstream m(fs::path(dir) / "metrics.csv");
+  m << "step,time_s,node,name,value\n";
+  const long last = std::max(1L, static_cast<long>(spec.snapshots - 1) * spec.steps_per_snapshot);
+  double rbc_1 = 0;
+  for (long k = 0; k <= last; ++k) {
+    const double t = k * spec.dt_s / spec.steps_per_snapshot;
+    if (k > 0) rbc_1 += 2 * k <= last ? spec.rbc_1_early : spec.rbc_1_late;
+    auto metric = [&](const char* node, const std::string& name, double value) {
+      m << fmt::format("{},{:.17g},{},{},{:.17g}\n", k, t, node, name, value);
+    };
+    metric("fluid", "inlet_plasma_flux_m3_s", spec.plasma_in);
+    metric("fluid", "outlet_1_plasma_flux_m3_s", spec.plasma_1);
+    metric("fluid", "outlet_2_plasma_flux_m3_s", spec.plasma_in - spec.plasma_1);
+    metric("particles", "rbc_inserted", spec.rbc_in * k);
+    metric("particles", "rbc_left_inlet", 0);
+    metric("particles", "rbc_left_outlet_1", rbc_1);
+    metric("particles", "rbc_left_outlet_2", spec.rbc_in * k - rbc_1);
+    metric("particles", "platelet_inserted", spec.platelets_in * k);
+    metric("particles", "platelet_left_inlet", 0);
+    metric("particles", "platelet_left_outlet_1", spec.platelets_1 * k);
+    metric("particles", "platelet_left_outlet_2", (spec.platelets_in - spec.platelets_1) * k);
+  }
+}
+
 }  // namespace
 
 void write_synthetic_run(const std::string& dir, const std::string& scene_path, const SyntheticRun& spec) {
@@ -56,11 +132,12 @@ void write_synthetic_run(const std::string& dir, const std::string& scene_path, 
     theta[i] = 2 * pi * u(rng);
     z0[i] = L * u(rng);
   }
+  if (surface_vessel(scene.vessel)) return write_surface_run(dir, scene, spec, species, id, rng);
 
   const hid_t f = H5Fcreate((fs::path(dir) / "particles.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (f < 0) throw std::runtime_error("cannot create particles.h5 in " + dir);
   const hid_t root = H5Gcreate2(f, "snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  const long steps_per_snapshot = 10;
+  const long steps_per_snapshot = spec.steps_per_snapshot;
   for (int s = 0; s < spec.snapshots; ++s) {
     const double t = s * spec.dt_s;
     const double progress = spec.snapshots > 1 ? static_cast<double>(s) / (spec.snapshots - 1) : 0;
@@ -75,18 +152,7 @@ void write_synthetic_run(const std::string& dir, const std::string& scene_path, 
       pos[3 * i + 2] = z0[i] + vz * t;
       vel[3 * i + 2] = vz;
     }
-    const std::string name = fmt::format("{:08d}", s * steps_per_snapshot);
-    const hid_t g = H5Gcreate2(root, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    const hid_t scalar = H5Screate(H5S_SCALAR);
-    const hid_t attr = H5Acreate2(g, "time_s", H5T_IEEE_F64LE, scalar, H5P_DEFAULT, H5P_DEFAULT);
-    H5Awrite(attr, H5T_NATIVE_DOUBLE, &t);
-    H5Aclose(attr);
-    H5Sclose(scalar);
-    dataset(g, "id", H5T_NATIVE_INT64, H5T_STD_I64LE, n, 1, id.data());
-    dataset(g, "species", H5T_NATIVE_INT8, H5T_STD_I8LE, n, 1, species.data());
-    dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, pos.data());
-    dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, n, 3, vel.data());
-    H5Gclose(g);
+    write_snapshot(root, s * steps_per_snapshot, t, id, species, pos, vel);
   }
   H5Gclose(root);
   H5Fclose(f);

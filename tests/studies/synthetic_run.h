@@ -14,6 +14,15 @@ struct SyntheticRun {
   int platelets = 20;
   double drift = 0.2;  // platelets move this fraction of the way to the wall by the end
   unsigned seed = 1;
+  // A surface vessel's scene (a bifurcation): the cells sit in the far half of each branch, at
+  // most 0.8 of its radius from its axis, and metrics.csv holds the ends' plasma fluxes and the
+  // cells counted through them at every step: per step `rbc_in` red cells and `platelets_in`
+  // platelets enter, outlet 1 takes rbc_1_early of the red cells in the run's first half and
+  // rbc_1_late after, platelets_1 of the platelets, plasma_1 of the plasma; outlet 2 the rest.
+  double rbc_in = 10, platelets_in = 4;
+  double rbc_1_early = 3, rbc_1_late = 6, platelets_1 = 1;
+  double plasma_in = 1e-11, plasma_1 = 0.4e-11;  // m^3/s
+  int steps_per_snapshot = 10;
 };
 
 // Writes into `dir` (created): scene.toml copied from `scene_path`, and particles.h5 and

@@ -62,6 +62,27 @@ TEST(Plot, OneRunGivesProfilesAndMsd) {
   EXPECT_TRUE(fs::exists(run + "/profiles.csv"));
 }
 
+// A bifurcation's run has no radial profiles: its figures are the outlets' shares (over time and
+// against the blood's) and its branches' layer, H_D and platelet flux.
+TEST(Plot, ASurfaceRunGivesItsPhaseSeparationAndBranches) {
+  ScratchDir dir("plot-surface");
+  const std::string scene = dir.str() + "/bifurcation.toml";
+  write_text(scene,
+             "[vessel]\ndiameter_um = 40\nlength_um = 80\nshape = \"bifurcation\"\ndaughter_length_um = 120\nends = "
+             "\"open\"\n[mesh]\nsurface_cell_size_um = 8\n[driving]\nwall_shear_rate_per_s = 800\n[rbc]\nhematocrit "
+             "= 0.1\n[platelet]\nnumber_density_per_ul = 300000\n");
+  const std::string run = dir.str() + "/bif";
+  write_synthetic_run(run, scene);
+  PlotOptions opt;
+  opt.run_dirs = {run};
+  opt.quiet = true;
+  const auto files = plot_runs(opt);
+  EXPECT_EQ(files,
+            (std::vector<std::string>{run + "/figures/bif_phase_separation.png", run + "/figures/bif_branches.png"}));
+  for (const auto& f : files) expect_png(f);
+  EXPECT_FALSE(ensure_analysis(run));  // a surface run's analysis is current without a tube's parts
+}
+
 TEST(Plot, SeveralRunsGiveTheSweepAndComparisons) {
   ScratchDir dir("plot-sweep");
   PlotOptions opt;
