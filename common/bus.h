@@ -4,6 +4,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "traffic.h"
 #include "wire.h"
 
 #include <hemo/envelope_t.hpp>
@@ -107,6 +108,13 @@ struct BusCounters {
   std::string str() const;  // one line for a log
 };
 
+// Bytes of the datagrams a bus published (resends included) and was handed by LCM (every one of
+// a channel it listens to, whatever the checks then made of it), by channel kind, since it opened.
+// They are also added to the process's RankTraffic (traffic.h).
+struct BusTraffic {
+  std::map<std::string, std::uint64_t> sent, received;
+};
+
 // A received message: channel kind, envelope and raw bytes (tag verified) and, set by the bus,
 // the message decoded as its channel's type (so `as` of that type copies instead of decoding).
 struct Received {
@@ -180,6 +188,7 @@ class Bus {
 
   // A snapshot (the heartbeat thread reads them while the owner polls).
   BusCounters counters() const;
+  BusTraffic traffic() const;
   // Writes the counters to the log, once. A bus destroyed without it logs them only when it
   // dropped something (a command-line tool's answer stays one line).
   void log_counters(bool even_if_clean = true);
@@ -203,6 +212,7 @@ class Bus {
   std::mutex publish_mutex_;
   mutable std::mutex counters_mutex_;
   BusCounters counters_;
+  BusTraffic traffic_;  // counters_mutex_
   bool counters_logged_ = false;
   std::int64_t opened_us_ = 0;  // wall clock when the bus subscribed; older sequence numbers are pre-start
   std::map<std::string, double> prestart_lag_s_;  // sender -> its last pre-start message's lag (counters_mutex_)

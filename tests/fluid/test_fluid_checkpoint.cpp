@@ -502,7 +502,8 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
   }
 }
 
-// metrics.csv rows of one node, but the wall-clock ones: "step,time,node,name" -> value text.
+// metrics.csv rows of one node, but the wall-clock ones and the bytes (*_B: heartbeats and resends
+// vary from run to run): "step,time,node,name" -> value text.
 std::map<std::string, std::string> node_rows(const std::string& run_dir, const std::string& node, int& repeats) {
   std::ifstream in(run_dir + "/metrics.csv");
   std::map<std::string, std::string> out;
@@ -514,7 +515,8 @@ std::map<std::string, std::string> node_rows(const std::string& run_dir, const s
     const std::string key = line.substr(0, value_at);
     if (key.find("," + node + ",") == std::string::npos) continue;
     if (key.find(",compute_s") != std::string::npos || key.find(",wait_s") != std::string::npos ||
-        key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos)
+        key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos ||
+        key.compare(key.size() - 2, 2, "_B") == 0)
       continue;
     if (out.count(key)) ++repeats;
     out[key] = line.substr(value_at + 1);
