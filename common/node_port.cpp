@@ -170,8 +170,12 @@ Diagnostics NodePort::with_bus_traffic(const Diagnostics& diag) {
       out.emplace_back(fmt::format("bus_{}_{}_B", way, name), static_cast<double>(since));
     }
   };
-  add("sent", current.sent, traffic_reported_.sent);
-  add("received", current.received, traffic_reported_.received);
+  // A report without diagnostics (a resumed node's first, of a step the coordinator has) stays
+  // without.
+  if (!diag.empty()) {
+    add("sent", current.sent, traffic_reported_.sent);
+    add("received", current.received, traffic_reported_.received);
+  }
   traffic_reported_ = current;
   return out;
 }

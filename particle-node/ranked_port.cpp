@@ -86,7 +86,7 @@ Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   std::vector<std::uint64_t> all(2 * static_cast<std::size_t>(ranks));
   MPI_Gather(own, 2, MPI_UINT64_T, all.data(), 2, MPI_UINT64_T, 0, comm_);
   Diagnostics out = diag;
-  if (rank_ != 0) return out;
+  if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
   for (int r = 0; r < ranks; ++r) {
     out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[2 * r]));
     out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[2 * r + 1]));
