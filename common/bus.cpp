@@ -254,8 +254,9 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_as(const std::vec
   return {std::move(m), typeid(Msg)};
 }
 
-std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::string& kind,
+std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::string& channel_kind,
                                                                     const std::vector<std::uint8_t>& bytes) {
+  const std::string kind = channel::base_kind(channel_kind);
   if (kind == channel::hello) return decode_as<hello_t>(bytes);
   if (kind == channel::heartbeat) return decode_as<heartbeat_t>(bytes);
   if (kind == channel::step) return decode_as<step_order_t>(bytes);
@@ -270,6 +271,10 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
 }  // namespace
 
 namespace channel {
+std::string of_rank(const std::string& kind, int rank, int ranks) {
+  return ranks <= 1 ? kind : kind + "." + std::to_string(rank);
+}
+std::string base_kind(const std::string& kind) { return kind.substr(0, kind.find('.')); }
 std::vector<std::string> all() {
   return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
 }

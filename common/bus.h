@@ -63,6 +63,14 @@ inline constexpr const char* step_done = "STEP_DONE";
 inline constexpr const char* resend = "RESEND";
 inline constexpr const char* control = "CONTROL";  // restart / swap requests and answers
 
+// A kind's channel for one of `ranks` ranks of a node (the partitioned exchange, issue #36;
+// docs/notes/partitioned-exchange.md): "<KIND>.<rank>", e.g. FLUID_STATE.3, its own publisher's;
+// with one rank the kind itself, so that one rank each is today's exchange byte for byte.
+// Indices for pairs: of_rank(of_rank(kind, f, nf), p, np) = PARTICLE_FEEDBACK.<f>.<p>.
+std::string of_rank(const std::string& kind, int rank, int ranks);
+// The kind a channel's messages are of: "FLUID_STATE" for FLUID_STATE and FLUID_STATE.3.
+std::string base_kind(const std::string& kind);
+
 // Every kind: what the monitor and the tests listen to.
 std::vector<std::string> all();
 // What each process listens to. LCM drops a datagram of a channel nobody listens to in its
