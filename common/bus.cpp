@@ -254,8 +254,9 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_as(const std::vec
   return {std::move(m), typeid(Msg)};
 }
 
-std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::string& kind,
+std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::string& channel_kind,
                                                                     const std::vector<std::uint8_t>& bytes) {
+  const std::string kind = channel::base_kind(channel_kind);
   if (kind == channel::hello) return decode_as<hello_t>(bytes);
   if (kind == channel::heartbeat) return decode_as<heartbeat_t>(bytes);
   if (kind == channel::step) return decode_as<step_order_t>(bytes);
@@ -270,6 +271,10 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
 }  // namespace
 
 namespace channel {
+std::string of_rank(const std::string& kind, int rank, int ranks) {
+  return ranks <= 1 ? kind : kind + "." + std::to_string(rank);
+}
+std::string base_kind(const std::string& kind) { return kind.substr(0, kind.find('.')); }
 std::vector<std::string> all() {
   return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
 }
@@ -298,6 +303,11 @@ Bus::~Bus() { log_counters(/*even_if_clean=*/false); }
 BusCounters Bus::counters() const {
   std::lock_guard<std::mutex> lock(counters_mutex_);
   return counters_;
+}
+
+BusTraffic Bus::traffic() const {
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  return traffic_;
 }
 
 void Bus::count(std::uint64_t BusCounters::*field) {
@@ -333,6 +343,11 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
     std::lock_guard<std::mutex> lock(publish_mutex_);
     wire_->publish(topic(kind), out.data(), out.size());
   }
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    traffic_.sent[kind] += out.size();
+  }
+  RankTraffic::sent(out.size());
   if (keep) kept_[kind][step] = std::move(buf);
 }
 
@@ -373,7 +388,12 @@ void Bus::on_raw(const std::uint8_t* data, std::size_t len, const std::string& c
 
 // Every check on the raw bytes first; only an authentic, fresh message is decoded.
 void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::string& chan, std::int64_t recv_utime) {
-  count(&BusCounters::received);
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.received;
+    traffic_.received[chan.substr(chan.rfind('/') + 1)] += len;
+  }
+  RankTraffic::received(len);
   auto raw = parse_envelope(data, len);
   if (!raw) return count(&BusCounters::rejected_short);
   const auto& env = raw->envelope;
@@ -572,7 +592,10 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   while (!stop.load()) {
     const auto buf =
         signed_heartbeat(ctx, sender, std::chrono::duration<double>(Clock::now() - start).count(), counters, key);
-    if (wire) wire->publish(channel, buf.data(), buf.size());
+    if (wire) {
+      wire->publish(channel, buf.data(), buf.size());
+      RankTraffic::sent(buf.size());
+    }
     if (!report.file.empty()) {
       const auto now_heard = heard_senders();
       if (!written || now_heard.size() != reported) write_heard_report(report.file, now_heard);

@@ -4,6 +4,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "traffic.h"
 #include "wire.h"
 
 #include <hemo/envelope_t.hpp>
@@ -62,6 +63,14 @@ inline constexpr const char* step_done = "STEP_DONE";
 inline constexpr const char* resend = "RESEND";
 inline constexpr const char* control = "CONTROL";  // restart / swap requests and answers
 
+// A kind's channel for one of `ranks` ranks of a node (the partitioned exchange, issue #36;
+// docs/notes/partitioned-exchange.md): "<KIND>.<rank>", e.g. FLUID_STATE.3, its own publisher's;
+// with one rank the kind itself, so that one rank each is today's exchange byte for byte.
+// Indices for pairs: of_rank(of_rank(kind, f, nf), p, np) = PARTICLE_FEEDBACK.<f>.<p>.
+std::string of_rank(const std::string& kind, int rank, int ranks);
+// The kind a channel's messages are of: "FLUID_STATE" for FLUID_STATE and FLUID_STATE.3.
+std::string base_kind(const std::string& kind);
+
 // Every kind: what the monitor and the tests listen to.
 std::vector<std::string> all();
 // What each process listens to. LCM drops a datagram of a channel nobody listens to in its
@@ -105,6 +114,13 @@ struct BusCounters {
     return rejected_short + rejected_foreign + rejected_auth + rejected_prestart + rejected_replay + rejected_corrupt;
   }
   std::string str() const;  // one line for a log
+};
+
+// Bytes of the datagrams a bus published (resends included) and was handed by LCM (every one of
+// a channel it listens to, whatever the checks then made of it), by channel kind, since it opened.
+// They are also added to the process's RankTraffic (traffic.h).
+struct BusTraffic {
+  std::map<std::string, std::uint64_t> sent, received;
 };
 
 // A received message: channel kind, envelope and raw bytes (tag verified) and, set by the bus,
@@ -180,6 +196,7 @@ class Bus {
 
   // A snapshot (the heartbeat thread reads them while the owner polls).
   BusCounters counters() const;
+  BusTraffic traffic() const;
   // Writes the counters to the log, once. A bus destroyed without it logs them only when it
   // dropped something (a command-line tool's answer stays one line).
   void log_counters(bool even_if_clean = true);
@@ -203,6 +220,7 @@ class Bus {
   std::mutex publish_mutex_;
   mutable std::mutex counters_mutex_;
   BusCounters counters_;
+  BusTraffic traffic_;  // counters_mutex_
   bool counters_logged_ = false;
   std::int64_t opened_us_ = 0;  // wall clock when the bus subscribed; older sequence numbers are pre-start
   std::map<std::string, double> prestart_lag_s_;  // sender -> its last pre-start message's lag (counters_mutex_)

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -153,6 +154,30 @@ void NodePort::report_done(bool ok, const std::string& error, const Diagnostics&
     done.values.push_back(value);
   }
   bus_->publish(channel::step_done, done, step_, /*keep=*/true);
+}
+
+Diagnostics NodePort::with_bus_traffic(const Diagnostics& diag) {
+  Diagnostics out = diag;
+  const BusTraffic current = bus_->traffic();
+  auto add = [&](const char* way, const std::map<std::string, std::uint64_t>& total,
+                 const std::map<std::string, std::uint64_t>& before) {
+    for (const auto& [kind, bytes] : total) {
+      const auto it = before.find(kind);
+      const std::uint64_t since = bytes - (it == before.end() ? 0 : it->second);
+      if (since == 0) continue;
+      std::string name = kind;
+      std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+      out.emplace_back(fmt::format("bus_{}_{}_B", way, name), static_cast<double>(since));
+    }
+  };
+  // A report without diagnostics (a resumed node's first, of a step the coordinator has) stays
+  // without.
+  if (!diag.empty()) {
+    add("sent", current.sent, traffic_reported_.sent);
+    add("received", current.received, traffic_reported_.received);
+  }
+  traffic_reported_ = current;
+  return out;
 }
 
 void NodePort::finalize() {

@@ -85,9 +85,10 @@ class NodePort {
                                                                 const std::string& input_kind, int input_offset,
                                                                 const Diagnostics& diag, bool report_first) {
     times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
-    if (report_first) report_done(true, "", diag);
+    const Diagnostics reported = with_bus_traffic(diag);
+    if (report_first) report_done(true, "", reported);
     bus_->publish(out_kind, out, step_, /*keep=*/true);
-    if (!report_first) report_done(true, "", diag);
+    if (!report_first) report_done(true, "", reported);
     bus_->forget_before(step_ - 1);
     const double wait_start = now();
     const auto order_msg = wait_for(channel::step, step_ + 1, "the coordinator's next step order");
@@ -106,6 +107,10 @@ class NodePort {
   std::optional<std::string> coordinator_silence(double silent) const;
   std::string coordinator_whereabouts() const;  // for the log: whether its process is seen, and how
   void report_done(bool ok, const std::string& error, const Diagnostics& diag);
+  // `diag` and, per channel kind, the bytes this node's bus sent and received since the last
+  // report (bus_sent_<kind>_B, bus_received_<kind>_B; kinds without any left out): one window a
+  // step, from the publishing of one step's result to the next's.
+  Diagnostics with_bus_traffic(const Diagnostics& diag);
   static double now();
 
   std::map<std::pair<std::string, std::int64_t>, Received> pending_;
@@ -117,6 +122,7 @@ class NodePort {
   double gave_up_after_s_ = 0;  // the coordinator's silence the node gave up after (0: it did not)
   std::int64_t step_ = 0;
   StepTimes times_;
+  BusTraffic traffic_reported_;  // the bus's totals at the last report
   double step_started_ = 0;
 };
 

@@ -6,6 +6,7 @@
 #include "liveness.h"
 #include "node_port.h"
 #include "stability_guard.h"
+#include "traffic.h"
 
 #include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
@@ -151,8 +152,11 @@ void Lockstep::record(const Received& msg) {
   if (k > first_step_) {  // step 0 is the nodes' set-up, not a step
     node.totals["compute_s"] += done.compute_s;
     node.totals["wait_s"] += done.wait_s;
-    for (std::size_t i = 0; i < done.names.size(); ++i)
-      if (done.names[i].rfind("phase_", 0) == 0) node.totals[done.names[i]] += done.values[i];
+    for (std::size_t i = 0; i < done.names.size(); ++i) {
+      const std::string& name = done.names[i];
+      if (name.rfind("phase_", 0) == 0) node.totals[name] += done.values[i];
+      if (name.size() > 2 && name.compare(name.size() - 2, 2, "_B") == 0) node.bytes[name] += done.values[i];
+    }
   }
   for (std::size_t i = 0; i < done.names.size(); ++i)
     if (done.names[i] == kCheckpointDiagnostic && done.values[i] == double(k)) node.checkpoint_step = k;
@@ -289,7 +293,14 @@ void Lockstep::await(long step, double timeout_s) {
       bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again
       last_asked = now();
     }
+    // The coordinator's own bytes, one window a step like the nodes' (the start-up's dropped).
+    if (all_done() && step == first_step_) RankTraffic::take();
     if (all_done() && step > first_step_) {
+      const TrafficBytes mine = RankTraffic::take();
+      own_bytes_["rank0_sent_B"] += static_cast<double>(mine.sent);
+      own_bytes_["rank0_received_B"] += static_cast<double>(mine.received);
+      unwritten_.push_back({step, step_time_s_, "coordinator", "rank0_sent_B", static_cast<double>(mine.sent)});
+      unwritten_.push_back({step, step_time_s_, "coordinator", "rank0_received_B", static_cast<double>(mine.received)});
       // Serial: the nodes compute one after the other; parallel: at once. What the step took
       // beyond that is the coupling: messages, waking up, the coordinator's bookkeeping.
       const double wall = now() - ordered_at_;
@@ -359,6 +370,20 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
     else
       text += fmt::format("  {:<10} {:<30} {:>10}\n", name, "peak memory", "not known here");
   }
+  // Bytes: a mean per step, in the total's column (units in the name, as peak memory's).
+  const double per_step = 1.0 / std::max(steps, 1L);
+  auto bytes_rows = [&](const std::string& name, const std::map<std::string, double>& bytes) {
+    for (const auto& [what, total] : bytes)
+      csv += fmt::format("{},{}_per_step,{:.10g},\n", name, what, total * per_step);
+    for (int r = 0; bytes.count(fmt::format("rank{}_sent_B", r)); ++r)
+      text += fmt::format("  {:<10} {:<30} {:10.0f} B/step sent, {:.0f} B/step received\n", name,
+                          fmt::format("rank {} bytes", r), bytes.at(fmt::format("rank{}_sent_B", r)) * per_step,
+                          bytes.count(fmt::format("rank{}_received_B", r))
+                              ? bytes.at(fmt::format("rank{}_received_B", r)) * per_step
+                              : 0.0);
+  };
+  for (const auto& [name, node] : nodes_) bytes_rows(name, node.bytes);
+  bytes_rows("coordinator", own_bytes_);
   const double overhead = overhead_s_;
   csv += fmt::format("lockstep,coupling_overhead_s,{:.6g},{:.6g}\n", overhead, 1e3 * overhead / std::max(steps, 1L));
   text += fmt::format("  {:<10} {:<30} {:10.3f} s {:10.3f} ms/step ({:.1f} % of stepping)\n", "lockstep",

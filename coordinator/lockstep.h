@@ -57,7 +57,10 @@ class Lockstep {
 
   // Where the time of the coupled steps went: per node, compute and wait and the phases the
   // node reports (diagnostics named phase_*_s), and the coupling overhead of the lockstep
-  // itself (step wall time not spent computing in either node). Written to RUN_DIR/profile.csv.
+  // itself (step wall time not spent computing in either node). Written to RUN_DIR/profile.csv,
+  // with the bytes per step each rank of each node and the coordinator sent and received
+  // (common/traffic.h): rows NODE,NAME_per_step,BYTES, (a mean over the steps; NAME as the node
+  // reports it, rank<r>_sent_B, bus_sent_fluid_state_B, ...).
   std::string profile_report(double wall_s, long steps) const;
 
  private:
@@ -69,6 +72,7 @@ class Lockstep {
     long checkpoint_step = -1;  // the newest checkpoint the node acknowledged
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
+    std::map<std::string, double> bytes;   // the node's byte counts (diagnostics *_B), summed
     std::map<std::string, double> last;    // the diagnostics of the last step done
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
@@ -107,6 +111,7 @@ class Lockstep {
   double ordered_at_ = 0;                      // wall clock when the current step was ordered
   double stepping_wall_s_ = 0;                 // sum over steps >= 1 of order-to-all-done wall time
   double overhead_s_ = 0;                      // the part of it no node spent computing (see profile_report)
+  std::map<std::string, double> own_bytes_;    // the coordinator's bytes of the steps, summed (rank0_sent_B, ...)
   std::string unstable_;                       // the first broken stability guard, if any
   bool bus_checked_ = false;                   // every process heard every other
   double bus_checked_at_ = 0;                  // when check_bus last looked

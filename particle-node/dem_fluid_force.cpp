@@ -4,6 +4,7 @@
 #include <atom.h>
 #include <clock.h>
 #include <fmt/format.h>
+#include <traffic.h>
 
 #include <algorithm>
 #include <chrono>
@@ -272,6 +273,7 @@ void DemFluidForce::deposit(Deposition& deposition) {
   int size = 1;
   MPI_Comm_size(comm_, &size);
   if (size > 1) MPI_Allreduce(MPI_IN_PLACE, deposition.data(), deposition.size(), MPI_DOUBLE, MPI_SUM, comm_);
+  RankTraffic::all_reduce(sizeof(double) * static_cast<std::uint64_t>(deposition.size()), size);
   take_plasma_mass(deposition);
 }
 

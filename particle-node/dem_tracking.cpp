@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_tracking.h"
 
+#include <traffic.h>
+
 #include <cmath>
 #include <limits>
 
@@ -57,6 +59,7 @@ void ParticleTracking::sync(int nlocal, const int* tag, MPI_Comm comm) {
     buf[2 * tag[i] + 1] = tracked_[tag[i]].crossings;
   }
   MPI_Allreduce(MPI_IN_PLACE, buf.data(), static_cast<int>(buf.size()), MPI_DOUBLE, MPI_SUM, comm);
+  RankTraffic::all_reduce(sizeof(double) * buf.size(), size);
   for (std::size_t t = 0; t < tracked_.size(); ++t) {
     if (!present_[t]) continue;
     tracked_[t].last_z = buf[2 * t];

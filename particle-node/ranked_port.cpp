@@ -1,6 +1,11 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "ranked_port.h"
 
+#include <traffic.h>
+
+#include <fmt/format.h>
+
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
@@ -17,6 +22,9 @@ void broadcast(Msg& msg, MPI_Comm comm, int rank) {
   if (rank == 0 && msg.encode(buf.data(), 0, static_cast<int>(size)) < 0)
     throw std::runtime_error("cannot encode a message for the other ranks");
   MPI_Bcast(buf.data(), static_cast<int>(size), MPI_CHAR, 0, comm);
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  RankTraffic::broadcast(sizeof size + static_cast<std::uint64_t>(size), rank == 0, ranks);
   if (rank != 0 && msg.decode(buf.data(), 0, static_cast<int>(size)) < 0)
     throw std::runtime_error("cannot decode a message from rank 0");
 }
@@ -70,13 +78,31 @@ mesh_t RankedPort::initialize() {
   return mesh;
 }
 
+Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
+  const TrafficBytes mine = RankTraffic::take();
+  const std::uint64_t own[2] = {mine.sent, mine.received};
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  std::vector<std::uint64_t> all(2 * static_cast<std::size_t>(ranks));
+  MPI_Gather(own, 2, MPI_UINT64_T, all.data(), 2, MPI_UINT64_T, 0, comm_);
+  Diagnostics out = diag;
+  if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
+  for (int r = 0; r < ranks; ++r) {
+    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[2 * r]));
+    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[2 * r + 1]));
+  }
+  return out;
+}
+
 std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
   std::optional<ParticleStep> step;
   int control = kContinue;
   std::string error;
+  // Every rank's bytes since its last report (this gather itself not counted: it is the measuring).
+  const Diagnostics reported = with_rank_traffic(diag);
   if (rank_ == 0) {
     try {
-      step = port_->advance(feedback, diag);
+      step = port_->advance(feedback, reported);
       control = step ? kContinue : kStop;
     } catch (const std::exception& e) {
       control = kError;

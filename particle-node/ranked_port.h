@@ -2,7 +2,8 @@
 // ParticlePort (joins the bus, heartbeats, publishes); what it receives — the mesh once, then
 // each step's order and fluid state — is broadcast (LCM-encoded) to the other ranks, so every
 // rank runs the same steps. The feedback and diagnostics every rank computes are the same
-// (per-cell arrays are summed over ranks first); only rank 0's are published.
+// (per-cell arrays are summed over ranks first); only rank 0's are published, with every rank's
+// bytes of the step.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -35,6 +36,9 @@ class RankedPort {
  private:
   enum Control : int { kContinue = 0, kStop = 1, kError = 2 };
   void broadcast_control(int& control, std::string& error);
+  // `diag` and, on rank 0, the bytes each rank moved for the coupling since its last report
+  // (rank<r>_sent_B, rank<r>_received_B; common/traffic.h); collective.
+  Diagnostics with_rank_traffic(const Diagnostics& diag);
 
   MPI_Comm comm_;
   int rank_ = 0;

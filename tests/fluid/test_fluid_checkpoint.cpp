@@ -251,7 +251,10 @@ std::vector<std::string> differing_diagnostics(const Published& a, const Publish
     for (const auto& [n, v] : da) names.insert(n);
     for (const auto& [n, v] : db) names.insert(n);
     for (const auto& n : names) {
-      if (n.rfind("phase_", 0) == 0 || n == hemo::kCheckpointDiagnostic) continue;
+      // Timings and bytes (*_B: heartbeats and resends) differ from run to run.
+      if (n.rfind("phase_", 0) == 0 || n == hemo::kCheckpointDiagnostic ||
+          (n.size() > 2 && n.substr(n.size() - 2) == "_B"))
+        continue;
       const auto ia = da.find(n), ib = db.find(n);
       if (ia == da.end() || ib == db.end() || !(ia->second == ib->second)) {
         std::ostringstream line;
@@ -502,7 +505,8 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
   }
 }
 
-// metrics.csv rows of one node, but the wall-clock ones: "step,time,node,name" -> value text.
+// metrics.csv rows of one node, but the wall-clock ones and the bytes (*_B: heartbeats and resends
+// vary from run to run): "step,time,node,name" -> value text.
 std::map<std::string, std::string> node_rows(const std::string& run_dir, const std::string& node, int& repeats) {
   std::ifstream in(run_dir + "/metrics.csv");
   std::map<std::string, std::string> out;
@@ -514,7 +518,8 @@ std::map<std::string, std::string> node_rows(const std::string& run_dir, const s
     const std::string key = line.substr(0, value_at);
     if (key.find("," + node + ",") == std::string::npos) continue;
     if (key.find(",compute_s") != std::string::npos || key.find(",wait_s") != std::string::npos ||
-        key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos)
+        key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos ||
+        key.compare(key.size() - 2, 2, "_B") == 0)
       continue;
     if (out.count(key)) ++repeats;
     out[key] = line.substr(value_at + 1);

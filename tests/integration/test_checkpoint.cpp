@@ -60,8 +60,9 @@ std::vector<std::string> checkpoint_folders(const std::string& dir) {
   return names;
 }
 
-// metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those) and
-// the timings (the nodes' and the lockstep's), sorted: the two nodes' rows of a step come in the
+// metrics.csv rows but the checkpoint acknowledgements (a stopped run has one more of those),
+// the timings (the nodes' and the lockstep's) and the bytes (*_B, the coordinator's among them:
+// heartbeats and resends vary from run to run), sorted: the two nodes' rows of a step come in the
 // order their reports arrived.
 // With `values` false, only which step, node and name (each once).
 std::vector<std::string> metric_rows(const std::string& dir, bool values) {
@@ -70,7 +71,7 @@ std::vector<std::string> metric_rows(const std::string& dir, bool values) {
   for (std::string line; std::getline(in, line);)
     if (line.find(",checkpoint_step,") == std::string::npos && line.find(",compute_s,") == std::string::npos &&
         line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos &&
-        line.find(",lockstep,") == std::string::npos)
+        line.find(",lockstep,") == std::string::npos && line.find("_B,") == std::string::npos)
       rows.push_back(values ? line : line.substr(0, line.rfind(',')));
   std::sort(rows.begin(), rows.end());
   return rows;

@@ -226,9 +226,9 @@ TEST(Monitor, LivePageDrawsTheRunInAHeadlessBrowser) {
   EXPECT_GE(step, seen_step) << live.output;
   EXPECT_LE(step, final_step) << live.output;
   // Every plot drew points, the run's physical diagnostics among them.
-  EXPECT_EQ(attribute(live.output, "<body[^>]* data-plots-with-data=\"([0-9]+)\""), 11) << live.output;
-  for (const char* plot : {"latency", "compute", "rate", "bytes", "rejections", "resends", "courant", "overlap",
-                           "velocity", "momentum", "balance"})
+  EXPECT_EQ(attribute(live.output, "<body[^>]* data-plots-with-data=\"([0-9]+)\""), 12) << live.output;
+  for (const char* plot : {"latency", "compute", "rate", "bytes", "rank_bytes", "rejections", "resends", "courant",
+                           "overlap", "velocity", "momentum", "balance"})
     EXPECT_GT(attribute(live.output, std::string("id=\"plot-") + plot + "\" data-points=\"([0-9]+)\""), 0) << plot;
   // The screenshot is a picture (docs/figures/monitor.png is one of these).
   ASSERT_TRUE(std::filesystem::exists(shot)) << png.output;
