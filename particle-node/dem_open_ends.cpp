@@ -207,6 +207,17 @@ void FixOpenEnds::replay_sources() {
       v[i][d] = v[j][d];
       omega[i][d] = omega[j][d];
     }
+    copy_values(replayed_, j, i);
+  }
+}
+
+void FixOpenEnds::copy_values(const std::vector<LAMMPS_NS::Fix*>& fixes, int from, int to) {
+  for (LAMMPS_NS::Fix* fix : fixes) {
+    auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix);
+    if (values->array_atom == nullptr)
+      values->vector_atom[to] = values->vector_atom[from];
+    else
+      std::copy(values->array_atom[from], values->array_atom[from] + values->get_nvalues(), values->array_atom[to]);
   }
 }
 
@@ -271,13 +282,7 @@ void FixOpenEnds::insert_copy(int source, int tag) {
   for (int f = 0; f < modify->nfix; ++f)
     if (modify->fix[f]->create_attribute) modify->fix[f]->set_arrays(m);
   if (layout_.buffer > 0) source_[m] = atom->tag[source];
-  for (LAMMPS_NS::Fix* fix : copied_) {
-    auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix);
-    if (values->array_atom == nullptr)
-      values->vector_atom[m] = values->vector_atom[source];
-    else
-      std::copy(values->array_atom[source], values->array_atom[source] + values->get_nvalues(), values->array_atom[m]);
-  }
+  copy_values(copied_, source, m);
 }
 
 std::string open_ends_command(const OpenEndsLayout& layout) {

@@ -114,8 +114,12 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   // per type of this box.
   void restore(const State& state);
 
-  // Per-atom fixes (fix property/atom) whose values an inserted copy takes from its source.
-  void copy_values_of(std::vector<LAMMPS_NS::Fix*> fixes) { copied_ = std::move(fixes); }
+  // Per-atom fixes (fix property/atom) whose values an inserted copy takes from its source, and
+  // of those, the ones it goes on taking from it every step while it replays it in the buffer.
+  void copy_values_of(std::vector<LAMMPS_NS::Fix*> fixes, std::vector<LAMMPS_NS::Fix*> replayed) {
+    copied_ = std::move(fixes);
+    replayed_ = std::move(replayed);
+  }
   // Called at each build that moved any atom, with its events (on every rank).
   void on_events(std::function<void(const std::vector<OpenEndsEvent>&)> listener) { listener_ = std::move(listener); }
 
@@ -148,7 +152,8 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   Counts counts_;
   long capacity_ = 0;
   std::vector<int> free_;  // free tags, largest first (the smallest is taken from the back)
-  std::vector<LAMMPS_NS::Fix*> copied_;
+  std::vector<LAMMPS_NS::Fix*> copied_, replayed_;
+  static void copy_values(const std::vector<LAMMPS_NS::Fix*>& fixes, int from, int to);
   int* source_ = nullptr;  // per local atom: the source tag it replays (0: none)
   std::function<void(const std::vector<OpenEndsEvent>&)> listener_;
 };

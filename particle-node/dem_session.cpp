@@ -355,11 +355,15 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   command(open_ends_command(layout));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the
-  // source's interval impulse stays with the source, which goes on in the feeder).
-  std::vector<LAMMPS_NS::Fix*> copied;
+  // source's interval impulse stays with the source, which goes on in the feeder). In the buffer
+  // it replays the source's orientation and spin as it does its position and velocity: a platelet
+  // copy held there against the vessel's wall by its replayed position spun up under the contact's
+  // torque alone (1.3e5 rad/s at step 692 of scenes/bifurcation.toml) and stopped the run.
+  std::vector<LAMMPS_NS::Fix*> copied, replayed;
   for (LAMMPS_NS::Fix* fix : {fixes_.rotation, fixes_.closures})
     if (fix != nullptr) copied.push_back(fix);
-  fixes_.open_ends->copy_values_of(copied);
+  if (fixes_.rotation != nullptr) replayed.push_back(fixes_.rotation);
+  fixes_.open_ends->copy_values_of(copied, replayed);
   fixes_.open_ends->on_events(std::move(listener));
   if (restored) fixes_.open_ends->restore(*restored);
 }

@@ -97,7 +97,7 @@ class OpenEndsBox {
     command("run 0 pre yes post no");  // LIGGGHTS makes its contact history fix (before ours)
     command(open_ends_command({std::move(outlets), 1.5 * kRadius, kShift, buffer}));
     open_ = static_cast<FixOpenEnds*>(fix(kOpenEndsFix));
-    open_->copy_values_of({values});
+    open_->copy_values_of({values}, {values});  // a copy takes them, and replays them in the buffer
     open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
       for (const auto& e : events) {
         Atom source{};
@@ -144,6 +144,12 @@ class OpenEndsBox {
     return false;
   }
   long natoms() const { return static_cast<long>(lmp_->atom->natoms); }
+  // Sets the per-atom value of the atom with this tag (on the rank that holds it).
+  void set_value(int tag, double value) {
+    auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
+    for (int i = 0; i < lmp_->atom->nlocal; ++i)
+      if (lmp_->atom->tag[i] == tag && lmp_->atom->x[i][0] < 1.5 * kRadius) values->array_atom[i][0] = value;
+  }
   const FixOpenEnds& open() const { return *open_; }
 
   std::vector<OpenEndsEvent> events;
@@ -290,19 +296,23 @@ TEST(OpenEnds, OverTheInletBufferACopyReplaysItsSourceAndIsNotThrownBack) {
         ASSERT_EQ(copy.x[2], source.x[2]) << "step " << s;
         ASSERT_EQ(copy.v[2], source.v[2]) << "step " << s;
       }
-      // Stop the copy by hand once inside the buffer and once past it: the next step tells.
+      // Stop the copy by hand, and change its replayed value (as a platelet's spin), once inside
+      // the buffer and once past it: the next step tells.
       if ((inside && stopped_inside == 0 && replayed == 20) || (!inside && buffer > 0 && stopped_outside == 0)) {
         box.command(fmt::format("group copy{} id {}", s, e.tag));
         box.command(fmt::format("velocity copy{} set 0 0 0 units box", s));
+        box.set_value(e.tag, -1);
         box.step(false);
         const auto after = box.atoms();
         const double lag = after.at(e.source_tag).x[2] - after.at(e.tag).x[2];
         if (inside) {
           stopped_inside = 1;
           EXPECT_EQ(lag, 0.0) << "a copy in the buffer is its source's";
+          EXPECT_EQ(after.at(e.tag).value, after.at(e.source_tag).value) << "and so are its replayed values";
         } else {
           stopped_outside = 1;
           EXPECT_GT(lag, 0.9 * kSpeed * kDt) << "a copy past the buffer moves on its own";
+          EXPECT_EQ(after.at(e.tag).value, -1) << "and keeps its own values";
         }
       }
     }
