@@ -74,6 +74,19 @@ std::string discharge_detail(const Analysis& a) { return fmt::format("H_D = Q_RB
 
 std::string margination_detail(const Analysis&) { return "platelets with r > R − δ, edge-method δ"; }
 
+// A bifurcation's first outlet, the daughter the phase-separation curve is read for; NaN when the
+// run has no outlets' shares.
+double first_outlet(const Analysis& a, double BranchShare::*share) {
+  return a.branches.empty() ? std::nan("") : a.branches.front().*share;
+}
+// The in-vivo fit's red-cell share at the first outlet's blood share, from the parent's discharge
+// hematocrit (its inlet's) and the branches' diameters; NaN without cells in all three branches.
+double first_outlet_in_vivo(const Analysis& a) {
+  if (a.branches.empty() || a.ends.size() < 3 || a.branch_layers.size() < 3) return std::nan("");
+  return in_vivo_rbc_share(a.branches.front().blood, 2 * a.branch_layers[0].radius, 2 * a.branch_layers[1].radius,
+                           2 * a.branch_layers[2].radius, a.ends[0].discharge_hematocrit());
+}
+
 }  // namespace
 
 std::string Observable::format(const Analysis& a) const {
@@ -157,6 +170,21 @@ const std::vector<Observable>& observable_table() {
       {"platelet_axis_enrichment", "platelet_axis.enrichment", "axis enrichment", "1",
        "fraction of platelets within 0.2 R of the axis at the window's end over that at the first snapshot",
        [](const Analysis& a) { return a.platelet_axis.enrichment; }, {Style::fixed, 3, 1, ""}, axis_detail},
+      {"outlet_1_blood_share", "phase_separation.outlet_1.blood_share", "F_B out 1", "1",
+       "a bifurcation's outlet 1's share of the blood leaving through the outlets, window",
+       [](const Analysis& a) { return first_outlet(a, &BranchShare::blood); }, {Style::fixed, 4, 1, ""}, nullptr,
+       "outlet 1's share", "blood"},
+      {"outlet_1_rbc_share", "phase_separation.outlet_1.rbc_share", "F_E out 1", "1",
+       "outlet 1's share of the red cells leaving through the outlets, window",
+       [](const Analysis& a) { return first_outlet(a, &BranchShare::rbc); }, {Style::fixed, 4, 1, ""}, nullptr,
+       "outlet 1's share", "red cells"},
+      {"outlet_1_platelet_share", "phase_separation.outlet_1.platelet_share", "F_P out 1", "1",
+       "outlet 1's share of the platelets leaving through the outlets, window",
+       [](const Analysis& a) { return first_outlet(a, &BranchShare::platelet); }, {Style::fixed, 4, 1, ""}, nullptr,
+       "outlet 1's share", "platelets"},
+      {"outlet_1_rbc_share_in_vivo", "in_vivo.outlet_1_rbc_share", "F_E out 1 in vivo", "1",
+       "outlet 1's red-cell share at its F_B in the in-vivo fit of Pries et al. 1989 / Pries & Secomb 2005, parent H_D and the branches' diameters (docs/model.md §5)",
+       first_outlet_in_vivo, {Style::fixed, 4, 1, ""}, nullptr, "outlet 1's share", "red cells, in vivo fit"},
   };
   // clang-format on
   return table;

@@ -528,6 +528,21 @@ double in_vitro_fahraeus_ratio(double diameter, double hd) {
   return hd + (1 - hd) * (1 + 1.7 * std::exp(-0.415 * D) - 0.6 * std::exp(-0.011 * D));
 }
 
+double in_vivo_rbc_share(double fqb, double parent_diameter, double diameter, double other_diameter, double hd) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!(fqb >= 0 && fqb <= 1) || !(hd >= 0 && hd < 1) || !(parent_diameter > 0) || !(diameter > 0) ||
+      !(other_diameter > 0))
+    return nan;
+  const double per_diameter = (1 - hd) / in_micrometres(parent_diameter);
+  const double squares = (diameter / other_diameter) * (diameter / other_diameter);
+  const double x0 = 0.964 * per_diameter, b = 1 + 6.98 * per_diameter;
+  const double a = -13.29 * ((squares - 1) / (squares + 1)) * per_diameter;
+  if (fqb <= x0) return 0;
+  if (fqb >= 1 - x0) return 1;
+  const double x = (fqb - x0) / (1 - 2 * x0);
+  return 1 / (1 + std::exp(-(a + b * std::log(x / (1 - x)))));
+}
+
 // ---- Along a branching vessel's branches ------------------------------------------------------
 
 std::string branch_name(int branch) { return branch == 0 ? "parent" : "daughter_" + std::to_string(branch); }

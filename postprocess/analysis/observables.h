@@ -297,6 +297,19 @@ double in_vitro_relative_viscosity(double diameter, double discharge_hematocrit)
 // of Pries, Secomb, Gaehtgens & Gross (1990, Circ. Res. 67:826). 1 in a wide tube.
 double in_vitro_fahraeus_ratio(double diameter, double discharge_hematocrit);
 
+// ---- Blood at microvascular bifurcations: the in-vivo reference (docs/model.md §5) ---------------
+
+// A daughter's share of the red cells at a bifurcation against its share of the blood, the in-vivo
+// phase-separation fit of Pries et al. (1989, Am. J. Physiol. 256:H1079) with the parameters of
+// Pries & Secomb (2005, Am. J. Physiol. 289:H2657): logit F_E = A + B logit((F_B - X0) / (1 - 2 X0)),
+// X0 = 0.964 (1 - H_D) / D_F, B = 1 + 6.98 (1 - H_D) / D_F,
+// A = -13.29 ((D_a^2 / D_b^2 - 1) / (D_a^2 / D_b^2 + 1)) (1 - H_D) / D_F; diameters in µm inside the
+// fit (here in metres), H_D the parent's discharge hematocrit. 0 below X0, 1 above 1 - X0: a branch
+// taking less than X0 of the blood takes plasma alone. NaN for inputs outside (0, 1) or diameters
+// not positive.
+double in_vivo_rbc_share(double blood_share, double parent_diameter, double diameter, double other_diameter,
+                         double parent_discharge_hematocrit);
+
 // ---- Along a vessel shape (model/geometry.h) -------------------------------------------------
 
 // Per axial station of a vessel that narrows, each against the local wall r = R(z). A particle's

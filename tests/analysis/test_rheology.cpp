@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 using namespace hemo::analysis;
 using namespace hemo::analysis::test;
@@ -165,4 +166,30 @@ TEST(OpenEnds, EachOutletsSharesAreOfWhatLeavesThroughThemAll) {
   EXPECT_NEAR(shares[0].plasma, skimmed.plasma_flux / (skimmed.plasma_flux + other.plasma_flux), 1e-12);
   // Nothing left yet: no share.
   EXPECT_TRUE(std::isnan(branch_shares({EndFlux{"outlet_1"}, EndFlux{"outlet_2"}})[0].rbc));
+}
+
+// The in-vivo phase-separation fit (Pries et al. 1989; Pries & Secomb 2005) by what it is built to
+// hold: the daughters' shares of the red cells add to one (swapping the daughters flips A), equal
+// daughters split evenly at an even split, a branch below X0 takes plasma alone, a wide parent
+// separates nothing, and a narrow one enriches the faster branch (the Zweifach-Fung effect). And
+// one point of scenes/studies/bifurcation.toml's sweep worked by hand: D_F = 100 um, 90.4 and
+// 63.9 um daughters, H_D = 0.17, F_B = 0.8: A = -0.0368, B = 1.0579, X0 = 0.0080, F_E = 0.8119.
+TEST(InVivoBlood, PhaseSeparationFitHoldsWhatItIsBuiltToHold) {
+  for (const double parent_um : {30.0, 100.0})
+    for (const double hd : {0.15, 0.45})
+      for (const auto& [a_um, b_um] : {std::pair{20.0, 20.0}, std::pair{25.0, 15.0}})
+        for (double f = 0.05; f < 1; f += 0.05) {
+          const double here = in_vivo_rbc_share(f, parent_um * kUm, a_um * kUm, b_um * kUm, hd);
+          const double there = in_vivo_rbc_share(1 - f, parent_um * kUm, b_um * kUm, a_um * kUm, hd);
+          EXPECT_NEAR(here + there, 1, 1e-12) << parent_um << " " << hd << " " << a_um << " " << f;
+        }
+  EXPECT_NEAR(in_vivo_rbc_share(0.5, 30 * kUm, 20 * kUm, 20 * kUm, 0.45), 0.5, 1e-15);
+  const double x0 = 0.964 * (1 - 0.45) / 10;  // a 10-um parent
+  EXPECT_EQ(in_vivo_rbc_share(0.9 * x0, 10 * kUm, 8 * kUm, 8 * kUm, 0.45), 0);
+  EXPECT_EQ(in_vivo_rbc_share(1 - 0.9 * x0, 10 * kUm, 8 * kUm, 8 * kUm, 0.45), 1);
+  EXPECT_NEAR(in_vivo_rbc_share(0.8, 1e5 * kUm, 8e4 * kUm, 8e4 * kUm, 0.45), 0.8, 1e-4);
+  EXPECT_GT(in_vivo_rbc_share(0.8, 30 * kUm, 24 * kUm, 24 * kUm, 0.45), 0.8);
+  EXPECT_NEAR(in_vivo_rbc_share(0.8, 100 * kUm, 90.4 * kUm, 63.9 * kUm, 0.17), 0.8119, 1e-4);
+  EXPECT_TRUE(std::isnan(in_vivo_rbc_share(1.2, 100 * kUm, 80 * kUm, 80 * kUm, 0.17)));
+  EXPECT_TRUE(std::isnan(in_vivo_rbc_share(0.5, 0, 80 * kUm, 80 * kUm, 0.17)));
 }
