@@ -2,6 +2,7 @@
 #include "study_file.h"
 
 #include "child_process.h"
+#include "geometry.h"
 #include "scene.h"
 
 #include <fmt/format.h>
@@ -90,8 +91,9 @@ const std::set<std::string> kReducedKeys = {"vessel.length_um", "mesh.core_cells
 std::string Reduction::describe() const {
   return fmt::format(
       "vessel diameter x {} (swept diameters too), length {} um, mesh {}x{} core + ring {} ({} cells per section) x {} "
-      "axial, physical time {} s at the scene's coupling interval, {} particle snapshots; every other key as in the "
-      "scene. The reduced runs test the machinery and show early-time behaviour only: cell-free layer, margination "
+      "axial (a surface vessel, a bifurcation's, keeps its shape and mesh: a narrower one's snapped cells would be "
+      "narrower than a red cell), physical time {} s at the scene's coupling interval, {} particle snapshots; every "
+      "other key as in the scene. The reduced runs test the machinery and show early-time behaviour only: cell-free layer, margination "
       "and steady profiles take of order a second of physical time to form.",
       diameter_factor, length_um, core_cells, core_cells, ring_cells,
       core_cells * core_cells + 4 * core_cells * ring_cells, axial_cells, end_time_s, snapshots);
@@ -102,13 +104,25 @@ void Reduction::apply(toml::table& scene) const {
     const auto n = scene.at_path(key);
     return n.is_number() ? n.value<double>().value_or(fallback) : fallback;
   };
-  const double d = number("vessel.diameter_um", 0);
-  if (d > 0) set_dotted(scene, "vessel.diameter_um", fmt::format("{:.9g}", d * diameter_factor));
-  const double l = number("vessel.length_um", length_um);
-  set_dotted(scene, "vessel.length_um", fmt::format("{:.9g}", std::min(l, length_um)));
-  set_dotted(scene, "mesh.core_cells", std::to_string(core_cells));
-  set_dotted(scene, "mesh.ring_cells", std::to_string(ring_cells));
-  set_dotted(scene, "mesh.axial_cells", std::to_string(axial_cells));
+  // A surface vessel keeps its shape and mesh: its snapped cells are cut to about half a cube at
+  // the wall, and a narrower vessel's finer cubes would be narrower than a red cell. It runs
+  // shorter only.
+  const auto shape = scene.at_path("vessel.shape").value<std::string>();
+  bool surface = false;
+  try {
+    surface = shape && vessel_shape(*shape).surface();
+  } catch (const std::invalid_argument&) {
+    // an unknown shape: the scene's own check names it
+  }
+  if (!surface) {
+    const double d = number("vessel.diameter_um", 0);
+    if (d > 0) set_dotted(scene, "vessel.diameter_um", fmt::format("{:.9g}", d * diameter_factor));
+    const double l = number("vessel.length_um", length_um);
+    set_dotted(scene, "vessel.length_um", fmt::format("{:.9g}", std::min(l, length_um)));
+    set_dotted(scene, "mesh.core_cells", std::to_string(core_cells));
+    set_dotted(scene, "mesh.ring_cells", std::to_string(ring_cells));
+    set_dotted(scene, "mesh.axial_cells", std::to_string(axial_cells));
+  }
   const Timing defaults;
   const double dt = number("time.coupling_interval_s", defaults.coupling_interval);
   const long given = scene.at_path("time.coupling_steps").value<int64_t>().value_or(defaults.coupling_steps);
