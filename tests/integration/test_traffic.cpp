@@ -23,26 +23,6 @@ using namespace hemo::test;
 
 namespace {
 
-using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;  // (node, name) -> step -> value
-
-Metrics read_metrics(const std::string& dir) {
-  std::ifstream in(dir + "/metrics.csv");
-  std::string line;
-  std::getline(in, line);
-  Metrics m;
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string step, time, node, name, value;
-    std::getline(row, step, ',');
-    std::getline(row, time, ',');
-    std::getline(row, node, ',');
-    std::getline(row, name, ',');
-    std::getline(row, value, ',');
-    m[{node, name}][std::stol(step)] = std::stod(value);
-  }
-  return m;
-}
-
 // RUN_DIR/profile.csv's NODE,NAME,VALUE rows.
 std::map<std::pair<std::string, std::string>, double> read_profile(const std::string& dir) {
   std::ifstream in(dir + "/profile.csv");
