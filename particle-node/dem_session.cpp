@@ -146,6 +146,38 @@ LiggghtsSession::~LiggghtsSession() {
   }
 }
 
+std::vector<WallTriangle> liggghts_wall_facets(const std::vector<WallTriangle>& facets, double d_min,
+                                               double& least_angle_deg) {
+  // LIGGGHTS refuses a facet with an angle below acos(0.9999995) = 0.0573 degrees whatever its
+  // curvature (its hard limit, surface_mesh_I.h), naming its element_exclusion_list as the
+  // remedy. Marching tetrahedra leave such needles where the surface grazes a grid point (one
+  // of 0.0223 degrees in a bifurcation with 90- and 64-um daughters): their width, twice their
+  // area over their longest edge, is nanometres, and a sphere of diameter d reaches w^2 / (4 d)
+  // into the slot of width w a dropped one leaves: 0.0025 % of d at w = 1 % of d.
+  const double least_deg = std::acos(0.9999995) * 180 / units::pi;
+  const double narrow = 0.01 * d_min;
+  std::vector<WallTriangle> kept;
+  least_angle_deg = 180;
+  for (const WallTriangle& t : facets) {
+    double least = 180, longest = 0;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 a = t.vertex[(k + 1) % 3] - t.vertex[k], b = t.vertex[(k + 2) % 3] - t.vertex[k];
+      least = std::min(least, std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / units::pi);
+      longest = std::max(longest, a.norm());
+    }
+    const double width = (t.vertex[1] - t.vertex[0]).cross(t.vertex[2] - t.vertex[0]).norm() / longest;
+    if (!(least > least_deg) && width < narrow) continue;
+    if (!(least > least_deg))
+      throw std::invalid_argument(fmt::format(
+          "the DEM's wall has a facet {:.3g} um wide with an angle of {:.3g} degrees, below the least LIGGGHTS takes "
+          "({:.4f})",
+          width / units::um, least, least_deg));
+    least_angle_deg = std::min(least_angle_deg, least);
+    kept.push_back(t);
+  }
+  return kept;
+}
+
 void LiggghtsSession::command(const std::string& line) { lmp_->input->one(line.c_str()); }
 
 void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bool rotation, bool held_closures,
@@ -153,27 +185,18 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
   callback_ = callback;
   callback_target_ = target;
   if (mesh_wall()) {
-    const std::vector<WallTriangle> wall = locator_.wall().dem_wall();
-    for (const WallTriangle& t : wall) {
+    const std::vector<WallTriangle> wall =
+        liggghts_wall_facets(locator_.wall().dem_wall(), species_.d_min, wall_min_angle_deg_);
+    for (const WallTriangle& t : wall)
       for (const auto& v : t.vertex) {
         wall_lower_ = wall_lower_.cwiseMin(v);
         wall_upper_ = wall_upper_.cwiseMax(v);
       }
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 a = t.vertex[(k + 1) % 3] - t.vertex[k], b = t.vertex[(k + 2) % 3] - t.vertex[k];
-        wall_min_angle_deg_ = std::min(wall_min_angle_deg_, std::atan2(a.cross(b).norm(), a.dot(b)) * 180 / units::pi);
-      }
-    }
-    // Below LIGGGHTS's hard limit (doc/fix_mesh_surface) no curvature helps.
-    if (!(wall_min_angle_deg_ > 0.0182))
-      throw std::invalid_argument(
-          fmt::format("the DEM's wall has a facet angle of {:.3g} degrees, below the least LIGGGHTS takes (0.0181)",
-                      wall_min_angle_deg_));
     write_wall_surface(wall);
     // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
     // it. LAMMPS closes its screen when it ends.
     if (lmp_->screen == nullptr)
-      lmp_->screen = std::fopen(getenv("HEMO_DEBUG_SCREEN") ? getenv("HEMO_DEBUG_SCREEN") : "/dev/null", "w");
+      lmp_->screen = std::fopen("/dev/null", "w");
   }
   define_box_and_contacts(assign_atom_types(used));
   // A pair's tangential history is cleared when it separates, not at the next neighbour-list

@@ -46,6 +46,13 @@ class FixOpenEnds;
 
 namespace hemo::particles {
 
+// The facets of a mesh wall that LIGGGHTS's fix mesh/surface takes: all but needles narrower than
+// 1 % of the smallest particle diameter `d_min` with an angle below its hard limit (0.0573
+// degrees); `least_angle_deg` gets the smallest angle kept. Throws std::invalid_argument naming a
+// wider facet with such an angle.
+std::vector<WallTriangle> liggghts_wall_facets(const std::vector<WallTriangle>& facets, double d_min,
+                                               double& least_angle_deg);
+
 // LIGGGHTS's bookkeeping, which changes the cost of a DEM step and, through the order of the
 // force sums, its results at round-off (then chaotically): fixed for runs, varied only by
 // hemocosim-dem-bench to measure what the cost responds to (docs/performance.md §6).

@@ -32,6 +32,7 @@ DemSpecies::DemSpecies(const Scene& dem, const Scene& physical) {
     mass[sp] = s.mass;
     weight[sp] = species_of(physical, sp).mass * gravity;  // the physical weight, whatever the DEM mass
     d_max = std::max(d_max, s.diameter);
+    d_min = d_min == 0 ? s.diameter : std::min(d_min, s.diameter);
   }
   if (d_max == 0) throw std::invalid_argument("the scene has no particle species");
 }

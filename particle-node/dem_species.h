@@ -30,6 +30,7 @@ struct DemSpecies {
   std::array<double, kSpeciesCount> mass{};                            // kg, the DEM's (dem_mass_scaling x physical)
   std::array<Vec3, kSpeciesCount> weight{Vec3::Zero(), Vec3::Zero()};  // N, physical mass x gravity
   double d_max = 0;                                                    // m, the largest diameter
+  double d_min = 0;                                                    // m, the smallest
   bool any_orientation = false;
 };
 

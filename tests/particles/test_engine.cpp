@@ -894,3 +894,27 @@ TEST(DemEngine, MeshWallOfANarrowingVesselHoldsTheCells) {
   EXPECT_LT(throat_max_r, geometry->throat_radius() * 1.05);
   EXPECT_EQ(engine.diagnostics(&fluid).outside_mesh, 0);
 }
+
+// The mesh wall handed to LIGGGHTS: a needle below its hard angle limit (0.0573 degrees) and
+// narrower than 1 % of the smallest particle is dropped, one as thin in angle but wider is refused
+// naming it, and ordinary facets are kept with their smallest angle reported.
+TEST(LiggghtsWall, NeedlesNarrowerThanAParticleHundredthAreDroppedWiderOnesRefused) {
+  using hemo::WallTriangle;
+  const double d = 2e-6;
+  auto triangle = [](Vec3 a, Vec3 b, Vec3 c) { return WallTriangle{{a, b, c}}; };
+  const WallTriangle ordinary = triangle({0, 0, 0}, {1e-6, 0, 0}, {0, 1e-6, 0});
+  // Apex angle 0.02 degrees: width 10 um x tan(0.02 deg) = 3.5 nm (0.17 % of d), and 50 nm when 140 um long.
+  const double t = std::tan(0.02 * hemo::units::pi / 180);
+  const WallTriangle narrow = triangle({0, 0, 1e-6}, {10e-6, -5e-6 * t, 1e-6}, {10e-6, 5e-6 * t, 1e-6});
+  const WallTriangle wide = triangle({0, 0, 2e-6}, {140e-6, -70e-6 * t, 2e-6}, {140e-6, 70e-6 * t, 2e-6});
+  double least = 0;
+  const auto kept = liggghts_wall_facets({ordinary, narrow, ordinary}, d, least);
+  EXPECT_EQ(kept.size(), 2u);
+  EXPECT_NEAR(least, 45.0, 1e-9);
+  try {
+    liggghts_wall_facets({ordinary, wide}, d, least);
+    FAIL() << "a wide needle was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("below the least LIGGGHTS takes"), std::string::npos) << e.what();
+  }
+}
