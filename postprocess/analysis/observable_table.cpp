@@ -89,6 +89,10 @@ double first_outlet_in_vivo(const Analysis& a) {
 
 }  // namespace
 
+double Observable::value(const Analysis& a) const {
+  return a.surface == of_surface ? of(a) : std::nan("");
+}
+
 std::string Observable::format(const Analysis& a) const {
   const double v = value(a);
   if (!std::isfinite(v)) return "n/a";
@@ -173,18 +177,18 @@ const std::vector<Observable>& observable_table() {
       {"outlet_1_blood_share", "phase_separation.outlet_1.blood_share", "F_B out 1", "1",
        "a bifurcation's outlet 1's share of the blood leaving through the outlets, window",
        [](const Analysis& a) { return first_outlet(a, &BranchShare::blood); }, {Style::fixed, 4, 1, ""}, nullptr,
-       "outlet 1's share", "blood"},
+       "outlet 1's share", "blood", true},
       {"outlet_1_rbc_share", "phase_separation.outlet_1.rbc_share", "F_E out 1", "1",
        "outlet 1's share of the red cells leaving through the outlets, window",
        [](const Analysis& a) { return first_outlet(a, &BranchShare::rbc); }, {Style::fixed, 4, 1, ""}, nullptr,
-       "outlet 1's share", "red cells"},
+       "outlet 1's share", "red cells", true},
       {"outlet_1_platelet_share", "phase_separation.outlet_1.platelet_share", "F_P out 1", "1",
        "outlet 1's share of the platelets leaving through the outlets, window",
        [](const Analysis& a) { return first_outlet(a, &BranchShare::platelet); }, {Style::fixed, 4, 1, ""}, nullptr,
-       "outlet 1's share", "platelets"},
+       "outlet 1's share", "platelets", true},
       {"outlet_1_rbc_share_in_vivo", "in_vivo.outlet_1_rbc_share", "F_E out 1 in vivo", "1",
        "outlet 1's red-cell share at its F_B in the in-vivo fit of Pries et al. 1989 / Pries & Secomb 2005, parent H_D and the branches' diameters (docs/model.md §5)",
-       first_outlet_in_vivo, {Style::fixed, 4, 1, ""}, nullptr, "outlet 1's share", "red cells, in vivo fit"},
+       first_outlet_in_vivo, {Style::fixed, 4, 1, ""}, nullptr, "outlet 1's share", "red cells, in vivo fit", true},
   };
   // clang-format on
   return table;

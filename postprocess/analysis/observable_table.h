@@ -32,13 +32,18 @@ struct Observable {
   std::string_view label;            // its name in the text table and the report ("δ edge")
   std::string_view unit;             // SI unit of the stored value (JSON, CSV); "1" for a pure number
   std::string_view description;      // one line, for the report's legend
-  double (*value)(const Analysis&);  // NaN when undefined
+  double (*of)(const Analysis&);     // NaN when undefined
   Shown shown;
   std::string (*detail)(const Analysis&) = nullptr;  // the text table's bracketed context, if any
   // The panel of `plot`'s sweep figure (its y-axis title) that draws it against the swept key,
   // as `sweep_series`; observables with the same panel share it. Empty: not in that figure.
   std::string_view sweep_panel = {}, sweep_series = {};
+  // Of which vessels: a surface vessel's (a bifurcation's outlets) or else a tube's (the radial and
+  // rheological observables, which a surface run does not measure).
+  bool of_surface = false;
 
+  // Its value in `a`: NaN when undefined there, or when `a` is of the other kind of vessel.
+  double value(const Analysis& a) const;
   // "1.23" in the shown unit, or "n/a" for NaN.
   std::string format(const Analysis& a) const;
   // The report's column header: the label and the shown unit, "δ edge (µm)".

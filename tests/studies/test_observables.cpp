@@ -100,7 +100,7 @@ TEST(Observables, NamesPathsAndLabelsAreUnique) {
     EXPECT_TRUE(labels.insert(o.label).second) << o.label;
     EXPECT_FALSE(o.unit.empty()) << o.name;
     EXPECT_FALSE(o.description.empty()) << o.name;
-    EXPECT_NE(o.value, nullptr) << o.name;
+    EXPECT_NE(o.of, nullptr) << o.name;
   }
   // The study's own columns are not observables' names.
   for (const char* own : {"index", "label", "swept_value", "status", "wall_s", "run_dir"})

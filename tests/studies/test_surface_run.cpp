@@ -3,6 +3,7 @@
 // cells placed within each branch's own sections its layer's count and bounds.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
+#include "observable_table.h"
 #include "scene.h"
 #include "synthetic_run.h"
 
@@ -75,6 +76,38 @@ TEST(SurfaceRun, EachBranchsDischargeHematocritAndPlateletFluxAreItsEndsCounts) 
     EXPECT_NE(table.find(fmt::format("{:<11} {:<9}", layer.name, ends[b])), std::string::npos) << table;
   }
   EXPECT_EQ(a.window_snapshots, 1);  // the snapshot at 0.04 s
+}
+
+// A surface run's observables in a study's table: outlet 1's shares and the in-vivo fit's, and
+// none of a tube's (its cell-free layer, rheology and hematocrits are not measured there: n/a,
+// not 0).
+TEST(SurfaceRun, ItsStudyColumnsAreTheOutletsSharesAndNoneOfATubes) {
+  ScratchDir dir("surface-columns");
+  const std::string run = dir.str() + "/run";
+  const SyntheticRun spec;
+  write_synthetic_run(run, bifurcation_scene(dir.str()), spec);
+  AnalyzeOptions opt;
+  opt.run_dir = run;
+  const auto a = analysis::analyze_run(analysis::open_run(run), opt);
+  int surface = 0;
+  for (const auto& o : analysis::observable_table()) {
+    if (o.of_surface) {
+      ++surface;
+      if (o.name != "outlet_1_rbc_share_in_vivo") {
+        EXPECT_TRUE(std::isfinite(o.value(a))) << o.name;
+      }
+    } else {
+      EXPECT_TRUE(std::isnan(o.value(a))) << o.name;
+      EXPECT_EQ(o.format(a), "n/a") << o.name;
+    }
+  }
+  EXPECT_EQ(surface, 4);
+  const auto blood = [&] {
+    for (const auto& o : analysis::observable_table())
+      if (o.name == "outlet_1_blood_share") return o.value(a);
+    return std::nan("");
+  }();
+  EXPECT_EQ(blood, a.branches.front().blood);
 }
 
 // The outlets' shares over the run: outlet 1 takes rbc_1_early of rbc_in red cells a step over
