@@ -30,21 +30,35 @@ std::string bifurcation_scene(const std::string& dir) {
   return path;
 }
 
+// A synthetic bifurcation run (SyntheticRun's defaults) in its own scratch folder, analysed over
+// [window_start, window_end] (NaN: the default window).
+struct AnalysedSurfaceRun {
+  explicit AnalysedSurfaceRun(const std::string& name, double window_start = std::nan(""),
+                              double window_end = std::nan(""))
+      : dir(name), run(dir.str() + "/run") {
+    write_synthetic_run(run, bifurcation_scene(dir.str()), spec);
+    AnalyzeOptions opt;
+    opt.run_dir = run;
+    if (std::isfinite(window_start)) opt.window_start = window_start;
+    if (std::isfinite(window_end)) opt.window_end = window_end;
+    a = analysis::analyze_run(analysis::open_run(run), opt);
+  }
+  ScratchDir dir;
+  std::string run;
+  SyntheticRun spec;
+  analysis::Analysis a;
+};
+
 }  // namespace
 
 // Over steps 30..45 (the window lies between the count samples, a step each 1 ms), the parent
 // takes in rbc_in red cells and platelets_in platelets a step with plasma_in, outlet 1 lets out
 // rbc_1_late and platelets_1 with plasma_1, outlet 2 the rest. H_D = Q_RBC / (plasma + cells).
 TEST(SurfaceRun, EachBranchsDischargeHematocritAndPlateletFluxAreItsEndsCounts) {
-  ScratchDir dir("surface-analysis");
-  const std::string run = dir.str() + "/run";
-  const SyntheticRun spec;
-  write_synthetic_run(run, bifurcation_scene(dir.str()), spec);
-  AnalyzeOptions opt;
-  opt.run_dir = run;
-  opt.window_start = 0.0305;
-  opt.window_end = 0.0455;
-  const auto a = analysis::analyze_run(analysis::open_run(run), opt);
+  const AnalysedSurfaceRun analysed("surface-analysis", 0.0305, 0.0455);
+  const std::string& run = analysed.run;
+  const SyntheticRun& spec = analysed.spec;
+  const auto& a = analysed.a;
   const Scene scene = load_scene(run + "/scene.toml");
   const double steps = spec.steps_per_snapshot / spec.dt_s;  // per second
   const double v_rbc = scene.rbc.volume, v_plt = scene.platelet.volume;
@@ -82,13 +96,8 @@ TEST(SurfaceRun, EachBranchsDischargeHematocritAndPlateletFluxAreItsEndsCounts) 
 // none of a tube's (its cell-free layer, rheology and hematocrits are not measured there: n/a,
 // not 0).
 TEST(SurfaceRun, ItsStudyColumnsAreTheOutletsSharesAndNoneOfATubes) {
-  ScratchDir dir("surface-columns");
-  const std::string run = dir.str() + "/run";
-  const SyntheticRun spec;
-  write_synthetic_run(run, bifurcation_scene(dir.str()), spec);
-  AnalyzeOptions opt;
-  opt.run_dir = run;
-  const auto a = analysis::analyze_run(analysis::open_run(run), opt);
+  const AnalysedSurfaceRun analysed("surface-columns");
+  const auto& a = analysed.a;
   int surface = 0;
   for (const auto& o : analysis::observable_table()) {
     if (o.of_surface) {
@@ -113,13 +122,9 @@ TEST(SurfaceRun, ItsStudyColumnsAreTheOutletsSharesAndNoneOfATubes) {
 // The outlets' shares over the run: outlet 1 takes rbc_1_early of rbc_in red cells a step over
 // the first half and rbc_1_late after; the first and last intervals lie wholly in one half each.
 TEST(SurfaceRun, TheOutletsSharesOverTimeFollowTheSplit) {
-  ScratchDir dir("surface-shares");
-  const std::string run = dir.str() + "/run";
-  const SyntheticRun spec;
-  write_synthetic_run(run, bifurcation_scene(dir.str()), spec);
-  AnalyzeOptions opt;
-  opt.run_dir = run;
-  const auto a = analysis::analyze_run(analysis::open_run(run), opt);
+  const AnalysedSurfaceRun analysed("surface-shares");
+  const SyntheticRun& spec = analysed.spec;
+  const auto& a = analysed.a;
   ASSERT_GE(a.shares_over_time.size(), 3u);
   const auto& first = a.shares_over_time.front();
   const auto& last = a.shares_over_time.back();
