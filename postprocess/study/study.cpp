@@ -180,7 +180,8 @@ std::string report_md(const Study& study, const StudyOptions& opt, const Reducti
   else
     m += "- full size: the scenes as the study file and base scene give them\n";
   if (!study.expectation.empty())
-    m += fmt::format("\nWhat the paper reports (docs/model.md §4): {}\n", study.expectation);
+    m += fmt::format("\nExpected (the study file's `expectation`; the paper's own studies: docs/model.md §4): {}\n",
+                     study.expectation);
   if (reduction)
     m += "\nThese are reduced runs: compare them with the expectation above only where they are long enough to "
          "show it; the numbers below are what the reduced runs give, nothing more.\n";
