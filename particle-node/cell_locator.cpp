@@ -138,7 +138,7 @@ CellLocator::CellLocator(const mesh_t& mesh, std::shared_ptr<const VesselWall> w
   axisymmetric_ = dynamic_cast<const VesselGeometry*>(wall_.get());
   if (axisymmetric_ && axisymmetric_->nominal_radius() != radius_)
     bad_mesh("its vessel diameter differs from the vessel shape's");
-  if (wall_ && !axisymmetric_) facets_outside_ = furthest_outside(*wall_, wall_->dem_wall());
+  if (wall_ && !axisymmetric_) facets_outside_ = furthest_outside(*wall_, dem_wall());
   std::vector<char> wall_cell;
   const std::vector<char> on_wall =
       axisymmetric_ ? chords(mesh, points, wall_face, *axisymmetric_, feeder_) : std::vector<char>(mesh.n_faces, 0);
@@ -393,6 +393,11 @@ int CellLocator::search_bins(const Vec3& x) const {
       if (inside(bin_cells_[k], x)) return bin_cells_[k];
   ++stats_.outside;
   return -1;
+}
+
+const std::vector<WallTriangle>& CellLocator::dem_wall() const {
+  if (!dem_wall_) dem_wall_ = wall_->dem_wall();
+  return *dem_wall_;
 }
 
 int CellLocator::locate_near_surface(const Vec3& w) const {

@@ -142,6 +142,10 @@ class CellLocator {
   // distance from its centre line, its centre-line speed (model/vessel_wall.h).
   VesselWall::Section section(const Vec3& x) const { return wall_->section_at(in_vessel_frame(x)); }
   const VesselWall& wall() const { return *wall_; }
+  // The wall's DEM facets (VesselWall::dem_wall), made on first use and kept: a surface vessel's
+  // come from marching tetrahedra, which the locator, the DEM's set-up and the overlap diagnostic
+  // would otherwise each run again.
+  const std::vector<WallTriangle>& dem_wall() const;
   // The vessel's shape r = R(z) when it is axisymmetric; nullptr for a surface vessel's wall.
   const VesselGeometry* axisymmetric() const { return axisymmetric_; }
   // x where it stands for in the vessel: a feeder point moved onto the vessel's inlet plane (at
@@ -205,6 +209,7 @@ class CellLocator {
   // snapped to those facets, which bevel the analytic shape's ridges: facet_distance.h).
   int locate_near_surface(const Vec3& w) const;
   double facets_outside_ = 0;  // m, furthest_outside of the DEM's wall, for a surface vessel
+  mutable std::optional<std::vector<WallTriangle>> dem_wall_;
   std::optional<FeederLayout> feeder_;
   Vec3 bin_lo_, bin_size_;
   int nbin_[3] = {1, 1, 1};

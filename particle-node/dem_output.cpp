@@ -57,7 +57,7 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
 DemOutput::DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking, const DemSpecies& species,
                      const CellLocator& locator, MPI_Comm comm)
     : liggghts_(liggghts), tracking_(tracking), species_(species), locator_(locator), comm_(comm) {
-  if (locator_.axisymmetric() == nullptr) facets_.emplace(locator_.wall().dem_wall(), species_.d_max / 2);
+  if (locator_.axisymmetric() == nullptr) facets_.emplace(locator_.dem_wall(), species_.d_max / 2);
 }
 
 double DemOutput::local_max_overlap() const {

@@ -186,7 +186,7 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
   callback_target_ = target;
   if (mesh_wall()) {
     const std::vector<WallTriangle> wall =
-        liggghts_wall_facets(locator_.wall().dem_wall(), species_.d_min, wall_min_angle_deg_);
+        liggghts_wall_facets(locator_.dem_wall(), species_.d_min, wall_min_angle_deg_);
     for (const WallTriangle& t : wall)
       for (const auto& v : t.vertex) {
         wall_lower_ = wall_lower_.cwiseMin(v);
