@@ -214,6 +214,21 @@ std::vector<int> read_labels(const fs::path& path) {
   return v;
 }
 
+// An OpenFOAM list of named dictionaries, `N ( name { ... } ... )` (polyMesh's boundary and
+// cellZones): `entry(name)` reads each dictionary's keys, up to its closing brace.
+template <class Entry>
+void read_named_dictionaries(Tokens& t, Entry&& entry) {
+  const long n = t.integer();
+  t.expect("(");
+  for (long i = 0; i < n; ++i) {
+    const std::string name = t.next();
+    t.expect("{");
+    entry(name);
+    t.expect("}");
+  }
+  t.expect(")");
+}
+
 }  // namespace
 
 PolyMesh read_polymesh(const std::string& case_dir) {
@@ -255,12 +270,9 @@ PolyMesh read_polymesh(const std::string& case_dir) {
   m.n_cells = cells;
   {
     Tokens t(dir / "boundary");
-    const long n = t.integer();
-    t.expect("(");
-    for (long i = 0; i < n; ++i) {
+    read_named_dictionaries(t, [&](const std::string& name) {
       PatchInfo p;
-      p.name = t.next();
-      t.expect("{");
+      p.name = name;
       while (t.peek() != "}") {
         const std::string key = t.next();
         std::vector<std::string> value;
@@ -273,21 +285,16 @@ PolyMesh read_polymesh(const std::string& case_dir) {
         if (key == "offset" && value.size() == 5 && value[0] == "(" && value[4] == ")")
           for (std::size_t c = 0; c < 3; ++c) p.sample_offset[c] = std::stod(value[c + 1]);
       }
-      t.expect("}");
       m.patches.push_back(p);
-    }
-    t.expect(")");
+    });
   }
   // Cell zones as write_polymesh writes them: each a run of consecutive cells (a fed vessel's
   // feeder), which is all a PolyMesh holds.
   if (fs::exists(dir / "cellZones")) {
     Tokens t(dir / "cellZones");
-    const long n = t.integer();
-    t.expect("(");
-    for (long i = 0; i < n; ++i) {
+    read_named_dictionaries(t, [&](const std::string& name) {
       CellZone z;
-      z.name = t.next();
-      t.expect("{");
+      z.name = name;
       while (t.peek() != "}") {
         const std::string key = t.next();
         if (key != "cellLabels") {
@@ -306,10 +313,8 @@ PolyMesh read_polymesh(const std::string& case_dir) {
         t.expect(")");
         t.expect(";");
       }
-      t.expect("}");
       m.cell_zones.push_back(z);
-    }
-    t.expect(")");
+    });
   }
   return m;
 }
