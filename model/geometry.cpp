@@ -3,6 +3,7 @@
 
 #include "bifurcation.h"
 #include "scene.h"
+#include "surface_wall.h"
 #include "units.h"
 
 #include <algorithm>
@@ -294,7 +295,7 @@ const std::vector<VesselShape>& vessel_shapes() {
        "vessel.stenosis_area_reduction",
        "stenosis_area_reduction = 0.5\nstenosis_length_um = 300",
        nullptr},
-      // Surface vessels: open ends, meshed by snappyHexMesh; plasma alone for now.
+      // Surface vessels: open ends, meshed by snappyHexMesh.
       {"bifurcation",
        "a Y bifurcation: the vessel is the parent, from its inlet at z = 0 along +z, two daughters from its end at "
        "+-vessel.bifurcation_angle_deg / 2 in the x-z plane, each to an outlet",
@@ -313,7 +314,7 @@ const std::vector<VesselShape>& vessel_shapes() {
        "",
        "ends = \"open\"\ninlet = \"poiseuille\"\nsurface = \"surfaces/y-bifurcation.stl\"\nsurface_inlet = \"in\"\n"
        "surface_outlets = \"out_wide out_narrow\"",  // scenes/imported.toml's
-       nullptr},
+       [](const Vessel& v) { return std::make_unique<SurfaceWall>(imported_surface(v)); }},
   };
   return shapes;
 }

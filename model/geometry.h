@@ -123,7 +123,7 @@ struct VesselShape {
   std::vector<std::string> keys;
   std::string narrowing_key;
   std::string example;
-  // A surface vessel's wall as the particle side asks it; none: it carries plasma alone.
+  // A surface vessel's wall as the particle side asks it; none: it carries plasma alone (no shape today).
   std::function<std::unique_ptr<VesselWall>(const Vessel&)> make_wall;
   bool carries_cells() const { return static_cast<bool>(make) || static_cast<bool>(make_wall); }
   bool takes(const std::string& key) const;

@@ -384,9 +384,9 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
                         SceneCheck check = SceneCheck::values);
 
 // A vessel given as a closed surface (vessel.shape "bifurcation", "imported"; docs/design.md,
-// "Surface vessels"): its surface must be one (built here, as the fluid node will build it), and
-// for now it carries plasma alone through open ends, on one rank; a feeder needs its inlet to face
-// -z (feeder_layout says why not in one line).
+// "Surface vessels"): its surface must be one (built here, as the fluid node will build it), its
+// ends open, its fluid on one rank, and cells only in a shape with a wall for the particle side;
+// a feeder needs its inlet to face -z (feeder_layout says why not in one line).
 static void check_surface_vessel(Reader& r, const Scene& s) {
   const auto names = vessel_shape_names();
   if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return;  // refused as read

@@ -41,6 +41,8 @@ class VesselWall {
     double centreline_speed(double fastest) const { return fastest * speed_scale * speed_scale; }
   };
   virtual Section section_at(const Point& x) const = 0;
+  // Whether section_at gives a centre-line speed (speed_scale); an imported surface's does not.
+  virtual bool defines_centreline_speed() const { return true; }
 
   // The wall the DEM collides with, as facets whose normals point into the vessel (LIGGGHTS's fix
   // mesh/surface reads them from an STL file: write_stl, model/geometry.h). Open where the vessel

@@ -29,6 +29,12 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
       orientation_(orientation),
       problems_(problems),
       comm_(comm) {
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    if (species_.forces[sp] && species_.forces[sp]->needs_centreline_speed() && !locator.wall().defines_centreline_speed())
+      throw std::invalid_argument(fmt::format(
+          "the {} closures ({}) need the vessel's centre-line speed at each section, which an imported surface "
+          "does not define (it would take the vessel's flow split): choose another lift",
+          (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
   if (scene_.implicit_drag == "co_relaxed") {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
@@ -182,6 +188,8 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
   if (forces.needs_gradient()) {
     flow.gradient = fluid.gradient(cell);
     flow.shear_rate = fluid.shear_rate(cell);
+  }
+  if (forces.needs_centreline_speed()) {
     // The fastest cell is at the narrowest section: the local section's own centre-line speed.
     // A feeder cell is in the section it stands for, the inlet's (the vessel frame).
     const VesselWall::Section section = locator_.section(p.x);

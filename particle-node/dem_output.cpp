@@ -35,8 +35,7 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
     const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
     sums[4] += !(feeder && feeder->in_feeder(xi.x()));
-    const VesselWall::Section section = locator_.section(xi);            // a feeder cell's core is the feeder's
-    if (cell < 0 || section.off_axis >= 0.5 * section.radius) continue;  // the core
+    if (cell < 0 || !in_core(xi, cell)) continue;
     sums[0] += 1;
     sums[1] += v[i][2];
     if (fluid != nullptr && fluid->has_state()) sums[2] += fluid->velocity(cell, locator_.wrap(xi)).z();
@@ -57,7 +56,20 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
 DemOutput::DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking, const DemSpecies& species,
                      const CellLocator& locator, MPI_Comm comm)
     : liggghts_(liggghts), tracking_(tracking), species_(species), locator_(locator), comm_(comm) {
-  if (locator_.axisymmetric() == nullptr) facets_.emplace(locator_.dem_wall(), species_.d_max / 2);
+  if (locator_.axisymmetric() == nullptr) {
+    facets_.emplace(locator_.dem_wall(), species_.d_max / 2);
+    core_cell_.resize(static_cast<std::size_t>(locator_.n_cells()));
+    for (int c = 0; c < locator_.n_cells(); ++c) {
+      const VesselWall::Section s = locator_.section(locator_.centre(c));
+      core_cell_[static_cast<std::size_t>(c)] = s.off_axis < 0.5 * s.radius;
+    }
+  }
+}
+
+bool DemOutput::in_core(const Vec3& x, int cell) const {
+  if (!core_cell_.empty()) return core_cell_[static_cast<std::size_t>(cell)];
+  const VesselWall::Section section = locator_.section(x);  // a feeder cell's core is the feeder's
+  return section.off_axis < 0.5 * section.radius;
 }
 
 double DemOutput::local_max_overlap() const {

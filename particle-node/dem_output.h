@@ -14,6 +14,7 @@
 #include <mpi.h>
 
 #include <optional>
+#include <vector>
 
 namespace hemo::particles {
 
@@ -56,6 +57,11 @@ class DemOutput {
   // A surface vessel's DEM wall, which its wall overlap is measured against as the DEM measures
   // its contacts (facet_distance.h); an axisymmetric vessel's overlap is radial, from R(z).
   std::optional<FacetDistance> facets_;
+  // A surface vessel's core by fluid cell: whether the cell's centre is within half its section's
+  // radius of the centre line. A section there is a search of the wall (model/surface_wall.h),
+  // which for every particle every step would cost as much as the DEM.
+  std::vector<char> core_cell_;
+  bool in_core(const Vec3& x, int cell) const;
 };
 
 }  // namespace hemo::particles

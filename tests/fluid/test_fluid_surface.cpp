@@ -211,16 +211,15 @@ TEST(FluidSurfaceVessel, UnequalDaughtersSplitTheFlowAsThePoiseuilleNetwork) {
   EXPECT_LT(s.ratio(), from_junction * (1 + 0.01));
 }
 
-// The shipped imported surface (scenes/imported.toml, scenes/surfaces/y-bifurcation.stl: D_p = 30
-// um, daughters of 22 and 16 um, 60 um long, 90 degrees apart, its solids named "in",
-// "out_wide", "out_narrow"), run from a copy of the scene beside a copy of its surfaces/ folder
-// with a stand-in particle node: the run directory keeps the STL at the scene's relative path;
-// out_wide, named first, is outlet_1 and carries the larger share. The network's split of that
-// geometry, read as above, lies between 3.396 (beyond the sphere) and 3.574 (L_d); the STL is
-// faceted at 5 um, its walls' chords up to h^2 / (8 r) inside the circle (0.28 um for the wide
-// daughter, 0.39 um for the narrow one), which can raise the split by up to (1.049 / 1.026)^4 - 1
-// = 9 %: the bounds are the network's readings, less the mesh's 1 %, plus those 9 %. Measured
-// 3.377 when we ran it.
+// An imported surface (scenes/surfaces/y-bifurcation.stl: D_p = 30 um, daughters of 22 and 16 um,
+// 60 um long, 90 degrees apart, its solids named "in", "out_wide", "out_narrow"), plasma alone,
+// run from a scene beside a copy of its surfaces/ folder with a stand-in particle node: the run
+// directory keeps the STL at the scene's relative path; out_wide, named first, is outlet_1 and
+// carries the larger share. The network's split of that geometry, read as above, lies between
+// 3.396 (beyond the sphere) and 3.574 (L_d); the STL is faceted at 5 um, its walls' chords up to
+// h^2 / (8 r) inside the circle (0.28 um for the wide daughter, 0.39 um for the narrow one), which
+// can raise the split by up to (1.049 / 1.026)^4 - 1 = 9 %: the bounds are the network's
+// readings, less the mesh's 1 %, plus those 9 %. Measured 3.377 when we ran it.
 TEST(FluidSurfaceVessel, ImportedSurfaceRunsFromItsSceneWithItsSolidsAsPatches) {
   namespace fs = std::filesystem;
   const std::string dir = fresh_run_dir("imported");
@@ -228,15 +227,15 @@ TEST(FluidSurfaceVessel, ImportedSurfaceRunsFromItsSceneWithItsSolidsAsPatches) 
   fs::create_directories(root / "surfaces");
   fs::copy_file(fs::path(HEMO_SCENES_DIR) / "surfaces" / "y-bifurcation.stl", root / "surfaces" / "y-bifurcation.stl",
                 fs::copy_options::overwrite_existing);
-  std::ifstream in(fs::path(HEMO_SCENES_DIR) / "imported.toml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string scene = text.str();
-  const std::string name_line = "name = \"imported\"\n";
-  ASSERT_NE(scene.find(name_line), std::string::npos);
-  scene.replace(scene.find(name_line), name_line.size(),
-                name_line + "particle_command = \"" + bin("hemocosim-prescribed-particles") +
-                    " --mode none --record state.csv\"\n");
+  // The inlet takes the flow rate of a 30-um tube at a wall shear rate of 799 1/s as a parabola,
+  // both outlets hold p = 0; 40 steps of 1e-4 s are 20 viscous times R^2 / nu: steady.
+  const std::string scene = "[run]\nname = \"imported\"\nparticle_command = \"" + bin("hemocosim-prescribed-particles") +
+                            " --mode none --record state.csv\"\n"
+                            "[vessel]\ndiameter_um = 30\nlength_um = 60\nshape = \"imported\"\n"
+                            "surface = \"surfaces/y-bifurcation.stl\"\nsurface_inlet = \"in\"\n"
+                            "surface_outlets = \"out_wide out_narrow\"\nends = \"open\"\ninlet = \"poiseuille\"\n"
+                            "[mesh]\nsurface_cell_size_um = 2.5\n[driving]\nwall_shear_rate_per_s = 799\n"
+                            "[time]\ncoupling_interval_s = 1e-4\ncoupling_steps = 40\n";
   std::ofstream(root / "imported.toml") << scene;
   const auto r = run(bin("hemocosim") + " run " + (root / "imported.toml").string() + " --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;

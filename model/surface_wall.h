@@ -1,0 +1,87 @@
+// An imported surface's wall as the particle side asks it (model/vessel_wall.h): a closed,
+// outward-oriented triangulated surface (surface.h, check_surface) whose shape nothing else is
+// known of — no axis, no branches, no flow split.
+//
+// - Signed distance: to the nearest triangle of the whole surface (a point beyond a cap is outside
+//   the vessel), its sign from the angle-weighted pseudo-normal of the feature (face, edge or
+//   vertex) the nearest point lies on: on a closed, consistently oriented surface the point is
+//   outside exactly when it lies on the pseudo-normal's side (Baerentzen & Aanaes, IEEE TVCG 11,
+//   2005), where a face normal alone misjudges points nearest an edge or a vertex.
+// - Section through a point: the chord along the wall's normal. From x the nearest wall point is
+//   d1 away; the ray from x away from it meets the wall again d2 further. In a tube of circular
+//   section that line passes through the axis, so the radius is (d1 + d2) / 2 and the point's
+//   distance from the centre line |d2 - d1| / 2, exact for a cylinder or a torus, and within the
+//   slope's cosine of the section where the tube narrows. The wall region alone: the caps are no
+//   wall of a section. Where the ray meets no wall (a point outside, beyond an end) there is no
+//   section: every field NaN.
+// - No centre-line speed: it would need the vessel's flow split, which an imported surface does
+//   not say. section_at's speed_scale is NaN and defines_centreline_speed() false; the particle
+//   node refuses a closure that needs it (the spherical surrogate's shear lift).
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include "surface.h"
+#include "vessel_wall.h"
+
+#include <limits>
+#include <vector>
+
+namespace hemo {
+
+class SurfaceWall : public VesselWall {
+ public:
+  // `surface`: regions named as make_vessel_surface names them ("wall", "inlet", "outlet_1", ...),
+  // checked (check_surface) here. Throws SurfaceError with one line.
+  explicit SurfaceWall(Surface surface);
+
+  double signed_distance(const Point& x) const override;
+  // From the nearest surface point towards x (away from it inside), or the feature's
+  // pseudo-normal when x is on the surface.
+  Point outward_normal(const Point& x) const override;
+  Section section_at(const Point& x) const override;
+  bool defines_centreline_speed() const override { return false; }
+  // The wall region, each facet turned to face into the vessel.
+  std::vector<WallTriangle> dem_wall() const override;
+  // Each outlet region's area-weighted centroid and its outward area vector's direction.
+  std::vector<Opening> outlets() const override;
+
+  const Surface& surface() const { return surface_; }
+
+ private:
+  struct Nearest {
+    double distance = std::numeric_limits<double>::infinity();
+    Point point = Point::Zero();
+    int triangle = -1;
+    int feature = 0;  // vertex 0-2, edge 3 + k (vertex k to k + 1), face 6
+  };
+  // The nearest point of the triangles `region` selects (-1: all, else the wall's): from the
+  // candidates of x's bin, or by shells of bins for a point outside the grid.
+  Nearest nearest(const Point& x, int region) const;
+  Nearest nearest_by_shells(const Point& x, int region) const;
+  void consider(const Point& x, int triangle, Nearest& best) const;
+  // The pseudo-normal of the feature the nearest point is on (not normalised).
+  Point pseudo_normal(const Nearest& n) const;
+  // The first wall triangle the ray x + t u (t > 0) meets; +infinity when none.
+  double wall_hit(const Point& x, const Point& u) const;
+  int bin_index(double v, int d) const;
+  const std::vector<int>& bin(int i, int j, int k) const;
+
+  Surface surface_;
+  int wall_region_ = 0;
+  std::vector<Point> face_normal_;                    // unit, outward
+  std::vector<Point> vertex_normal_;                  // angle-weighted sums of face normals
+  std::vector<std::array<Point, 3>> edge_normal_;     // per triangle, edge k from vertex k to k + 1
+  Point lo_ = Point::Zero();
+  double h_ = 0;
+  int n_[3] = {1, 1, 1};
+  std::vector<std::vector<int>> bins_;                // the triangles whose box meets each bin
+  // Per bin, the triangles that can be nearest to a point in it, of all regions [0] and of the
+  // wall [1]: those within the nearest one's distance from its centre plus its diagonal. Made on
+  // a bin's first query (the particles visit a few of them), so a wall is cheap to make; not
+  // thread safe, as nothing in a node queries one wall from two threads.
+  const std::vector<int>& candidates(int i, int j, int k, int region) const;
+  mutable std::vector<std::vector<int>> candidates_[2];
+  mutable std::vector<char> candidates_made_[2];
+};
+
+}  // namespace hemo
