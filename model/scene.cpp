@@ -962,8 +962,6 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "time.coupling_relaxation_times", "must not be negative (0: fixed coupling intervals)");
 
   read_name(r, "dem.neighbour_rebuild", s.neighbour_rebuild, {"engine", "streaming"});
-  r.check(s.neighbour_rebuild == "engine" || s.run.particle_ranks == 1, "dem.neighbour_rebuild",
-          "\"streaming\" runs on one particle rank (run.particle_ranks = 1)");
   r.check(s.neighbour_rebuild == "engine" || uniform_vessel(s.vessel), "dem.neighbour_rebuild",
           "\"streaming\" predicts the straight tube's Poiseuille flow: use \"engine\" in a vessel.shape that narrows");
   r.check(s.neighbour_rebuild == "engine" || !known_ends(s.vessel) || !open_ends(s.vessel), "dem.neighbour_rebuild",

@@ -53,7 +53,9 @@ std::vector<std::string> base_settings(const DemBookkeeping& bookkeeping) {
       "communicate single vel yes",
       // Cells are softer (7.5e5 Pa) than LIGGGHTS's SI floor of 5e6 Pa.
       "soft_particles yes",
-      "processors 1 1 *",
+      // The box split along the vessel (the streaming lists: across it, which the stream never
+      // crosses; dem_streaming_neighbours.h).
+      bookkeeping.streaming_neighbours ? "processors * * 1" : "processors 1 1 *",
       "thermo 0",
       // A lost atom is our error (named, one line), not LIGGGHTS's exit.
       "thermo_modify lost ignore",
@@ -119,11 +121,6 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   if (bookkeeping_.streaming_neighbours) {
-    int ranks = 1;
-    MPI_Comm_size(comm_, &ranks);
-    if (ranks != 1)
-      throw std::invalid_argument(fmt::format(
-          "dem.neighbour_rebuild = \"streaming\" runs on one MPI rank, not {} (docs/performance.md)", ranks));
     // Its frame streams with one vessel's Poiseuille flow, around one axis.
     if (feeder_)
       throw std::invalid_argument(

@@ -32,7 +32,10 @@ class FixStreamingNeighbours : public LAMMPS_NS::Fix {
     radius_ = std::atof(arg[3]);
     shear_ = std::atof(arg[4]);
     if (!(radius_ > 0) || !(shear_ >= 0)) error->all(FLERR, "fix hemo/streaming_neighbours: bad RADIUS or rate");
-    if (comm->nprocs != 1) error->all(FLERR, "fix hemo/streaming_neighbours runs on one MPI rank only");
+    // Sub-domains that split the box along the stream would see atoms stream out of them between
+    // builds (the header says why that is not allowed).
+    if (comm->procgrid[2] != 1)
+      error->all(FLERR, "fix hemo/streaming_neighbours needs the box unsplit along z (`processors * * 1`)");
     u_max_ = 0.5 * shear_ * radius_;
     force_reneighbor = 1;
     next_reneighbor = -1;

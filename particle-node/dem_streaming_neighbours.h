@@ -36,10 +36,15 @@
 // above, so its image was made then and the pair listed; ghosts then move with their owners
 // (LIGGGHTS's forward communication), and atoms are wrapped back into the box at the next build.
 //
-// One MPI rank only. On more, the lists themselves stay complete (ghosts follow their owners by
-// forward communication, and the argument above is per pair), but between builds a particle
-// drifts up to u_max tau out of its sub-domain, and LIGGGHTS's exchange moves atoms only to the
-// neighbouring sub-domain: that is not proven or tested here, so the fix refuses to start.
+// On several MPI ranks the box is split across the vessel, never along it (`processors * * 1`;
+// the fix refuses another grid). Every rank's sub-domain then spans the whole period, so the
+// stream carries no atom out of its sub-domain: an atom leaves it only by its motion across the
+// axis, at most |d_i| < skin / 2 between builds, as LIGGGHTS's own check allows. A pair of atoms
+// of two ranks within reach at t was within reach + skin at the build (the bound above), so the
+// ghost of one was made on the other's rank then, and follows its owner by forward
+// communication; the periodic images along z are each rank's own, as on one rank. Split along z
+// instead (LIGGGHTS's `processors 1 1 *`, the node's default), atoms would stream up to
+// u_max tau out of their sub-domain, past the ghost shell: that is why the split is across.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 

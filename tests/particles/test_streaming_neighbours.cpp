@@ -3,7 +3,8 @@
 // neighbour lists, rebuilt only when the particles' motion relative to the streaming Poiseuille
 // profile could bring an unlisted pair into reach, hold every pair within reach at every DEM
 // step, on dense red cells streaming and shearing in the vessel, also in a flow the profile does
-// not match; and the particles move as with lists rebuilt every step.
+// not match; and the particles move as with lists rebuilt every step. On one rank and, as
+// particles.StreamingNeighbours.ranks2, on two (the box split across the stream, never along it).
 #include "dem_engine.h"
 #include "dem_timing.h"
 #include "synthetic_case.h"
@@ -17,6 +18,7 @@
 #include <spatial_hash.h>
 
 #include <gtest/gtest.h>
+#include <mpi.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -71,48 +73,87 @@ struct PairAudit {
   double worst_overlap_difference = 0;  // m, listed overlap against the minimum-image one
 };
 
+// Every rank's values of one per-atom quantity, in rank order, on every rank.
+template <class T>
+std::vector<T> gathered(const std::vector<T>& mine, MPI_Datatype type) {
+  int ranks = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  const int n = static_cast<int>(mine.size());
+  std::vector<int> counts(static_cast<std::size_t>(ranks)), offsets(static_cast<std::size_t>(ranks), 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  for (int k = 1; k < ranks; ++k) offsets[static_cast<std::size_t>(k)] = offsets[k - 1] + counts[k - 1];
+  std::vector<T> all(static_cast<std::size_t>(offsets.back() + counts.back()));
+  MPI_Allgatherv(mine.data(), n, type, all.data(), counts.data(), offsets.data(), type, MPI_COMM_WORLD);
+  return all;
+}
+
+// On any number of ranks: every rank's atoms and listed pairs gathered on every rank, which all
+// then audit the whole suspension alike.
 PairAudit audit_pairs(LAMMPS_NS::LAMMPS& lmp) {
   const LAMMPS_NS::Atom& atom = *lmp.atom;
   const int nlocal = atom.nlocal;
-  double** x = atom.x;
-  const double* r = atom.radius;
+  double** xl = atom.x;
   const double factor = lmp.neighbor->contactDistanceFactor;
 
   // The listed pairs by tags, with their overlap as the pair style sees it (j may be a ghost).
-  std::map<std::pair<int, int>, double> listed;
+  std::vector<long long> keys;
+  std::vector<double> overlaps;
   const LAMMPS_NS::NeighList* list = lmp.force->pair->list;
   for (int k = 0; k < list->inum; ++k) {
     const int i = list->ilist[k];
     for (int n = 0; n < list->numneigh[i]; ++n) {
       const int j = list->firstneigh[i][n] & NEIGHMASK;
-      const double d = std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) +
-                                 (x[i][2] - x[j][2]) * (x[i][2] - x[j][2]));
-      listed[std::minmax(atom.tag[i], atom.tag[j])] = r[i] + r[j] - d;
+      const double d = std::sqrt((xl[i][0] - xl[j][0]) * (xl[i][0] - xl[j][0]) +
+                                 (xl[i][1] - xl[j][1]) * (xl[i][1] - xl[j][1]) +
+                                 (xl[i][2] - xl[j][2]) * (xl[i][2] - xl[j][2]));
+      const auto [a, b] = std::minmax(atom.tag[i], atom.tag[j]);
+      keys.push_back((static_cast<long long>(a) << 32) + b);
+      overlaps.push_back(atom.radius[i] + atom.radius[j] - d);
     }
   }
+  std::map<long long, double> listed;
+  {
+    const auto all_keys = gathered(keys, MPI_LONG_LONG);
+    const auto all_overlaps = gathered(overlaps, MPI_DOUBLE);
+    for (std::size_t k = 0; k < all_keys.size(); ++k) listed[all_keys[k]] = all_overlaps[k];
+  }
+  std::vector<double> mine_x, mine_r;
+  std::vector<long long> mine_tag;
+  for (int i = 0; i < nlocal; ++i) {
+    mine_x.insert(mine_x.end(), xl[i], xl[i] + 3);
+    mine_r.push_back(atom.radius[i]);
+    mine_tag.push_back(atom.tag[i]);
+  }
+  const auto x = gathered(mine_x, MPI_DOUBLE), r = gathered(mine_r, MPI_DOUBLE);
+  const auto tag = gathered(mine_tag, MPI_LONG_LONG);
+  const int n = static_cast<int>(r.size());
 
   double max_r = 0;
-  for (int i = 0; i < nlocal; ++i) max_r = std::max(max_r, r[i]);
+  for (int i = 0; i < n; ++i) max_r = std::max(max_r, r[static_cast<std::size_t>(i)]);
   const double reach = 2 * max_r * factor;
   SpatialHash grid(kRadius, kLength, 0, reach);
-  for (int i = 0; i < nlocal; ++i) grid.insert(Vec3(x[i][0], x[i][1], x[i][2]), i);
+  auto at = [&](int i) { return &x[3 * static_cast<std::size_t>(i)]; };
+  for (int i = 0; i < n; ++i) grid.insert(Vec3(at(i)[0], at(i)[1], at(i)[2]), i);
   PairAudit audit;
-  for (int i = 0; i < nlocal; ++i) {
-    grid.any_near(Vec3(x[i][0], x[i][1], x[i][2]), [&](int j) {
+  for (int i = 0; i < n; ++i) {
+    const double* xi = at(i);
+    const double ri = r[static_cast<std::size_t>(i)];
+    grid.any_near(Vec3(xi[0], xi[1], xi[2]), [&](int j) {
       if (j <= i) return false;
-      double dz = x[i][2] - x[j][2];
+      const double* xj = at(j);
+      const double rj = r[static_cast<std::size_t>(j)];
+      double dz = xi[2] - xj[2];
       dz -= kLength * std::round(dz / kLength);
-      const double d =
-          std::sqrt((x[i][0] - x[j][0]) * (x[i][0] - x[j][0]) + (x[i][1] - x[j][1]) * (x[i][1] - x[j][1]) + dz * dz);
-      if (d >= factor * (r[i] + r[j])) return false;
+      const double d = std::sqrt((xi[0] - xj[0]) * (xi[0] - xj[0]) + (xi[1] - xj[1]) * (xi[1] - xj[1]) + dz * dz);
+      if (d >= factor * (ri + rj)) return false;
       ++audit.within_reach;
-      if (d < r[i] + r[j]) ++audit.touching;
-      const auto it = listed.find(std::minmax(atom.tag[i], atom.tag[j]));
+      if (d < ri + rj) ++audit.touching;
+      const auto [a, b] = std::minmax(tag[static_cast<std::size_t>(i)], tag[static_cast<std::size_t>(j)]);
+      const auto it = listed.find((a << 32) + b);
       if (it == listed.end())
         ++audit.missing;
       else
-        audit.worst_overlap_difference =
-            std::max(audit.worst_overlap_difference, std::abs(it->second - (r[i] + r[j] - d)));
+        audit.worst_overlap_difference = std::max(audit.worst_overlap_difference, std::abs(it->second - (ri + rj - d)));
       return false;
     });
   }
