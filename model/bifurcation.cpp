@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "bifurcation.h"
 
+#include "surface_wall.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -238,18 +240,7 @@ std::vector<VesselWall::Opening> BifurcationWall::outlets() const {
   return {{end_[1], daughter_direction(spec_, 0)}, {end_[2], daughter_direction(spec_, 1)}};
 }
 
-std::vector<WallTriangle> BifurcationWall::dem_wall() const {
-  const Surface s = make_bifurcation(spec_);
-  const int wall = s.region_index(surface_region::wall);
-  std::vector<WallTriangle> out;
-  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
-    if (s.region[t] != wall) continue;
-    const auto& [a, b, c] = s.triangles[t];
-    out.push_back({{s.points[static_cast<std::size_t>(a)], s.points[static_cast<std::size_t>(c)],
-                    s.points[static_cast<std::size_t>(b)]}});
-  }
-  return out;
-}
+std::vector<WallTriangle> BifurcationWall::dem_wall() const { return wall_facing_in(make_bifurcation(spec_)); }
 
 double bifurcation_function(const BifurcationSpec& spec, const Point& x) {
   const BifurcationSpec s = resolved(spec);

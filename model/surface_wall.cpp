@@ -256,16 +256,19 @@ VesselWall::Section SurfaceWall::section_at(const Point& x) const {
   return {(d1 + d2) / 2, std::abs(d2 - d1) / 2, kNaN};
 }
 
-std::vector<WallTriangle> SurfaceWall::dem_wall() const {
+std::vector<WallTriangle> wall_facing_in(const Surface& s) {
+  const int wall = s.region_index(surface_region::wall);
   std::vector<WallTriangle> out;
-  for (std::size_t t = 0; t < surface_.triangles.size(); ++t) {
-    if (surface_.region[t] != wall_region_) continue;
-    const auto& [a, b, c] = surface_.triangles[t];
-    out.push_back({{surface_.points[static_cast<std::size_t>(a)], surface_.points[static_cast<std::size_t>(c)],
-                    surface_.points[static_cast<std::size_t>(b)]}});
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    if (s.region[t] != wall) continue;
+    const auto& [a, b, c] = s.triangles[t];
+    out.push_back({{s.points[static_cast<std::size_t>(a)], s.points[static_cast<std::size_t>(c)],
+                    s.points[static_cast<std::size_t>(b)]}});
   }
   return out;
 }
+
+std::vector<WallTriangle> SurfaceWall::dem_wall() const { return wall_facing_in(surface_); }
 
 std::vector<VesselWall::Opening> SurfaceWall::outlets() const {
   std::vector<Opening> out;

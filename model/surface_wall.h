@@ -28,6 +28,10 @@
 
 namespace hemo {
 
+// The wall region of a surface (regions as make_vessel_surface names them), each facet turned to
+// face into the vessel: the DEM's wall of a surface vessel.
+std::vector<WallTriangle> wall_facing_in(const Surface& surface);
+
 class SurfaceWall : public VesselWall {
  public:
   // `surface`: regions named as make_vessel_surface names them ("wall", "inlet", "outlet_1", ...),
