@@ -172,3 +172,45 @@ int main(int argc, char** argv) {
   MPI_Finalize();
   return result;
 }
+
+// The unwrapped z (ParticleTracking) stays continuous while cells stream through the periodic end
+// and from one rank's slab to the other's (LIGGGHTS splits the vessel along z): a rank hands on
+// the records of the cells it no longer has, and the rank that has them takes them. A record
+// left behind would jump a cell's unwrapped z by a period at its next crossing. Checked on every
+// snapshot of a flow fast enough that the cells cross the period several times.
+TEST(ParticleEngineMpi, UnwrappedZIsContinuousWhileCellsChangeRanksAndCrossThePeriod) {
+  int size = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  PoiseuilleCase pc(PoiseuilleCase::paper_scene());
+  const double u_max = 0.4;  // m/s: 4 um, a 25th of the period, per interval at the axis
+  pc.fluid.set_state(fluid_state(pc.mesh, poiseuille(PoiseuilleCase::R, u_max)));
+  auto before = pc.engine.snapshot(0, 0);
+  const long n = static_cast<long>(before.size());
+  long crossings = 0, moved = 0;
+  const long local_at_start = pc.engine.local_particle_count();
+  long local_changed = 0;
+  for (int step = 1; step <= 60; ++step) {
+    ASSERT_EQ(pc.engine.run(step, pc.timing.substeps, pc.timing.dt, pc.fluid), "");
+    const auto after = pc.engine.snapshot(step, step * pc.interval);
+    ASSERT_EQ(static_cast<long>(after.size()), n);
+    for (long i = 0; i < n; ++i) {
+      ASSERT_EQ(after.id[i], before.id[i]);
+      const double z0 = before.position[3 * i + 2], z1 = after.position[3 * i + 2];
+      // At most the axis's speed for an interval, and never backwards by much.
+      EXPECT_LT(std::abs(z1 - z0), 1.5 * u_max * pc.interval) << "particle " << after.id[i] << " at step " << step;
+      crossings += std::floor(z1 / PoiseuilleCase::L) != std::floor(z0 / PoiseuilleCase::L);
+      moved += z1 > z0;
+    }
+    local_changed += pc.engine.local_particle_count() != local_at_start;
+    before = after;
+  }
+  long changed_anywhere = local_changed;
+  MPI_Allreduce(MPI_IN_PLACE, &changed_anywhere, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  if (rank == 0)
+    std::printf("[ info ] %d rank(s), %ld particles, 60 intervals: %ld crossings of the period\n", size, n, crossings);
+  EXPECT_GT(crossings, n);  // each cell about twice on average
+  if (size > 1) {
+    EXPECT_GT(changed_anywhere, 0) << "no cell changed ranks: the test would not test the hand-over";
+  }
+}
