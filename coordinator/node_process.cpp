@@ -10,6 +10,8 @@
 #include <chrono>
 #include <csignal>
 #include <fstream>
+#include <regex>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -69,12 +71,35 @@ void NodeProcess::terminate(double grace_s) {
   }
 }
 
+std::string last_said_line(const std::string& log_text) {
+  std::istringstream in(log_text);
+  std::string line, last, notice_first;
+  bool in_notice = false, notice_started = false;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
+    if (line.size() >= 20 && line.find_first_not_of('-') == std::string::npos) {  // a notice's frame
+      in_notice = !in_notice;
+      notice_started = in_notice;
+      continue;
+    }
+    if (in_notice) {
+      if (notice_started) notice_first = line, notice_started = false;
+      continue;
+    }
+    // "[vm:05754] 1 more process has sent help message ...": Open MPI's, not the node's.
+    static const std::regex open_mpi_note(R"(^\[[^\]\s:]+:[0-9]+\] )");
+    if (std::regex_search(line, open_mpi_note)) continue;
+    last = line;
+  }
+  return last.empty() ? notice_first : last;
+}
+
 std::string NodeProcess::last_log_line() const {
   std::ifstream in(log_path_);
-  std::string line, last;
-  while (std::getline(in, line))
-    if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
-  return last;
+  std::stringstream text;
+  text << in.rdbuf();
+  return last_said_line(text.str());
 }
 
 }  // namespace hemo

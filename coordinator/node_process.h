@@ -8,6 +8,12 @@
 
 namespace hemo {
 
+// The last non-empty line of a log, leaving out what Open MPI adds when a job aborts: its
+// notices framed by lines of dashes (MPI_ABORT was invoked ...) and its "[host:pid] N more
+// processes ..." lines, which follow the node's own last words in any order. A log with nothing
+// else gives the first line of the last notice (mpirun could not launch ...).
+std::string last_said_line(const std::string& log_text);
+
 class NodeProcess {
  public:
   // `stdin_fd` >= 0: the child's stdin (StartOptions::stdin_fd).
@@ -28,7 +34,8 @@ class NodeProcess {
   bool wait_exit(double timeout_s);
   // Peak resident memory of the node process and its children (MPI ranks), once it ended; MiB.
   double peak_memory_mib() const { return peak_rss_kib_ / 1024.0; }
-  // The last non-empty line of the node's log, for error messages.
+  // The last line of the node's log that says something of its own, for error messages
+  // (last_said_line).
   std::string last_log_line() const;
 
  private:

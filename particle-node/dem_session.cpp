@@ -28,6 +28,7 @@
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
 #include "dem_streaming_neighbours.h"
+#include "liggghts_errors.h"
 
 namespace hemo::particles {
 
@@ -128,6 +129,9 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
           "open vessel and its feeder: use \"engine\"");
   }
   lmp_ = new LAMMPS_NS::LAMMPS(static_cast<int>(argv.size()), argv.data(), comm_);
+  // Kept in memory, not shown: Error::one's message goes to the screen alone (liggghts_errors.h).
+  // LIGGGHTS's mesh input also prints to its screen unchecked (a null screen crashes it).
+  lmp_->screen = kept_liggghts_screen();
   atom_ = lmp_->atom;
   register_fix_styles(*lmp_);
 
@@ -190,10 +194,6 @@ void LiggghtsSession::set_up_box(const std::array<bool, kSpeciesCount>& used, bo
         wall_upper_ = wall_upper_.cwiseMax(v);
       }
     write_wall_surface(wall);
-    // LIGGGHTS's mesh input prints to its screen unchecked: a null screen (-screen none) crashes
-    // it. LAMMPS closes its screen when it ends.
-    if (lmp_->screen == nullptr)
-      lmp_->screen = std::fopen("/dev/null", "w");
   }
   define_box_and_contacts(assign_atom_types(used));
   // A pair's tangential history is cleared when it separates, not at the next neighbour-list
