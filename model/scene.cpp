@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "scene.h"
 
+#include "bifurcation.h"
+
 #include "momentum_forms.h"
 #include "suspension_viscosity.h"
 
@@ -410,10 +412,29 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
     r.refuse_once(false, key, "missing: the ASCII STL of the vessel.shape \"" + shape.name + "\"");
     return;
   }
+  Surface surface;
   try {
-    (void)make_vessel_surface(s.vessel);
+    surface = make_vessel_surface(s.vessel);
   } catch (const std::exception& e) {
     r.refuse_once(false, key, e.what());
+    return;
+  }
+  // Every end wide enough for a red cell (as a bifurcation's daughters are, check_bifurcation):
+  // the vessel is for blood. An end's width is the diameter of a disc of its area.
+  const std::vector<std::string> outlets = from_file ? surface_outlet_names(s.vessel) : std::vector<std::string>{};
+  for (std::size_t k = 0; k < surface.region_names.size(); ++k) {
+    const std::string& region = surface.region_names[k];
+    if (region == surface_region::wall) continue;
+    const double width = 2 * std::sqrt(surface.area(static_cast<int>(k)) / units::pi);
+    if (width >= kMinDaughterDiameter) continue;
+    std::string named = region;  // an imported surface's ends by the file's names
+    if (from_file && region == surface_region::inlet) named = "'" + s.vessel.surface_inlet + "' (the inlet)";
+    for (std::size_t o = 0; from_file && o < outlets.size(); ++o)
+      if (region == surface_region::outlet(static_cast<int>(o) + 1)) named = "'" + outlets[o] + "' (" + region + ")";
+    r.refuse_once(false, key,
+                  fmt::format("the surface's end {} is {:.1f} um across (a disc of its area), narrower than a red "
+                              "cell ({:g} um)",
+                              named, width / units::um, kMinDaughterDiameter / units::um));
     return;
   }
   if (!fed_by_feeder(s.vessel)) return;

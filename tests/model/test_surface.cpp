@@ -405,6 +405,23 @@ TEST(SurfaceScene, ImportedSurfaceRenamesItsSolidsAndRefusesWhatItCannotUse) {
   write_stl((dir / "shapes" / "open.stl").string(), open);
   refused("surface = \"shapes/open.stl\"\nsurface_inlet = \"in\"\nsurface_outlets = \"left right\"",
           "the surface is not closed");
+  // An outlet narrower than a red cell, as if from another tool: the Y with daughter 2 of 8 um
+  // (the narrowest the bifurcation shape itself takes), its outlet then shrunk to 7 um.
+  BifurcationSpec eight = small();
+  eight.daughter_diameter[1] = 8e-6;
+  Surface thin = make_bifurcation(eight);
+  // Shrink outlet_2's cap (region 3) about its centre to 7/8: its area to (7/8)^2, the wall's rim
+  // with it (the surface stays closed; only the cap's and the last ring's points move).
+  const Point c = thin.centroid(3);
+  std::set<int> cap_points;
+  for (std::size_t t = 0; t < thin.triangles.size(); ++t)
+    if (thin.region[t] == 3)
+      for (int v : thin.triangles[t]) cap_points.insert(v);
+  for (int v : cap_points) thin.points[static_cast<std::size_t>(v)] = c + 0.875 * (thin.points[static_cast<std::size_t>(v)] - c);
+  thin.region_names = {"vessel_wall", "in", "left", "right"};
+  write_stl((dir / "shapes" / "thin.stl").string(), thin);
+  refused("surface = \"shapes/thin.stl\"\nsurface_inlet = \"in\"\nsurface_outlets = \"left right\"",
+          "the surface's end 'right' (outlet_2) is 7.0 um across (a disc of its area), narrower than a red cell (8 um)");
   fs::remove_all(dir);
 }
 
