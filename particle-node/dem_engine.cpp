@@ -47,6 +47,7 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
 void DemEngine::set_up_box(const std::array<bool, kSpeciesCount>& used) {
   liggghts_.set_up_box(used, species_.any_orientation, fluid_force_.holds_closures(), &DemFluidForce::callback,
                        &fluid_force_);
+  dem::attach_tracking(liggghts_.fixes().tracking, &tracking_);
 }
 
 void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
@@ -104,7 +105,6 @@ std::string DemEngine::run(long coupling_step, int substeps, double dt, const Fl
   liggghts_.run(substeps, pre);
   first_run_ = false;
   fluid_force_.finish_run(pre ? substeps + 1 : substeps);  // `pre yes` adds the setup evaluation
-  tracking_.sync(liggghts_.atom().nlocal, liggghts_.atom().tag, comm_);
   std::string problem = problems_.agree(comm_);
   if (problem.empty()) problem = check_lost(coupling_step);
   return problem;
@@ -158,6 +158,7 @@ EngineState DemEngine::checkpoint_state() {
   state.lost = lost_;
   fluid_force_.save(state);
   orientation_.save(state);
+  tracking_.share_all(liggghts_.atom().nlocal, liggghts_.atom().tag, comm_);
   tracking_.save(state);
   return state;
 }

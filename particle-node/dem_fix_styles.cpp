@@ -3,6 +3,7 @@
 
 #include "dem_open_ends.h"
 #include "dem_streaming_neighbours.h"
+#include "dem_tracking.h"
 
 #include <lammps.h>
 #include <modify.h>
@@ -35,6 +36,7 @@ void register_fix_styles(LAMMPS_NS::LAMMPS& lmp) {
   static const std::map<std::string, FixCreator> ours = {
       {kStreamingNeighbourStyle, &create_streaming_neighbours},
       {kOpenEndsStyle, &create_open_ends},
+      {kTrackingStyle, &create_tracking_fix},
   };
   for (const auto& [style, create] : ours) (*(lmp.modify->*fix_style_map()))[style] = create;
 }

@@ -28,6 +28,7 @@
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
 #include "dem_streaming_neighbours.h"
+#include "dem_tracking.h"
 #include "liggghts_errors.h"
 
 namespace hemo::particles {
@@ -243,6 +244,7 @@ void LiggghtsSession::define_box_and_contacts(int n_types) {
   command(fmt::format("create_box {} hemo_box", n_types));
   for (const auto& line : contact_model(n_types, bookkeeping_.streaming_neighbours)) command(line);
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
+  command(fmt::format("fix {} all {}", kTrackingFix, kTrackingStyle));
   // Defined after the wall: its post_force sees the contact forces and torques of the step.
   command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
 }
@@ -342,6 +344,7 @@ void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
   fluid_fix_ = static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix));
   fluid_fix_->set_callback(callback_, callback_target_);
   fixes_.impulse = find(kImpulseFix);
+  fixes_.tracking = find(kTrackingFix);
   if (rotation) fixes_.rotation = find(kRotationFix);
   if (held_closures) fixes_.closures = find(kClosureFix);
   if (mesh_wall()) return;  // its history is the mesh's (dem_fixes.h)

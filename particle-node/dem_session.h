@@ -85,6 +85,7 @@ class LiggghtsSession {
                                                                 // (a primitive wall's; null for a mesh wall)
     LAMMPS_NS::FixPropertyAtom* feeder_wall_history = nullptr;  // the feeder's primitive wall's (open ends)
     dem::FixOpenEnds* open_ends = nullptr;                      // open ends, after the first init
+    LAMMPS_NS::Fix* tracking = nullptr;                         // carries crossing records (dem_tracking.h)
   };
   using OpenEndsListener = std::function<void(const std::vector<dem::OpenEndsEvent>&)>;
 

@@ -1,10 +1,13 @@
 // What the engine follows per particle across DEM steps, indexed by LIGGGHTS's atom tag rather
 // than kept with the atom: its z unwrapped over the periodic crossings (LIGGGHTS wraps it into
 // the box), and the locate cache of its fluid cell; packed for one cache line per particle.
-// Every rank holds every tag: after a run the crossings of each rank's own atoms are summed into
-// everyone's view (sync), so that an atom that moved to another rank keeps its count. The locate
-// cache is each rank's own guess (a stale one costs a search). In an open vessel tags come and go
-// (dem_open_ends.h): each tag is present or free, and a tag given again starts afresh.
+// Every rank holds every tag, and the rank that has an atom keeps its crossing record current. An
+// atom that moves to another rank takes its record along in LIGGGHTS's own exchange: our fix
+// `hemo/tracking` packs and unpacks the two values with the atom (pack_exchange), so only the
+// atoms that change ranks carry records, at the moment they change. A checkpoint makes every
+// rank's view whole first (share_all). The locate cache is each rank's own guess (a stale one
+// costs a search). In an open vessel tags come and go (dem_open_ends.h): each tag is present or
+// free, and a tag given again starts afresh.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -16,6 +19,11 @@
 #include <mpi.h>
 
 #include <vector>
+
+namespace LAMMPS_NS {
+class LAMMPS;
+class Fix;
+}  // namespace LAMMPS_NS
 
 namespace hemo::particles {
 
@@ -37,9 +45,13 @@ class ParticleTracking {
   // The fluid cell of a particle: exact, else the wall cell whose gap it is in, else -1.
   int cell_of(int tag, const Vec3& x, bool* in_wall_gap = nullptr);
 
-  // After a run: the crossings and last z of every particle from the rank that has it
-  // (collective; `tag` are this rank's `nlocal` atoms).
-  void sync(int nlocal, const int* tag, MPI_Comm comm);
+  // Every record from the rank that has its atom, on every rank (collective; `tag` are this
+  // rank's `nlocal` atoms): before a checkpoint.
+  void share_all(int nlocal, const int* tag, MPI_Comm comm);
+  // An atom's record as it moves to another rank (LIGGGHTS's exchange): kRecordValues doubles.
+  static constexpr int kRecordValues = 2;
+  void pack(int tag, double* buf) const;
+  void unpack(int tag, const double* buf);
 
   void save(EngineState& state) const;
   // The state's `tracked` holds `tags` + 1 tags (checked by the caller).
@@ -56,5 +68,16 @@ class ParticleTracking {
   std::vector<Tracked> tracked_;  // index = LIGGGHTS atom tag, 0 unused
   std::vector<char> present_;     // the same indices
 };
+
+namespace dem {
+
+// The fix that carries each atom's record to its new rank (the style and the id the session
+// gives it); attach_tracking hands it the engine's tracking before any atom moves.
+constexpr const char* kTrackingStyle = "hemo/tracking";
+constexpr const char* kTrackingFix = "hemo_tracking";
+LAMMPS_NS::Fix* create_tracking_fix(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
+void attach_tracking(LAMMPS_NS::Fix* fix, ParticleTracking* tracking);
+
+}  // namespace dem
 
 }  // namespace hemo::particles
