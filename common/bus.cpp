@@ -495,8 +495,9 @@ struct Heartbeat::Impl {
            const std::function<BusCounters()>& counters, const HeardReport& report);
   // Subscribes to the run's heartbeats; false when the transport cannot listen here.
   bool listen(Wire& wire, const std::string& channel, const RunContext& ctx, const std::string& self);
-  // Until the next heartbeat is due, handling what arrives meanwhile (when listening).
-  void wait(Wire* listening, double period_s) const;
+  // Until the next heartbeat is due, handling what arrives meanwhile (when listening), then
+  // `after_hearing`.
+  void wait(Wire* listening, double period_s, const std::function<void()>& after_hearing) const;
   std::set<std::string> heard_senders() const {
     std::lock_guard<std::mutex> lock(heard_mutex);
     return heard;
@@ -588,6 +589,15 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   const auto key = seal_key(ctx.secret);
   std::size_t reported = 0;  // heard senders in the file so far
   bool written = false;
+  // At once when the set grows, not at the next heartbeat: a short run may end before that.
+  const auto report_heard = [&] {
+    if (report.file.empty()) return;
+    const auto now_heard = heard_senders();
+    if (written && now_heard.size() == reported) return;
+    write_heard_report(report.file, now_heard);
+    written = true;
+    reported = now_heard.size();
+  };
   const auto start = Clock::now();
   while (!stop.load()) {
     const auto buf =
@@ -596,13 +606,8 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
       wire->publish(channel, buf.data(), buf.size());
       RankTraffic::sent(buf.size());
     }
-    if (!report.file.empty()) {
-      const auto now_heard = heard_senders();
-      if (!written || now_heard.size() != reported) write_heard_report(report.file, now_heard);
-      written = true;
-      reported = now_heard.size();
-    }
-    wait(listening ? wire.get() : nullptr, period_s);
+    report_heard();
+    wait(listening ? wire.get() : nullptr, period_s, report_heard);
   }
 }
 
@@ -625,11 +630,13 @@ bool Heartbeat::Impl::listen(Wire& wire, const std::string& channel, const RunCo
   }
 }
 
-void Heartbeat::Impl::wait(Wire* listening, double period_s) const {
+void Heartbeat::Impl::wait(Wire* listening, double period_s, const std::function<void()>& after_hearing) const {
   const auto next = Clock::now() + std::chrono::duration<double>(period_s);
   while (!stop.load() && Clock::now() < next) {
     if (!listening || listening->handle(50) < 0)  // < 0: the connection ended, the owner's bus says so
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    else
+      after_hearing();
   }
 }
 

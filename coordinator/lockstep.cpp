@@ -268,6 +268,28 @@ void Lockstep::check_bus() {
             "small; where multicast cannot pass, use the TCP transport (--transport tcp; docs/hosts.md)"));
 }
 
+void Lockstep::hear(double wait_s) {
+  bus_->poll(wait_s, [&](const Received& msg) {
+    auto it = nodes_.find(msg.envelope.sender);
+    if (it != nodes_.end()) {
+      it->second.last_heard = now();
+      it->second.heard = true;
+    }
+    if (msg.kind == channel::step_done) record(msg);
+  });
+}
+
+void Lockstep::settle_bus_check() {
+  const double start = now();
+  // Once every node reported, check_bus decides (or throws) within run.bus_check_s.
+  while (!bus_checked_ && (reported_at_.size() == nodes_.size() || now() - start < scene_.run.bus_check_s)) {
+    hear(0.05);
+    forgive_own_pause(first_step_, nullptr);
+    check_bus();
+    check_health(first_step_);
+  }
+}
+
 void Lockstep::await(long step, double timeout_s) {
   double start = now();
   double last_asked = start;
@@ -277,14 +299,7 @@ void Lockstep::await(long step, double timeout_s) {
     return true;
   };
   while (!all_done()) {
-    bus_->poll(0.05, [&](const Received& msg) {
-      auto it = nodes_.find(msg.envelope.sender);
-      if (it != nodes_.end()) {
-        it->second.last_heard = now();
-        it->second.heard = true;
-      }
-      if (msg.kind == channel::step_done) record(msg);
-    });
+    hear(0.05);
     forgive_own_pause(step, &start);
     if (!unstable_.empty()) throw UnstableRun(unstable_);
     check_bus();

@@ -43,6 +43,11 @@ class Lockstep {
   // Waits until both nodes have reported step k done; throws a one-line error naming the node
   // that failed, exited or stopped answering (NodeLost for the last two).
   void await(long step, double timeout_s);
+  // Until the bus check (check_bus) has passed: called once the nodes are up, before the first
+  // step is ordered, so that a run shorter than a heartbeat does not end with the check
+  // undecided. Their heartbeats ran through their set-up, so it rarely waits; a node that
+  // writes no report (another program swapped in) is waited for run.bus_check_s at most.
+  void settle_bus_check();
   // Orders the nodes to finish and waits for their clean exit.
   void stop(long step);
 
@@ -84,6 +89,8 @@ class Lockstep {
   // hear, every process must hear every other within run.bus_check_s, or the run stops with one
   // line naming who does not hear whom.
   void check_bus();
+  // Handles what reaches the coordinator within wait_s: who was heard, the step reports.
+  void hear(double wait_s);
   void record(const Received& msg);
   // Appends the reports recorded so far to RUN_DIR/metrics.csv. Called once the next step is
   // ordered (the coordinator would otherwise keep the nodes waiting while it formats them), at

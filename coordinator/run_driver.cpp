@@ -41,6 +41,7 @@ Reached drive_span(const Scene& scene, const RunDirectory& dir, const RunContext
   const double span_start_s = progress.seconds();  // the profile is of this span: its steps, its wall time
   Lockstep lockstep(scene, dir, ctx, launcher, span.first);
   lockstep.await(span.first, scene.run.startup_timeout);
+  lockstep.settle_bus_check();
   CouplingClock clock = span_clock(scene, lockstep, span.first);
   progress.starts_at(clock.time_s());
   if (restarted) {

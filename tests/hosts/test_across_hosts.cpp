@@ -349,8 +349,8 @@ TEST_F(AcrossHosts, WithoutMulticastTheTcpTransportRunsAndEqualsTheOneHostRunBit
   EXPECT_EQ(watch.particle_namespaces, (std::set<std::string>{ns(2), ns(3)}));
   EXPECT_FALSE(watch.secret_on_a_command_line);
   // The bus check passed over the relay: each node heard both other processes.
-  EXPECT_NE(read_file(tcp + "/bus-check/particles").find("host=" + ns(2) + " heard=coordinator,fluid"),
-            std::string::npos);
-  EXPECT_NE(read_file(tcp + "/bus-check/fluid").find("host=" + ns(1) + " heard=coordinator,particles"),
-            std::string::npos);
+  const std::string particles_heard = read_file(tcp + "/bus-check/particles");
+  const std::string fluid_heard = read_file(tcp + "/bus-check/fluid");
+  EXPECT_NE(particles_heard.find("host=" + ns(2) + " heard=coordinator,fluid"), std::string::npos) << particles_heard;
+  EXPECT_NE(fluid_heard.find("host=" + ns(1) + " heard=coordinator,particles"), std::string::npos) << fluid_heard;
 }

@@ -444,3 +444,21 @@ TEST(CoupledRun, FluidSolvedEveryFourthStepGetsTheParticlesMomentumOfItsInterval
   EXPECT_GT(particles, 0);
   EXPECT_LT(std::abs(missing) / particles, 0.01);
 }
+
+// The bus check decides before the first step is ordered, so even a run of one step ends with
+// each node's report naming both other processes (a run shorter than a heartbeat used to end
+// with the check undecided and a report one heartbeat behind).
+TEST(CoupledRun, EvenAOneStepRunHasPassedTheBusCheck) {
+  const std::string dir = fresh_run_dir("coupled-one-step");
+  std::ofstream(dir + ".toml") << small_scene_text(1);
+  const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto heard = [&](const std::string& node) {
+    std::ifstream in(dir + "/bus-check/" + node);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  EXPECT_NE(heard("fluid").find(" heard=coordinator,particles"), std::string::npos) << heard("fluid");
+  EXPECT_NE(heard("particles").find(" heard=coordinator,fluid"), std::string::npos) << heard("particles");
+}
