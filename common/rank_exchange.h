@@ -7,6 +7,7 @@
 #pragma once
 
 #include "bus.h"
+#include "node_port.h"
 #include "partition_exchange.h"
 
 #include <atomic>
@@ -14,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -42,6 +44,8 @@ class FluidRankPublisher {
   void publish(const fluid_state_t& local, std::int64_t step);
   // The cells this rank publishes a step, summed over its readers.
   std::size_t cells_published() const;
+  // The bytes of its partitions published (resends too) since the last call.
+  std::uint64_t take_sent_bytes();
 
  private:
   struct Reader {
@@ -54,6 +58,7 @@ class FluidRankPublisher {
   std::atomic<bool> stop_{false};
   mutable std::mutex error_mutex_;
   std::string error_;  // the resend thread's, when it lost the bus
+  std::uint64_t sent_taken_ = 0;
   std::thread answering_;
 };
 
@@ -71,6 +76,11 @@ class ParticleRankReceiver {
   // for one late by the retry interval. Throws std::runtime_error with one line when one does not
   // fit (the rank, the cell) or one has not come within the patience.
   fluid_state_t receive(std::int64_t step);
+  // The same, waiting at most `seconds` (for a caller that has a bus of its own to serve):
+  // nothing when some partition has not come yet (what came is kept for the next call).
+  std::optional<fluid_state_t> receive_within(std::int64_t step, double seconds);
+  // The bytes of the partitions it was handed (every datagram of its channels) since the last call.
+  std::uint64_t take_received_bytes();
 
  private:
   struct Source {
@@ -85,6 +95,19 @@ class ParticleRankReceiver {
   double patience_s_;
   Bus bus_;
   std::map<std::pair<std::string, std::int64_t>, Received> pending_;
+  std::uint64_t received_taken_ = 0;
+  std::int64_t waiting_for_ = -1;  // the step receive_within was last called for, and since when
+  double waiting_since_ = 0, last_asked_ = 0;
 };
+
+// A node program of one rank (no MPI: the analytic fluid, the prescribed particles) facing a peer
+// on more: its end of the partitioned exchange, after the port's initialize (the mesh published
+// or received): the decomposition's message out (all cells its own; one box, the mesh's, with no
+// margin), the peer's in, the map. Nothing when the peer runs on one rank too (the whole-mesh
+// messages are the exchange). Throws std::runtime_error with one line.
+std::unique_ptr<FluidRankPublisher> open_one_rank_fluid_end(FluidPort& port, const mesh_t& mesh,
+                                                            const RunContext& ctx);
+std::unique_ptr<ParticleRankReceiver> open_one_rank_particle_end(ParticlePort& port, const mesh_t& mesh,
+                                                                 const RunContext& ctx);
 
 }  // namespace hemo
