@@ -46,6 +46,14 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
 
 NodePort::~NodePort() = default;
 
+void NodePort::keep_pending(const Received& msg) {
+  if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
+      msg.kind == channel::particle_feedback || msg.kind == channel::partition || msg.kind == channel::domain)
+    pending_[{msg.kind, msg.envelope.step}] = msg;
+  // Only the other node's hello: this node's own and a resent one of a monitor are not wanted.
+  if (msg.kind == channel::hello && msg.as<hello_t>().role != role_) pending_[{msg.kind, 0}] = msg;
+}
+
 Received NodePort::wait_for(const std::string& kind, std::int64_t step, const char* what) {
   const auto& ctx = bus_->context();
   double last_heard = now(), last_asked = now();
@@ -68,11 +76,7 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
         last_heard = now();
         said_waiting = false;
       }
-      if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
-          msg.kind == channel::particle_feedback || msg.kind == channel::partition || msg.kind == channel::domain)
-        pending_[{msg.kind, msg.envelope.step}] = msg;
-      // Only the other node's hello: this node's own and a resent one of a monitor are not wanted.
-      if (msg.kind == channel::hello && msg.as<hello_t>().role != role_) pending_[{msg.kind, 0}] = msg;
+      keep_pending(msg);
     });
     // While this node was paused nobody could be heard: that silence is not the coordinator's.
     if (const double away = pauses.turn(); away > 0) {

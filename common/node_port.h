@@ -72,6 +72,13 @@ class NodePort {
   int peer_ranks();
   // A message of `kind` kept for good by the other node (PARTITION, DOMAIN), waited for.
   Received wait_for_kept(const std::string& kind, const char* what) { return wait_for(kind, 0, what); }
+  // Handles what has reached the bus, without waiting: answers the requests to publish again
+  // what this port kept (its feedback, say) and keeps what a later wait wants. For a node whose
+  // ranks wait on channels of their own (the partitioned exchange) while the port's peers may
+  // be waiting for a resend from it.
+  void serve() {
+    bus_->poll(0.0, [this](const Received& msg) { keep_pending(msg); });
+  }
 
   // Reports the end of the run (finalize) or a failure of the current step (one line) to the
   // coordinator. Either one is the node's last word: its heartbeat stops, because the process
@@ -109,6 +116,8 @@ class NodePort {
     step_started_ = now();
     return std::make_pair(order, std::move(input));
   }
+  // Keeps a message a wait may want (an order, an input, the other node's hello...).
+  void keep_pending(const Received& msg);
   // Waits for (kind, step), asking again every retry interval; throws when the coordinator is
   // silent for longer than it may be (liveness.h), naming why.
   Received wait_for(const std::string& kind, std::int64_t step, const char* what);

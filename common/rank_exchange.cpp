@@ -113,12 +113,13 @@ ParticleRankReceiver::ParticleRankReceiver(const RunContext& ctx, int rank, int 
     sources_.push_back({f, channel::of_pair(channel::fluid_state, f, fluid_ranks, rank, ranks), cells});
 }
 
-fluid_state_t ParticleRankReceiver::receive(std::int64_t step) {
+fluid_state_t ParticleRankReceiver::receive(std::int64_t step, const std::function<void()>& serve) {
   for (;;)
-    if (auto whole = receive_within(step, 0.05)) return std::move(*whole);
+    if (auto whole = receive_within(step, 0.05, serve)) return std::move(*whole);
 }
 
-std::optional<fluid_state_t> ParticleRankReceiver::receive_within(std::int64_t step, double seconds) {
+std::optional<fluid_state_t> ParticleRankReceiver::receive_within(std::int64_t step, double seconds,
+                                                                  const std::function<void()>& serve) {
   const auto& ctx = bus_.context();
   const double until = seconds_now() + seconds;
   if (waiting_for_ != step) {
@@ -131,6 +132,7 @@ std::optional<fluid_state_t> ParticleRankReceiver::receive_within(std::int64_t s
     if (arrived == sources_.size()) break;
     bus_.poll(std::max(0.0, std::min(0.05, until - seconds_now())),
               [&](const Received& msg) { pending_[{msg.kind, msg.envelope.step}] = msg; });
+    if (serve) serve();
     const double now = seconds_now();
     if (now - last_asked_ > ctx.retry_s) {
       for (const Source& s : sources_)

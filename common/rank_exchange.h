@@ -12,6 +12,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -75,10 +76,13 @@ class ParticleRankReceiver {
   // Every fluid rank's partition of `step`, checked against the map and assembled; asks again
   // for one late by the retry interval. Throws std::runtime_error with one line when one does not
   // fit (the rank, the cell) or one has not come within the patience.
-  fluid_state_t receive(std::int64_t step);
-  // The same, waiting at most `seconds` (for a caller that has a bus of its own to serve):
-  // nothing when some partition has not come yet (what came is kept for the next call).
-  std::optional<fluid_state_t> receive_within(std::int64_t step, double seconds);
+  // `serve`, when given, is called between the polls: a rank that also holds the node's port
+  // answers its peers' resend requests there (NodePort::serve) while it waits.
+  fluid_state_t receive(std::int64_t step, const std::function<void()>& serve = {});
+  // The same, waiting at most `seconds`: nothing when some partition has not come yet (what
+  // came is kept for the next call).
+  std::optional<fluid_state_t> receive_within(std::int64_t step, double seconds,
+                                              const std::function<void()>& serve = {});
   // The bytes of the partitions it was handed (every datagram of its channels) since the last call.
   std::uint64_t take_received_bytes();
 

@@ -177,7 +177,11 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   // Every rank its own cells of the state the step runs in; a partition that does not fit, or
   // does not come, stops every rank with the lowest one's line.
   try {
-    step->fluid = receiver_->receive(step_ - fluid_lag_);
+    // Rank 0 keeps serving its port meanwhile: the fluid may be asking again for the feedback
+    // it needs before it can publish this state.
+    step->fluid = receiver_->receive(step_ - fluid_lag_, [this] {
+      if (port_) port_->serve();
+    });
   } catch (const std::exception& e) {
     error = e.what();
   }

@@ -318,7 +318,8 @@ int main(int argc, char** argv) {
     auto advance = [&] {
       if (!partitions) return port->advance(feedback, diag);
       auto step = port->advance_partitioned(feedback, diag);
-      if (step) step->fluid = partitions->receive(step->order.envelope.step - port->fluid_lag());
+      if (step)  // serving the port meanwhile: the fluid may be asking again for the feedback
+        step->fluid = partitions->receive(step->order.envelope.step - port->fluid_lag(), [&] { port->serve(); });
       return step;
     };
     while (auto step = advance()) {
