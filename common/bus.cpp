@@ -5,10 +5,13 @@
 #include "run_files.h"
 
 #include <hemo/control_t.hpp>
+#include <hemo/fluid_decomposition_t.hpp>
+#include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
 #include <hemo/hello_t.hpp>
 #include <hemo/mesh_t.hpp>
+#include <hemo/particle_domain_t.hpp>
 #include <hemo/particle_feedback_t.hpp>
 #include <hemo/resend_request_t.hpp>
 #include <hemo/step_done_t.hpp>
@@ -261,7 +264,10 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
   if (kind == channel::heartbeat) return decode_as<heartbeat_t>(bytes);
   if (kind == channel::step) return decode_as<step_order_t>(bytes);
   if (kind == channel::mesh) return decode_as<mesh_t>(bytes);
-  if (kind == channel::fluid_state) return decode_as<fluid_state_t>(bytes);
+  if (kind == channel::fluid_state)
+    return kind == channel_kind ? decode_as<fluid_state_t>(bytes) : decode_as<fluid_partition_t>(bytes);
+  if (kind == channel::partition) return decode_as<fluid_decomposition_t>(bytes);
+  if (kind == channel::domain) return decode_as<particle_domain_t>(bytes);
   if (kind == channel::particle_feedback) return decode_as<particle_feedback_t>(bytes);
   if (kind == channel::step_done) return decode_as<step_done_t>(bytes);
   if (kind == channel::resend) return decode_as<resend_request_t>(bytes);
@@ -275,12 +281,20 @@ std::string of_rank(const std::string& kind, int rank, int ranks) {
   return ranks <= 1 ? kind : kind + "." + std::to_string(rank);
 }
 std::string base_kind(const std::string& kind) { return kind.substr(0, kind.find('.')); }
+std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, int particle_rank, int particle_ranks) {
+  if (fluid_ranks * particle_ranks <= 1) return kind;
+  return kind + "." + std::to_string(fluid_rank) + "." + std::to_string(particle_rank);
+}
 std::vector<std::string> all() {
-  return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control};
+  return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control, partition, domain};
 }
 std::vector<std::string> heard_by_coordinator() { return {hello, heartbeat, step_done, resend}; }
-std::vector<std::string> heard_by_fluid() { return {step, particle_feedback, heartbeat, resend}; }
-std::vector<std::string> heard_by_particles() { return {step, mesh, fluid_state, heartbeat, resend}; }
+// Each node hears the other's hello (its rank count decides whether the exchange is partitioned)
+// and the other's half of the overlap map's inputs.
+std::vector<std::string> heard_by_fluid() { return {step, particle_feedback, heartbeat, resend, hello, domain}; }
+std::vector<std::string> heard_by_particles() {
+  return {step, mesh, fluid_state, heartbeat, resend, hello, partition};
+}
 }  // namespace channel
 
 Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::string>& kinds)
@@ -348,7 +362,10 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
     traffic_.sent[kind] += out.size();
   }
   RankTraffic::sent(out.size());
-  if (keep) kept_[kind][step] = std::move(buf);
+  if (keep) {
+    std::lock_guard<std::mutex> lock(kept_mutex_);
+    kept_[kind][step] = std::move(buf);
+  }
 }
 
 void Bus::request_resend(const std::string& kind, std::int64_t step) {
@@ -360,8 +377,10 @@ void Bus::request_resend(const std::string& kind, std::int64_t step) {
 }
 
 void Bus::forget_before(std::int64_t step) {
+  std::lock_guard<std::mutex> lock(kept_mutex_);
   for (auto& [kind, by_step] : kept_) {
-    if (kind == channel::mesh || kind == channel::hello) continue;  // wanted by late joiners
+    if (kind == channel::mesh || kind == channel::hello || kind == channel::partition || kind == channel::domain)
+      continue;  // wanted by late joiners
     by_step.erase(by_step.begin(), by_step.lower_bound(step));
   }
 }
@@ -453,17 +472,22 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
   for (const auto& msg : batch) {
     if (msg.kind == channel::resend) {
       const auto req = msg.as<resend_request_t>();  // decoded on arrival
-      const auto kind = kept_.find(req.channel);
-      if (kind != kept_.end()) {
-        const auto it = kind->second.find(req.wanted_step);
-        if (it != kind->second.end()) {
-          // Publish the same content again with a fresh sequence number and tag.
-          auto buf = it->second;
-          write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
-          publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
-          count(&BusCounters::resent);
-          continue;
+      std::optional<std::vector<std::uint8_t>> kept;
+      {
+        std::lock_guard<std::mutex> lock(kept_mutex_);
+        const auto kind = kept_.find(req.channel);
+        if (kind != kept_.end()) {
+          const auto it = kind->second.find(req.wanted_step);
+          if (it != kind->second.end()) kept = it->second;
         }
+      }
+      if (kept) {
+        // Publish the same content again with a fresh sequence number and tag.
+        auto buf = std::move(*kept);
+        write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
+        publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
+        count(&BusCounters::resent);
+        continue;
       }
       // Someone else's to answer: passed on like any message (the monitor counts them).
     }

@@ -62,6 +62,10 @@ inline constexpr const char* particle_feedback = "PARTICLE_FEEDBACK";
 inline constexpr const char* step_done = "STEP_DONE";
 inline constexpr const char* resend = "RESEND";
 inline constexpr const char* control = "CONTROL";  // restart / swap requests and answers
+// The partitioned exchange's start-up (docs/notes/partitioned-exchange.md): the fluid's cell
+// owners and the particle ranks' boxes, once each, kept for good like the mesh.
+inline constexpr const char* partition = "PARTITION";
+inline constexpr const char* domain = "DOMAIN";
 
 // A kind's channel for one of `ranks` ranks of a node (the partitioned exchange, issue #36;
 // docs/notes/partitioned-exchange.md): "<KIND>.<rank>", e.g. FLUID_STATE.3, its own publisher's;
@@ -70,6 +74,11 @@ inline constexpr const char* control = "CONTROL";  // restart / swap requests an
 std::string of_rank(const std::string& kind, int rank, int ranks);
 // The kind a channel's messages are of: "FLUID_STATE" for FLUID_STATE and FLUID_STATE.3.
 std::string base_kind(const std::string& kind);
+// A kind's channel between fluid rank f of nf and particle rank p of np: "<KIND>.<f>.<p>" (its
+// publisher's alone), or the kind itself with one rank each. A FLUID_STATE channel of a pair
+// carries fluid_partition_t, the state of the cells p takes from f; FLUID_STATE itself, the
+// whole mesh's fluid_state_t.
+std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, int particle_rank, int particle_ranks);
 
 // Every kind: what the monitor and the tests listen to.
 std::vector<std::string> all();
@@ -78,8 +87,8 @@ std::vector<std::string> all();
 // messages meant for another, at the moment the receiving node should start (docs/design.md,
 // Messages; today's coupling overhead: docs/performance.md §1).
 std::vector<std::string> heard_by_coordinator();  // hello, heartbeat, step done, resend (control: its own bus)
-std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend
-std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend
+std::vector<std::string> heard_by_fluid();        // step, feedback, heartbeat, resend, hello, domain
+std::vector<std::string> heard_by_particles();    // step, mesh, fluid state, heartbeat, resend, hello, partition
 }  // namespace channel
 
 // Counters a process keeps about what it received; written to its log at the end, published
@@ -224,6 +233,9 @@ class Bus {
   bool counters_logged_ = false;
   std::int64_t opened_us_ = 0;  // wall clock when the bus subscribed; older sequence numbers are pre-start
   std::map<std::string, double> prestart_lag_s_;  // sender -> its last pre-start message's lag (counters_mutex_)
+  // A rank's own bus may answer resends from a thread while its owner publishes (fluid ranks of a
+  // partitioned exchange: fluidLink.H): what it keeps is under its own lock.
+  mutable std::mutex kept_mutex_;
   std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;

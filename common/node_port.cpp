@@ -46,6 +46,14 @@ NodePort::NodePort(const RunContext& ctx, std::string role, std::string program,
 
 NodePort::~NodePort() = default;
 
+void NodePort::keep_pending(const Received& msg) {
+  if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
+      msg.kind == channel::particle_feedback || msg.kind == channel::partition || msg.kind == channel::domain)
+    pending_[{msg.kind, msg.envelope.step}] = msg;
+  // Only the other node's hello: this node's own and a resent one of a monitor are not wanted.
+  if (msg.kind == channel::hello && msg.as<hello_t>().role != role_) pending_[{msg.kind, 0}] = msg;
+}
+
 Received NodePort::wait_for(const std::string& kind, std::int64_t step, const char* what) {
   const auto& ctx = bus_->context();
   double last_heard = now(), last_asked = now();
@@ -68,9 +76,7 @@ Received NodePort::wait_for(const std::string& kind, std::int64_t step, const ch
         last_heard = now();
         said_waiting = false;
       }
-      if (msg.kind == channel::step || msg.kind == channel::mesh || msg.kind == channel::fluid_state ||
-          msg.kind == channel::particle_feedback)
-        pending_[{msg.kind, msg.envelope.step}] = msg;
+      keep_pending(msg);
     });
     // While this node was paused nobody could be heard: that silence is not the coordinator's.
     if (const double away = pauses.turn(); away > 0) {
@@ -198,7 +204,25 @@ void NodePort::fail(const std::string& error) {
   bus_->log_counters();
 }
 
+int NodePort::peer_ranks() {
+  if (!peer_ranks_) peer_ranks_ = wait_for(channel::hello, 0, "the other node's hello").as<hello_t>().ranks;
+  return *peer_ranks_;
+}
+
 void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0, /*keep=*/true); }
+
+std::optional<FluidStep> FluidPort::advance_partitioned(const Diagnostics& diag) {
+  fluid_state_t none;
+  auto next = advance_with("", none, channel::particle_feedback, -1, diag, /*report_first=*/false);
+  if (!next) return std::nullopt;
+  return FluidStep{next->first, next->second.as<particle_feedback_t>()};
+}
+
+std::optional<ParticleStep> ParticlePort::advance_partitioned(particle_feedback_t& feedback, const Diagnostics& diag) {
+  auto next = advance_with(channel::particle_feedback, feedback, "", 0, diag, /*report_first=*/true);
+  if (!next) return std::nullopt;
+  return ParticleStep{next->first, {}};
+}
 
 std::optional<FluidStep> FluidPort::advance(fluid_state_t& state, const Diagnostics& diag) {
   auto next = advance_with(channel::fluid_state, state, channel::particle_feedback, -1, diag,

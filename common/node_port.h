@@ -67,6 +67,19 @@ class NodePort {
   Bus& bus() { return *bus_; }
   std::int64_t step() const { return step_; }
 
+  // How many MPI ranks the other node runs on (its hello says; waited for, asked again): whether
+  // the exchange is partitioned (common/partition_exchange.h) depends on both nodes' counts.
+  int peer_ranks();
+  // A message of `kind` kept for good by the other node (PARTITION, DOMAIN), waited for.
+  Received wait_for_kept(const std::string& kind, const char* what) { return wait_for(kind, 0, what); }
+  // Handles what has reached the bus, without waiting: answers the requests to publish again
+  // what this port kept (its feedback, say) and keeps what a later wait wants. For a node whose
+  // ranks wait on channels of their own (the partitioned exchange) while the port's peers may
+  // be waiting for a resend from it.
+  void serve() {
+    bus_->poll(0.0, [this](const Received& msg) { keep_pending(msg); });
+  }
+
   // Reports the end of the run (finalize) or a failure of the current step (one line) to the
   // coordinator. Either one is the node's last word: its heartbeat stops, because the process
   // may exit (MPI_Abort, UPstream::exit, LIGGGHTS's exit) without unwinding, and a heartbeat
@@ -87,19 +100,24 @@ class NodePort {
     times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
     const Diagnostics reported = with_bus_traffic(diag);
     if (report_first) report_done(true, "", reported);
-    bus_->publish(out_kind, out, step_, /*keep=*/true);
+    // No `out_kind`: the node's ranks published their parts themselves (the partitioned exchange).
+    if (!out_kind.empty()) bus_->publish(out_kind, out, step_, /*keep=*/true);
     if (!report_first) report_done(true, "", reported);
     bus_->forget_before(step_ - 1);
     const double wait_start = now();
     const auto order_msg = wait_for(channel::step, step_ + 1, "the coordinator's next step order");
     auto order = order_msg.as<step_order_t>();
     if (order.stop) return std::nullopt;
-    auto input = wait_for(input_kind, step_ + 1 + input_offset, input_kind.c_str());
+    // No `input_kind`: the node's ranks receive their parts themselves.
+    Received input;
+    if (!input_kind.empty()) input = wait_for(input_kind, step_ + 1 + input_offset, input_kind.c_str());
     step_ = order.envelope.step;
     times_.wait_s = now() - wait_start;
     step_started_ = now();
     return std::make_pair(order, std::move(input));
   }
+  // Keeps a message a wait may want (an order, an input, the other node's hello...).
+  void keep_pending(const Received& msg);
   // Waits for (kind, step), asking again every retry interval; throws when the coordinator is
   // silent for longer than it may be (liveness.h), naming why.
   Received wait_for(const std::string& kind, std::int64_t step, const char* what);
@@ -121,6 +139,7 @@ class NodePort {
   std::string run_dir_;         // where the coordinator says where it runs (liveness.h)
   double gave_up_after_s_ = 0;  // the coordinator's silence the node gave up after (0: it did not)
   std::int64_t step_ = 0;
+  std::optional<int> peer_ranks_;  // the other node's hello's, once heard
   StepTimes times_;
   BusTraffic traffic_reported_;  // the bus's totals at the last report
   double step_started_ = 0;
@@ -135,6 +154,8 @@ class FluidPort : public NodePort {
   // Publishes the state of the current step; returns the next step's order and feedback,
   // or nothing when the coordinator says stop.
   std::optional<FluidStep> advance(fluid_state_t& state, const Diagnostics& diag = {});
+  // The same when the fluid's ranks published their partitions of the state themselves.
+  std::optional<FluidStep> advance_partitioned(const Diagnostics& diag = {});
 };
 
 class ParticlePort : public NodePort {
@@ -152,6 +173,11 @@ class ParticlePort : public NodePort {
   // Publishes the feedback of the current step; returns the next order and the fluid state,
   // or nothing when the coordinator says stop.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag = {});
+  // The same when the particle ranks receive their partitions of the fluid state themselves:
+  // only the order (`fluid` left empty).
+  std::optional<ParticleStep> advance_partitioned(particle_feedback_t& feedback, const Diagnostics& diag = {});
+  // Steps between the fluid state used and the step computed (0 serial, 1 parallel scheme).
+  int fluid_lag() const { return fluid_lag_; }
 
  private:
   int fluid_lag_ = 0;  // steps between the fluid state used and the step computed

@@ -20,6 +20,7 @@
 #include "vessel_mesh.h"
 
 #include <node_port.h>
+#include <rank_exchange.h>
 #include <scene.h>
 #include <hemo/mesh_t.hpp>
 
@@ -97,12 +98,19 @@ int main(int argc, char** argv) {
     mean_uz /= volume;
 
     port->initialize(mesh_msg);
+    // Its end of the partitioned exchange when the particles run on more than one rank.
+    const auto partitions = hemo::open_one_rank_fluid_end(*port, mesh_msg, ctx);
     hemo::fluid_state_t state;
     hemo::fill_state(flow, geometry, mesh_msg.mesh_hash, 0.0, state, fluid.publish_pressure_gradient,
                      fluid.publish_viscous_force);
     hemo::Diagnostics diag{{"time_s", 0.0}};
 
-    while (auto step = port->advance(state, diag)) {
+    auto advance = [&] {
+      if (!partitions) return port->advance(state, diag);
+      partitions->publish(state, port->step());
+      return port->advance_partitioned(diag);
+    };
+    while (auto step = advance()) {
       const auto& fb = step->feedback;
       if (const std::string problem = hemo::feedback_problem(fb, mesh_msg.mesh_hash, mesh.n_cells); !problem.empty())
         throw std::runtime_error(problem);

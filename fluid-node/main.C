@@ -15,8 +15,9 @@ Description
     momentum source from the particles, G = dP/(rho l) e_z the driving force.
 
     Decomposed (--parallel, under mpirun): one subdomain per rank; the master
-    alone talks to the bus, hands orders and feedback to every rank and
-    gathers the whole-mesh fields it publishes (fluidLink.H, publishState.H).
+    alone holds the node's port and hands orders and feedback to every rank;
+    every rank publishes its own cells' state to the particle ranks that need
+    them (the partitioned exchange; fluidLink.H, publishState.H).
 
     Checkpoints: the order of a step may ask for the whole state at its end
     (writeCheckpoint.H); --resume-step K starts from that of step K (restoreCheckpoint.H).
@@ -50,10 +51,10 @@ int main(int argc, char* argv[])
         #include "checkpointedFields.H"
         #include "restoreCheckpoint.H"
 
-        port.initialize(meshMsg);
+        port.initialize(meshMsg, globalCell, rankCells);
         #include "publishState.H"
 
-        while (auto step = port.advance(state, diagnostics))
+        while (auto step = port.advance(state, localState, diagnostics))
         {
             #include "advanceTime.H"
             #include "applyFeedback.H"

@@ -5,7 +5,10 @@
 #include "dem_timing.h"
 
 #include <atom.h>
+#include <domain.h>
 #include <fmt/format.h>
+#include <lammps.h>
+#include <neighbor.h>
 
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
@@ -137,6 +140,13 @@ DemEngine::EndCounts DemEngine::end_counts() const {
   }
   return c;
 }
+
+std::array<double, 6> DemEngine::sub_domain() const {
+  const LAMMPS_NS::Domain& d = *liggghts_.lammps().domain;
+  return {d.sublo[0], d.sublo[1], d.sublo[2], d.subhi[0], d.subhi[1], d.subhi[2]};
+}
+
+double DemEngine::exchange_margin() const { return 0.5 * species_.d_max + liggghts_.lammps().neighbor->skin; }
 
 EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
   EngineDiagnostics d = output_.diagnostics(fluid);

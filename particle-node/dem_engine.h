@@ -75,6 +75,12 @@ class DemEngine {
   EndCounts end_counts() const;
   bool open_ends() const { return liggghts_.open(); }
   long local_particle_count() const { return liggghts_.local_particles(); }  // on this rank
+  // This rank's sub-domain (lo x, y, z, then hi x, y, z; m), and how far beyond it a particle of
+  // it may reach within a coupling interval: its radius, plus the neighbour skin (LIGGGHTS moves
+  // an atom to the rank of its box once it has moved half a skin since the lists were built, and
+  // checks that every DEM step). What the partitioned exchange takes cells for (overlap_map.h).
+  std::array<double, 6> sub_domain() const;
+  double exchange_margin() const;
 
   // Checkpoint, between runs (collective): rebuilds the neighbour lists from the atoms (see
   // dem_checkpoint.h) and returns this rank's state.

@@ -179,8 +179,16 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
                                       std::hypot(p.x.x(), p.x.y()), run_.dt));
     return -1;
   }
-  const SpeciesForces& forces = *species_.forces[p.species];
   const FluidSampler& fluid = *run_.fluid;
+  if (!fluid.holds(cell)) {
+    // The partitioned exchange gave this rank the cells its box and margin reach, not this one:
+    // sampling it would read a zero flow.
+    problems_.note(p.tag, fmt::format("particle {} is in fluid cell {} at coupling step {} (DEM step {}), which its "
+                                      "rank did not take from the fluid: it is beyond its rank's box and margin",
+                                      p.tag, cell, run_.coupling_step, ntimestep));
+    return -1;
+  }
+  const SpeciesForces& forces = *species_.forces[p.species];
   ParticleFlow flow;
   flow.cell = cell;
   flow.velocity = fluid.velocity(cell, locator_.wrap(p.x));

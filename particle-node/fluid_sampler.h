@@ -11,6 +11,7 @@
 #include <hemo/fluid_state_t.hpp>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hemo::particles {
@@ -63,6 +64,13 @@ class FluidSampler {
   std::vector<double> cell_viscous_forces() const;  // 3 per cell, or none
   // The largest cell speed |u_c| of the state (the closures' centre-line speed u_max).
   double max_cell_speed() const { return max_speed_; }
+  // A rank of the partitioned exchange holds its own cells only: the whole mesh's largest
+  // speed is the ranks' largest (ParticleNode::advance), set here.
+  void set_max_cell_speed(double speed) { max_speed_ = speed; }
+  // The cells whose values this sampler holds (the partitioned exchange: a rank's needed(p) of
+  // model/overlap_map.h; the others are zero): per cell, nonzero when held. Empty: all.
+  void set_held(std::vector<char> held) { held_ = std::move(held); }
+  bool holds(int cell) const { return held_.empty() || held_[static_cast<std::size_t>(cell)] != 0; }
 
   const CellLocator& locator() const { return *locator_; }
 
@@ -75,6 +83,7 @@ class FluidSampler {
   std::vector<Mat3> gradient_;
   std::vector<double> shear_rate_;
   double max_speed_ = 0;
+  std::vector<char> held_;
 };
 
 }  // namespace hemo::particles

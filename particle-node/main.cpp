@@ -119,6 +119,8 @@ int main(int argc, char** argv) {
   try {
     const hemo::mesh_t mesh = port->initialize();
     hemo::particles::ParticleNode node(scene, mesh, run_dir, MPI_COMM_WORLD, ctx.resume_step);
+    if (port->partitioned())
+      node.use_overlap(port->start_exchange(mesh, node.sub_domain(), node.exchange_margin(), ctx));
     hemo::particle_feedback_t feedback = node.feedback();
     hemo::Diagnostics diagnostics = node.diagnostics();
 
@@ -135,6 +137,8 @@ int main(int argc, char** argv) {
     hemo::particles::disarm_liggghts_exit();
     port->finalize();
   } catch (const hemo::particles::CheckpointError& e) {  // every rank knows it: a clean stop
+    return stop(*port, e.what());
+  } catch (const hemo::particles::ExchangeError& e) {  // likewise
     return stop(*port, e.what());
   } catch (const std::exception& e) {
     hemo::particles::disarm_liggghts_exit();

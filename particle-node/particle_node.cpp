@@ -2,17 +2,20 @@
 #include "particle_node.h"
 
 #include "agree.h"
+#include "cell_fields.h"
 #include "checkpoint_file.h"
 #include "engine_state.h"
 
 #include <checkpoint.h>
 #include <clock.h>
+#include <traffic.h>
 #include <fmt/format.h>
 #include <momentum_forms.h>
 #include <placement.h>
 #include <spdlog/spdlog.h>
 #include <vessel_ends.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -203,6 +206,55 @@ void ParticleNode::set_interval(double interval) {
                    dem_mass_scaling(scene_, *sp));
 }
 
+Box ParticleNode::sub_domain() const {
+  const auto d = engine_->sub_domain();
+  return {Vec3(d[0], d[1], d[2]), Vec3(d[3], d[4], d[5])};
+}
+
+void ParticleNode::use_overlap(const OverlapMap& map) {
+  const std::size_t n = static_cast<std::size_t>(locator_.n_cells());
+  std::vector<char> held(n, 0);
+  for (int c : map.needed(rank_)) held[static_cast<std::size_t>(c)] = 1;
+  designated_.assign(n, 0);
+  std::vector<char> spoken(n, 0);
+  for (int p = 0; p < static_cast<int>(map.from.size()); ++p)
+    for (int c : map.needed(p))
+      if (!spoken[static_cast<std::size_t>(c)]) {
+        spoken[static_cast<std::size_t>(c)] = 1;
+        if (p == rank_) designated_[static_cast<std::size_t>(c)] = 1;
+      }
+  fluid_.set_held(std::move(held));
+}
+
+namespace {
+
+// Sums `values` (per_cell values per cell, only the `designated` cells' kept) over the ranks into
+// rank 0's; counted as a gather (common/traffic.h). Collective.
+void sum_designated_to_root(std::vector<double>& values, int per_cell, const std::vector<char>& designated,
+                            int rank, MPI_Comm comm) {
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  long size = static_cast<long>(values.size());
+  MPI_Allreduce(MPI_IN_PLACE, &size, 1, MPI_LONG, MPI_MAX, comm);  // an optional field some rank lacks
+  values.resize(static_cast<std::size_t>(size), 0.0);
+  const std::size_t k = static_cast<std::size_t>(per_cell);
+  for (std::size_t c = 0; c < designated.size() && k * c < values.size(); ++c)
+    if (!designated[c]) std::fill_n(values.begin() + static_cast<std::ptrdiff_t>(k * c), k, 0.0);
+  if (size == 0) return;
+  if (rank == 0)
+    MPI_Reduce(MPI_IN_PLACE, values.data(), static_cast<int>(size), MPI_DOUBLE, MPI_SUM, 0, comm);
+  else
+    MPI_Reduce(values.data(), nullptr, static_cast<int>(size), MPI_DOUBLE, MPI_SUM, 0, comm);
+  const std::uint64_t bytes = sizeof(double) * static_cast<std::uint64_t>(size);
+  if (ranks < 2) return;
+  if (rank == 0)
+    RankTraffic::received(bytes * static_cast<std::uint64_t>(ranks - 1));
+  else
+    RankTraffic::sent(bytes);
+}
+
+}  // namespace
+
 std::string ParticleNode::check(const fluid_state_t& fluid) const {
   return FluidSampler::check(fluid, locator_.n_cells(), mesh_hash_);
 }
@@ -211,6 +263,12 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   if (!(order.dt_s > 0) || !std::isfinite(order.dt_s))
     return fmt::format("step {} orders a coupling interval of {} s", order.envelope.step, order.dt_s);
   fluid_.set_state(fluid);
+  if (!designated_.empty()) {
+    // Each rank holds its own cells: the closures' u_max is the ranks' largest.
+    double speed = fluid_.max_cell_speed();
+    MPI_Allreduce(MPI_IN_PLACE, &speed, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    fluid_.set_max_cell_speed(speed);
+  }
   const MomentumForm& form = momentum_form(scene_.momentum);
   if ((form.needs_pressure_gradient() && !fluid_.has_pressure_gradient()) ||
       (form.needs_viscous_force() && !fluid_.has_viscous_force()))
@@ -239,7 +297,20 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
 particle_feedback_t ParticleNode::feedback() {
   const auto t0 = std::chrono::steady_clock::now();
   particle_feedback_t fb;
-  deposition_.finish(interval_, &fluid_, fb);
+  if (designated_.empty()) {
+    deposition_.finish(interval_, &fluid_, fb);
+  } else {
+    // Only rank 0's feedback is published; the drag's source K u needs the velocity of every
+    // cell, which the ranks hold between them.
+    std::vector<double> drag(static_cast<std::size_t>(kVectorValues) * designated_.size(), 0.0);
+    if (fluid_.has_state())
+      for (std::size_t c = 0; c < designated_.size(); ++c)
+        if (designated_[c])
+          Eigen::Map<Vec3>(drag.data() + kVectorValues * c) =
+              deposition_.drag_velocity(static_cast<int>(c), interval_, fluid_.cell_velocity(static_cast<int>(c)));
+    sum_designated_to_root(drag, kVectorValues, designated_, rank_, comm_);
+    deposition_.finish(interval_, drag, fb);
+  }
   phase_.deposition += seconds_since(t0);
   fb.mesh_hash = mesh_hash_;
   return fb;
@@ -267,14 +338,24 @@ void ParticleNode::write_checkpoint() {
   if (rank_ == 0) folder = begin_checkpoint(run_dir_, step_, kRole);
   broadcast(folder, 0, comm_);  // and it exists before any rank writes into it
   write_engine_state(engine_state, engine_state_file(folder, rank_));
-  if (rank_ == 0) write_node_checkpoint(folder + "/node.h5");
+  const auto fluid = whole_fluid_fields();  // collective
+  if (rank_ == 0) write_node_checkpoint(folder + "/node.h5", fluid);
   MPI_Barrier(comm_);  // every rank's file is on disk
   if (rank_ == 0) commit_checkpoint(run_dir_, step_, kRole);
   checkpoint_written_ = step_;
   phase_.checkpoint += seconds_since(t0);
 }
 
-void ParticleNode::write_node_checkpoint(const std::string& path) {
+std::array<std::vector<double>, 4> ParticleNode::whole_fluid_fields() {
+  std::array<std::vector<double>, 4> f = {fluid_.cell_velocities(), fluid_.cell_gradients(),
+                                          fluid_.cell_pressure_gradients(), fluid_.cell_viscous_forces()};
+  if (designated_.empty()) return f;
+  const int per_cell[4] = {kVectorValues, kTensorValues, kVectorValues, kVectorValues};
+  for (int i = 0; i < 4; ++i) sum_designated_to_root(f[i], per_cell[i], designated_, rank_, comm_);
+  return f;
+}
+
+void ParticleNode::write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid) {
   int ranks = 1;
   MPI_Comm_size(comm_, &ranks);
   CheckpointWriter out(path);
@@ -287,10 +368,10 @@ void ParticleNode::write_node_checkpoint(const std::string& path) {
   out.put("warned_reynolds", std::vector<std::int64_t>{warned_re_[kRbc], warned_re_[kPlatelet]});
   out.put_bytes("mesh_hash", mesh_hash_);
   out.put("deposition", std::vector<double>(deposition_.data(), deposition_.data() + deposition_.size()));
-  out.put("fluid_velocity", fluid_.cell_velocities());
-  out.put("fluid_gradient", fluid_.cell_gradients());
-  out.put("fluid_pressure_gradient", fluid_.cell_pressure_gradients());
-  out.put("fluid_viscous_force", fluid_.cell_viscous_forces());
+  out.put("fluid_velocity", fluid[0]);
+  out.put("fluid_gradient", fluid[1]);
+  out.put("fluid_pressure_gradient", fluid[2]);
+  out.put("fluid_viscous_force", fluid[3]);
   out.close();
 }
 

@@ -27,11 +27,14 @@
 
 #include <mpi.h>
 #include <node_port.h>
+#include <overlap_map.h>
 #include <scene.h>
 
+#include <array>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace hemo::particles {
 
@@ -51,6 +54,15 @@ class ParticleNode {
   // written, the LIGGGHTS log appended to; throws CheckpointError when that is not possible.
   // Throws std::exception with a one-line reason when the scene and mesh do not fit together.
   ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm, long resume_step = 0);
+
+  // This rank's box and margin (DemEngine::sub_domain, exchange_margin), for the overlap map.
+  Box sub_domain() const;
+  double exchange_margin() const { return engine_->exchange_margin(); }
+  // The partitioned exchange's map (RankedPort::start_exchange): this rank holds the fluid state
+  // of its needed(p) cells only. Its share of what is computed from the whole state on rank 0
+  // (the drag's source in the feedback, a checkpoint's fluid state) comes from the cells it is
+  // the lowest rank to hold.
+  void use_overlap(const OverlapMap& map);
 
   // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
   std::string check(const fluid_state_t& fluid) const;
@@ -82,7 +94,10 @@ class ParticleNode {
   void log_particles() const;
   NodeCheckpoint read_checkpoint(long step) const;
   void check_fits(const NodeCheckpoint& saved, long step, const std::string& path) const;
-  void write_node_checkpoint(const std::string& path);
+  // The fluid state's fields as node.h5 keeps them: velocity, gradient, pressure gradient,
+  // viscous force, whole-mesh on rank 0 (summed from the ranks' own cells); collective.
+  std::array<std::vector<double>, 4> whole_fluid_fields();
+  void write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid);
   void set_interval(double interval);
   void warn_reynolds();
 
@@ -118,6 +133,7 @@ class ParticleNode {
   bool warned_re_[kSpeciesCount] = {false, false};
   PhaseSeconds phase_;
   long checkpoint_written_ = -1;  // since the last diagnostics (-1: none)
+  std::vector<char> designated_;  // the partitioned exchange's: per cell, this rank speaks for it (empty: not partitioned)
 };
 
 }  // namespace hemo::particles

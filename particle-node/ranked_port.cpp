@@ -1,6 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "ranked_port.h"
 
+#include "agree.h"
+
+#include <liveness.h>
+#include <partition_exchange.h>
 #include <traffic.h>
 
 #include <fmt/format.h>
@@ -33,6 +37,7 @@ void broadcast(Msg& msg, MPI_Comm comm, int rank) {
 
 RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<ParticlePort>()>& make_port) : comm_(comm) {
   MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &ranks_);
   // Rank 0 may fail to join the bus: the others must hear of it rather than wait forever.
   int control = kContinue;
   std::string error;
@@ -64,9 +69,12 @@ mesh_t RankedPort::initialize() {
   mesh_t mesh;
   int control = kContinue;
   std::string error;
+  int fluid_ranks = 1;
   if (rank_ == 0) {
     try {
       mesh = port_->initialize();
+      fluid_ranks = port_->peer_ranks();
+      fluid_lag_ = port_->fluid_lag();
     } catch (const std::exception& e) {
       control = kError;
       error = e.what();
@@ -75,21 +83,68 @@ mesh_t RankedPort::initialize() {
   broadcast_control(control, error);
   if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
   broadcast(mesh, comm_, rank_);
+  int shared[2] = {fluid_ranks, fluid_lag_};
+  MPI_Bcast(shared, 2, MPI_INT, 0, comm_);
+  fluid_lag_ = shared[1];
+  partitioned_ = hemo::partitioned(shared[0], ranks_);
+  fluid_ranks_ = shared[0];
   return mesh;
+}
+
+OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx) {
+  // Every rank's box, on every rank (each computes the map itself).
+  const double mine[6] = {box.lo.x(), box.lo.y(), box.lo.z(), box.hi.x(), box.hi.y(), box.hi.z()};
+  std::vector<double> all(6 * static_cast<std::size_t>(ranks_));
+  MPI_Allgather(mine, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, comm_);
+  ParticleDecomposition particles;
+  particles.margin = margin;
+  for (int r = 0; r < ranks_; ++r) {
+    const double* b = all.data() + 6 * r;
+    particles.boxes.push_back({Vec3(b[0], b[1], b[2]), Vec3(b[3], b[4], b[5])});
+  }
+  fluid_decomposition_t owners;
+  int control = kContinue;
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      particle_domain_t domain = domain_message(mesh.mesh_hash, particles);
+      port_->bus().publish(channel::domain, domain, 0, /*keep=*/true);
+      owners = port_->wait_for_kept(channel::partition, "the fluid's decomposition").as<fluid_decomposition_t>();
+    } catch (const std::exception& e) {
+      control = kError;
+      error = e.what();
+    }
+  }
+  broadcast_control(control, error);
+  if (control == kError) throw ExchangeError(error);
+  broadcast(owners, comm_, rank_);
+  OverlapMap map;
+  try {
+    map = overlap_map(cell_points_of(mesh), fluid_decomposition_of(owners, mesh), particles, period_of(mesh));
+    receiver_ = std::make_unique<ParticleRankReceiver>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_],
+                                                       mesh.mesh_hash, mesh.n_cells,
+                                                       kCoordinatorPatience * ctx.timeout_s);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw ExchangeError(error);
+  return map;
 }
 
 Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   const TrafficBytes mine = RankTraffic::take();
-  const std::uint64_t own[2] = {mine.sent, mine.received};
-  int ranks = 1;
-  MPI_Comm_size(comm_, &ranks);
-  std::vector<std::uint64_t> all(2 * static_cast<std::size_t>(ranks));
-  MPI_Gather(own, 2, MPI_UINT64_T, all.data(), 2, MPI_UINT64_T, 0, comm_);
+  const std::uint64_t own[3] = {mine.sent, mine.received, receiver_ ? receiver_->take_received_bytes() : 0};
+  std::vector<std::uint64_t> all(3 * static_cast<std::size_t>(ranks_));
+  MPI_Gather(own, 3, MPI_UINT64_T, all.data(), 3, MPI_UINT64_T, 0, comm_);
   Diagnostics out = diag;
   if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
-  for (int r = 0; r < ranks; ++r) {
-    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[2 * r]));
-    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[2 * r + 1]));
+  for (int r = 0; r < ranks_; ++r) {
+    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[3 * r]));
+    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[3 * r + 1]));
+    // The partitioned exchange's own measure: the fluid state that reached this rank.
+    if (partitioned_)
+      out.emplace_back(fmt::format("rank{}_received_fluid_state_B", r), static_cast<double>(all[3 * r + 2]));
   }
   return out;
 }
@@ -102,7 +157,7 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   const Diagnostics reported = with_rank_traffic(diag);
   if (rank_ == 0) {
     try {
-      step = port_->advance(feedback, reported);
+      step = partitioned_ ? port_->advance_partitioned(feedback, reported) : port_->advance(feedback, reported);
       control = step ? kContinue : kStop;
     } catch (const std::exception& e) {
       control = kError;
@@ -114,8 +169,24 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   if (control == kStop) return std::nullopt;
   if (rank_ != 0) step.emplace();
   broadcast(step->order, comm_, rank_);
-  broadcast(step->fluid, comm_, rank_);
   step_ = step->order.envelope.step;
+  if (!partitioned_) {
+    broadcast(step->fluid, comm_, rank_);
+    return step;
+  }
+  // Every rank its own cells of the state the step runs in; a partition that does not fit, or
+  // does not come, stops every rank with the lowest one's line.
+  try {
+    // Rank 0 keeps serving its port meanwhile: the fluid may be asking again for the feedback
+    // it needs before it can publish this state.
+    step->fluid = receiver_->receive(step_ - fluid_lag_, [this] {
+      if (port_) port_->serve();
+    });
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw ExchangeError(error);
   return step;
 }
 

@@ -4,6 +4,7 @@
 #include "cell_fields.h"
 #include "test_helpers.h"
 
+#include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
 #include <hemo/step_done_t.hpp>
@@ -145,12 +146,16 @@ TEST(Bus, ARequestSomeoneElseKeepsIsPassedOn) {
 }
 
 // The partitioned exchange's channels (docs/notes/partitioned-exchange.md): each rank publishes
-// its own, a receiver hears only the ranks it subscribed to, decodes them as their kind, asks
-// the one keeper of a channel again and refuses a replay of it; one rank is today's channel.
+// its own, a receiver hears only the ranks it subscribed to, decodes them as their kind (a pair's
+// FLUID_STATE as the partition message, the plain one as the whole mesh's), asks the one keeper
+// of a channel again and refuses a replay of it; one rank each is today's channel.
 TEST(Bus, PerRankChannelsKeepTheirOwnKeeperAndReplayWindow) {
   EXPECT_EQ(channel::of_rank(channel::fluid_state, 0, 1), channel::fluid_state);
-  const std::string state1 = channel::of_rank(channel::fluid_state, 1, 2);
-  EXPECT_EQ(state1, std::string(channel::fluid_state) + ".1");
+  EXPECT_EQ(channel::of_rank(channel::fluid_state, 1, 2), std::string(channel::fluid_state) + ".1");
+  EXPECT_EQ(channel::of_pair(channel::fluid_state, 0, 1, 0, 1), channel::fluid_state);
+  const std::string state1 = channel::of_pair(channel::fluid_state, 1, 2, 0, 1);
+  EXPECT_EQ(state1, std::string(channel::fluid_state) + ".1.0");
+  EXPECT_EQ(channel::of_pair(channel::particle_feedback, 0, 1, 1, 2), std::string(channel::particle_feedback) + ".0.1");
   const std::string pair = channel::of_rank(channel::of_rank(channel::particle_feedback, 2, 4), 1, 3);
   EXPECT_EQ(pair, std::string(channel::particle_feedback) + ".2.1");
   for (const std::string& kind : {state1, pair, std::string(channel::fluid_state)})
@@ -158,30 +163,30 @@ TEST(Bus, PerRankChannelsKeepTheirOwnKeeperAndReplayWindow) {
 
   auto ctx = test::make_context("ranks");
   Bus fluid0(ctx, "fluid.0", {channel::resend}), fluid1(ctx, "fluid.1", {channel::resend});
-  Bus particles1(ctx, "particles.1", {state1, channel::resend});
-  fluid_state_t s0{}, s1{};
+  Bus particles0(ctx, "particles.0", {state1, channel::resend});
+  fluid_partition_t s0{}, s1{};
   s0.time_s = 0.5;
   s1.time_s = 1.5;
-  resize_cells(s0, 2);
-  resize_cells(s1, 3);
-  fluid0.publish(channel::of_rank(channel::fluid_state, 0, 2), s0, 3, /*keep=*/true);
+  s1.n_cells = 2;
+  s1.cells = {4, 7};
+  fluid0.publish(channel::of_pair(channel::fluid_state, 0, 2, 0, 1), s0, 3, /*keep=*/true);
   fluid1.publish(state1, s1, 3, /*keep=*/true);
-  auto got = collect(particles1, 2, 2);
+  auto got = collect(particles0, 2, 2);
   ASSERT_EQ(got.size(), 1u) << "only the subscribed rank's state";
   EXPECT_EQ(got[0].kind, state1);
   EXPECT_EQ(got[0].envelope.sender, "fluid.1");
-  const auto decoded = got[0].as<fluid_state_t>();  // decoded on arrival as its kind's type
-  EXPECT_EQ(got[0].decoded_type, std::type_index(typeid(fluid_state_t)));
+  const auto decoded = got[0].as<fluid_partition_t>();  // decoded on arrival as its kind's type
+  EXPECT_EQ(got[0].decoded_type, std::type_index(typeid(fluid_partition_t)));
   EXPECT_DOUBLE_EQ(decoded.time_s, 1.5);
-  EXPECT_EQ(decoded.n_cells, 3);
+  EXPECT_EQ(decoded.cells, (std::vector<std::int32_t>{4, 7}));
 
   // Asked again: the rank that kept that channel answers, the other does not.
-  particles1.request_resend(state1, 3);
+  particles0.request_resend(state1, 3);
   collect(fluid0, 1, 1);
   collect(fluid1, 1, 1);
   EXPECT_EQ(fluid0.counters().resent, 0u);
   EXPECT_EQ(fluid1.counters().resent, 1u);
-  const auto again = collect(particles1, 2, 1);
+  const auto again = collect(particles0, 2, 1);
   ASSERT_EQ(again.size(), 1u);
   EXPECT_EQ(again[0].kind, state1);
   EXPECT_GT(again[0].envelope.seq, got[0].envelope.seq);
@@ -189,8 +194,15 @@ TEST(Bus, PerRankChannelsKeepTheirOwnKeeperAndReplayWindow) {
   // The first copy's bytes played again: refused by its sender's replay window.
   lcm::LCM raw(ctx.lcm_url);
   raw.publish(ctx.run_id + "/" + state1, got[0].bytes.data(), static_cast<unsigned>(got[0].bytes.size()));
-  EXPECT_TRUE(collect(particles1, 1, 1).empty());
-  EXPECT_EQ(particles1.counters().rejected_replay, 1u);
+  EXPECT_TRUE(collect(particles0, 1, 1).empty());
+  EXPECT_EQ(particles0.counters().rejected_replay, 1u);
+
+  // A whole-mesh state on a pair's channel is not its kind's message: refused, not handed on.
+  fluid_state_t whole{};
+  resize_cells(whole, 3);
+  fluid1.publish(state1, whole, 4);
+  EXPECT_TRUE(collect(particles0, 1, 1).empty());
+  EXPECT_EQ(particles0.counters().rejected_corrupt, 1u);
 }
 
 namespace {

@@ -36,6 +36,7 @@
 #include <cell_fields.h>
 #include <checkpoint.h>
 #include <node_port.h>
+#include <rank_exchange.h>
 #include <scene.h>
 
 #include <CLI/CLI.hpp>
@@ -299,6 +300,8 @@ int main(int argc, char** argv) {
     const hemo::mesh_t mesh = port->initialize();
     std::cout << "hemocosim-prescribed-particles: mesh " << mesh.mesh_hash << ", " << mesh.n_cells << " cells"
               << std::endl;
+    // Its end of the partitioned exchange when the fluid runs on more than one rank.
+    const auto partitions = hemo::open_one_rank_particle_end(*port, mesh, ctx);
     const Prescription prescription(opt, mesh);
     const long first = ctx.resume_step;
     if (first > 0) hemo::checkpoint_of(run_dir, first, "particles");  // throws when there is none
@@ -312,7 +315,14 @@ int main(int argc, char** argv) {
     if (first == 0) diag = diagnostics(mesh, previous, feedback, nullptr, scene.plasma.density);
     if (const auto tau = opt.relaxation_at(0.0); tau && first == 0) diag.push_back({hemo::kRelaxationDiagnostic, *tau});
 
-    while (auto step = port->advance(feedback, diag)) {
+    auto advance = [&] {
+      if (!partitions) return port->advance(feedback, diag);
+      auto step = port->advance_partitioned(feedback, diag);
+      if (step)  // serving the port meanwhile: the fluid may be asking again for the feedback
+        step->fluid = partitions->receive(step->order.envelope.step - port->fluid_lag(), [&] { port->serve(); });
+      return step;
+    };
+    while (auto step = advance()) {
       const long k = step->order.envelope.step;
       last_fluid = std::move(step->fluid);
       have_fluid = true;

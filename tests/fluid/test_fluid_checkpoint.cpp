@@ -14,8 +14,11 @@
 #include <cell_fields.h>
 #include <checkpoint.h>
 #include <node_port.h>
+#include <partition_exchange.h>
+#include <rank_exchange.h>
 #include <run_files.h>
 
+#include <hemo/hello_t.hpp>
 #include <hemo/step_done_t.hpp>
 
 #include <gtest/gtest.h>
@@ -29,6 +32,7 @@
 #include <functional>
 #include <future>
 #include <map>
+#include <memory>
 #include <optional>
 #include <random>
 #include <set>
@@ -113,8 +117,14 @@ Published drive(const Drive& d) {
   hemo::create_private_file(ctx.secret_file, ctx.secret);  // the node reads only a private secret
   ctx.retry_s = 1;
 
-  // Listen before the node starts (its first reports must be heard).
+  // Listen before the node starts (its first reports must be heard), and say hello as a particle
+  // node of one rank would: the fluid waits for it (its rank count decides the exchange).
   hemo::Bus bus(ctx, "coordinator");
+  hemo::hello_t hello{};
+  hello.role = "particles";
+  hello.program = "the test's driver";
+  hello.ranks = 1;
+  bus.publish(hemo::channel::hello, hello, 0, /*keep=*/true);
   std::string command = bin("hemocosim-fluid") + " --scene " + shell_quoted(d.scene_file) + " --run-dir " +
                         shell_quoted(d.run_dir) + " --run-id " + ctx.run_id + " --lcm-url " +
                         shell_quoted(ctx.lcm_url) + " --secret-file " + shell_quoted(ctx.secret_file) +
@@ -125,9 +135,11 @@ Published drive(const Drive& d) {
 
   Published out;
   std::optional<hemo::mesh_t> mesh;
+  std::optional<hemo::fluid_decomposition_t> partition;
   auto poll = [&] {
     bus.poll(0.05, [&](const hemo::Received& m) {
       if (m.kind == hemo::channel::mesh && !mesh) mesh = m.as<hemo::mesh_t>();
+      if (m.kind == hemo::channel::partition && !partition) partition = m.as<hemo::fluid_decomposition_t>();
       if (m.kind == hemo::channel::fluid_state) out.states[m.envelope.step] = m.as<hemo::fluid_state_t>();
       if (m.kind == hemo::channel::step_done) {
         const auto done = m.as<hemo::step_done_t>();
@@ -158,12 +170,37 @@ Published drive(const Drive& d) {
     return true;
   };
 
-  bool ok = await([&] { return mesh && out.diagnostics.count(d.first) && out.states.count(d.first); },
+  // Two fluid ranks: the state comes by partition (common/rank_exchange.h), to this driver as to a
+  // particle node of one rank whose box is the mesh's.
+  std::unique_ptr<hemo::ParticleRankReceiver> partitions;
+  bool ok = d.ranks == 1 ||
+            await([&] { return mesh && partition; },
                   [&] {
                     if (!mesh) bus.request_resend(hemo::channel::mesh, 0);
-                    bus.request_resend(hemo::channel::step_done, d.first);
-                    bus.request_resend(hemo::channel::fluid_state, d.first);
+                    if (!partition) bus.request_resend(hemo::channel::partition, 0);
                   });
+  if (ok && d.ranks > 1) {
+    hemo::ParticleDecomposition one;
+    one.boxes = {{hemo::particles::Vec3::Constant(-1), hemo::particles::Vec3::Constant(1)}};  // all of it, in metres
+    hemo::particle_domain_t domain = hemo::domain_message(mesh->mesh_hash, one);
+    bus.publish(hemo::channel::domain, domain, 0, /*keep=*/true);
+    const auto map = hemo::overlap_map(hemo::cell_points_of(*mesh), hemo::fluid_decomposition_of(*partition, *mesh), one,
+                                       hemo::period_of(*mesh));
+    partitions = std::make_unique<hemo::ParticleRankReceiver>(ctx, 0, 1, d.ranks, map.from[0], mesh->mesh_hash,
+                                                              mesh->n_cells, 120.0);
+  }
+  // The state of step k, as the node published it.
+  auto have_state = [&](long k) {
+    if (partitions && !out.states.count(k))
+      if (auto s = partitions->receive_within(k, 0.0)) out.states[k] = std::move(*s);
+    return out.states.count(k) > 0;
+  };
+  ok = ok && await([&] { return mesh && out.diagnostics.count(d.first) && have_state(d.first); },
+                   [&] {
+                     if (!mesh) bus.request_resend(hemo::channel::mesh, 0);
+                     bus.request_resend(hemo::channel::step_done, d.first);
+                     if (!partitions) bus.request_resend(hemo::channel::fluid_state, d.first);
+                   });
   long k = d.first + 1;
   for (; ok && k <= d.last; ++k) {
     hemo::step_order_t order{};
@@ -175,10 +212,10 @@ Published drive(const Drive& d) {
     bus.publish(hemo::channel::step, order, k, /*keep=*/true);
     auto fb = d.feedback(*mesh, k - 1, static_cast<double>(k - 1) * d.dt);
     bus.publish(hemo::channel::particle_feedback, fb, k - 1, /*keep=*/true);
-    ok = await([&] { return out.diagnostics.count(k) && out.states.count(k); },
+    ok = await([&] { return out.diagnostics.count(k) && have_state(k); },
                [&] {
                  bus.request_resend(hemo::channel::step_done, k);
-                 bus.request_resend(hemo::channel::fluid_state, k);
+                 if (!partitions) bus.request_resend(hemo::channel::fluid_state, k);
                });
     bus.forget_before(k - 1);
   }
