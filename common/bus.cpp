@@ -595,6 +595,9 @@ std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::str
 Heartbeat::Heartbeat(const RunContext& ctx, std::string sender, double period_s, std::function<BusCounters()> counters,
                      HeardReport report)
     : impl_(new Impl) {
+  // The first report, empty, before the thread: once its owner is up, the coordinator can tell a
+  // process that reports from one that never will (another program swapped in).
+  if (!report.file.empty()) write_heard_report(report.file, {});
   impl_->thread = std::thread([impl = impl_, ctx, sender = std::move(sender), period_s, counters = std::move(counters),
                                report = std::move(report)] { impl->run(ctx, sender, period_s, counters, report); });
 }
@@ -611,8 +614,8 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   const std::string channel = ctx.run_id + "/" + channel::heartbeat;
   const bool listening = report.listen && wire && listen(*wire, channel, ctx, sender);
   const auto key = seal_key(ctx.secret);
-  std::size_t reported = 0;  // heard senders in the file so far
-  bool written = false;
+  std::size_t reported = 0;  // heard senders in the file so far (the constructor wrote none)
+  bool written = true;
   // At once when the set grows, not at the next heartbeat: a short run may end before that.
   const auto report_heard = [&] {
     if (report.file.empty()) return;

@@ -45,8 +45,8 @@ class Lockstep {
   void await(long step, double timeout_s);
   // Until the bus check (check_bus) has passed: called once the nodes are up, before the first
   // step is ordered, so that a run shorter than a heartbeat does not end with the check
-  // undecided. Their heartbeats ran through their set-up, so it rarely waits; a node that
-  // writes no report (another program swapped in) is waited for run.bus_check_s at most.
+  // undecided. Their heartbeats ran through their set-up, so it rarely waits; a node that has
+  // written no report by then (another program swapped in) is not waited for.
   void settle_bus_check();
   // Orders the nodes to finish and waits for their clean exit.
   void stop(long step);
