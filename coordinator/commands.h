@@ -27,6 +27,7 @@ int run_command(const RunOptions& opt);
 struct ResumeOptions {
   std::string run_dir;
   long stop_after_step = 0;
+  int particle_ranks = 0;       // the particle node's rank count from now on (0: as recorded)
   bool allow_commands = false;  // run node commands the run did not record (RunDirectory::commands_signed)
 };
 int resume_command(const ResumeOptions& opt);

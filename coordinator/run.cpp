@@ -238,6 +238,13 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
   if (dir.placement.across_hosts()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
+  if (opt.particle_ranks > 0 && opt.particle_ranks != scene.run.particle_ranks) {
+    if (dir.placement.across_hosts())
+      throw std::runtime_error(fmt::format(
+          "{} runs across hosts, whose ranks were placed at its start: resume it on its {} particle ranks", dir.path,
+          scene.run.particle_ranks));
+    scene.run.particle_ranks = opt.particle_ranks;
+  }
   if (dir.transport_recorded) {
     scene.hosts.transport = dir.placement.transport;
     scene.hosts.relay_address = dir.placement.relay_address;
@@ -253,6 +260,7 @@ int resume_command(const ResumeOptions& opt) {
     throw std::runtime_error(
         fmt::format("{}: its checkpoint of step {} is already at the end (step {})", dir.path, *from, last));
   ctx.drop_every = scene.run.drop_every;
+  dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);  // a later resume goes on with these
   dir.drop_metrics_after(*from);
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
   fmt::print(stderr, "hemocosim: run {} in {} resumes from step {}\n", ctx.run_id, dir.path, *from);

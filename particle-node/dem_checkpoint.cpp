@@ -5,6 +5,8 @@
 
 #include <atom.h>
 #include <atom_vec.h>
+#include <comm.h>
+#include <domain.h>
 #include <fix.h>
 #include <fix_contact_history.h>
 #include <fix_property_atom.h>
@@ -15,6 +17,8 @@
 
 #include <fmt/format.h>
 
+#include <array>
+#include <limits>
 #include <stdexcept>
 
 #include "dem_fixes.h"
@@ -171,7 +175,12 @@ void LiggghtsCheckpoint::save_contact_history(EngineState& s) const {
 
 // ---- restore ------------------------------------------------------------------------------
 
-void LiggghtsCheckpoint::restore(const EngineState& s, LiggghtsSession::OpenEndsListener listener) {
+void LiggghtsCheckpoint::restore(const EngineState& written, LiggghtsSession::OpenEndsListener listener) {
+  // Written on another rank count: every rank has all the atoms and keeps those in its own
+  // sub-domain (the box is set up), each exactly once.
+  EngineState redistributed;
+  if (written.ranks != ranks_of(comm_)) agreed([&] { redistributed = atoms_in(written, in_own_sub_domain()); }, comm_);
+  const EngineState& s = written.ranks != ranks_of(comm_) ? redistributed : written;
   agreed([&] { check_atoms(s); }, comm_);
   liggghts_.set_timestep(s.dt);
   liggghts_.command(fmt::format("reset_timestep {}", s.dem_step));
@@ -187,6 +196,24 @@ void LiggghtsCheckpoint::restore(const EngineState& s, LiggghtsSession::OpenEnds
   liggghts_.rebuild_neighbours();
   scatter_carried(carried_by_tag(s));
   liggghts_.lammps().neighbor->ncalls = s.neighbour_builds;
+}
+
+std::function<bool(double, double, double)> LiggghtsCheckpoint::in_own_sub_domain() const {
+  // Half-open [sublo, subhi) as LIGGGHTS assigns atoms, open outwards at the box's faces so that
+  // an atom on or beyond a face of a non-periodic box still has one owner.
+  const LAMMPS_NS::Domain& d = *liggghts_.lammps().domain;
+  const LAMMPS_NS::Comm& c = *liggghts_.lammps().comm;
+  std::array<double, 3> lo{}, hi{};
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = c.myloc[k] > 0 ? d.sublo[k] : -std::numeric_limits<double>::infinity();
+    hi[k] = c.myloc[k] < c.procgrid[k] - 1 ? d.subhi[k] : std::numeric_limits<double>::infinity();
+  }
+  return [lo, hi](double x, double y, double z) {
+    const double r[3] = {x, y, z};
+    for (int k = 0; k < 3; ++k)
+      if (r[k] < lo[k] || r[k] >= hi[k]) return false;
+    return true;
+  };
 }
 
 void LiggghtsCheckpoint::check_atoms(const EngineState& s) const {

@@ -7,7 +7,9 @@
 // torques and fix values as they are; a restored engine recreates the same atoms in the same
 // order on the same ranks and rebuilds the same way. Both then go on bit for bit alike. (A run
 // that writes a checkpoint differs from one that does not by that rebuild: the same contacts
-// summed in another order, round-off.)
+// summed in another order, round-off.) A checkpoint written on another rank count is restored
+// from all its ranks' states, each rank taking the atoms inside its own sub-domain: the same
+// atoms, contacts and values, summed in another order (round-off).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -16,6 +18,7 @@
 
 #include <mpi.h>
 
+#include <functional>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -56,6 +59,8 @@ class LiggghtsCheckpoint {
 
   void save_atoms(EngineState& state) const;
   void save_contact_history(EngineState& state) const;
+  // Whether a position lies in this rank's sub-domain: each point of space has one such rank.
+  std::function<bool(double, double, double)> in_own_sub_domain() const;
   void check_atoms(const EngineState& state) const;
   void create_atoms_as(const EngineState& state);
   void restore_contact_history(const EngineState& state);

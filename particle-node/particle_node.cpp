@@ -117,7 +117,7 @@ void ParticleNode::resume(long step) {
   std::string error;
   try {
     saved = read_checkpoint(step);
-    engine_state = read_engine_state(engine_state_file(checkpoint_of(run_dir_, step, kRole), rank_));
+    engine_state = read_engine_state_for(checkpoint_of(run_dir_, step, kRole), saved.ranks);
     if (rank_ == 0 && std::filesystem::exists(run_dir_ + "/particles.h5")) list_snapshots(run_dir_ + "/particles.h5");
   } catch (const std::exception& e) {
     error = e.what();
@@ -145,6 +145,19 @@ void ParticleNode::resume(long step) {
   spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
 }
 
+EngineState ParticleNode::read_engine_state_for(const std::string& folder, long written_on) const {
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  if (written_on == ranks) return read_engine_state(engine_state_file(folder, rank_));
+  // Another rank count: every rank reads them all (DemEngine::restore keeps its own atoms).
+  std::vector<EngineState> states;
+  for (int r = 0; r < written_on; ++r) states.push_back(read_engine_state(engine_state_file(folder, r)));
+  if (rank_ == 0)
+    spdlog::info("the checkpoint was written on {} MPI ranks, this node runs on {}: its particles are shared anew",
+                 written_on, ranks);
+  return merged(std::move(states));
+}
+
 ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   const CheckpointReader in(checkpoint_of(run_dir_, step, kRole) + "/node.h5");
   if (in.integer("format") != kCheckpointFormat)
@@ -168,11 +181,7 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
 }
 
 void ParticleNode::check_fits(const NodeCheckpoint& c, long step, const std::string& path) const {
-  int ranks = 1;
-  MPI_Comm_size(comm_, &ranks);
-  if (c.ranks != ranks)
-    throw std::runtime_error(fmt::format(
-        "it was written by {} MPI ranks, this node runs on {} (resume with --ranks {})", c.ranks, ranks, c.ranks));
+  if (c.ranks < 1) throw std::runtime_error(fmt::format("{} is damaged (written on {} ranks)", path, c.ranks));
   if (c.mesh_hash != mesh_hash_)
     throw std::runtime_error(fmt::format("it fits the mesh '{}', the fluid's mesh is '{}'", c.mesh_hash, mesh_hash_));
   // An open vessel's count changes as cells come and go (its engine checks its own counts).

@@ -93,6 +93,9 @@ class ParticleNode {
   void resume(long step);
   void log_particles() const;
   NodeCheckpoint read_checkpoint(long step) const;
+  // The DEM's state in a checkpoint folder written on `written_on` ranks: this rank's, or, on
+  // another rank count, all of them merged.
+  EngineState read_engine_state_for(const std::string& folder, long written_on) const;
   void check_fits(const NodeCheckpoint& saved, long step, const std::string& path) const;
   // The fluid state's fields as node.h5 keeps them: velocity, gradient, pressure gradient,
   // viscous force, whole-mesh on rank 0 (summed from the ranks' own cells); collective.
