@@ -143,8 +143,7 @@ void expect_resumed_run_equals_uninterrupted(const std::string& name, const std:
   EXPECT_NE(second.output.find("resumes from step 20"), std::string::npos) << second.output;
   EXPECT_EQ(checkpoint_folders(parts), std::vector<std::string>{"step-40"});
   if (!resume_ranks.empty()) {  // a later resume goes on with the new count
-    std::ifstream in(parts + "/run.toml");
-    const std::string info((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string info = file_text(parts + "/run.toml");
     const std::string count = resume_ranks.substr(resume_ranks.rfind(' ') + 1);
     EXPECT_NE(info.find("particle_ranks = " + count), std::string::npos) << info;
   }

@@ -453,12 +453,7 @@ TEST(CoupledRun, EvenAOneStepRunHasPassedTheBusCheck) {
   std::ofstream(dir + ".toml") << small_scene_text(1);
   const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const auto heard = [&](const std::string& node) {
-    std::ifstream in(dir + "/bus-check/" + node);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-  };
+  const auto heard = [&](const std::string& node) { return file_text(dir + "/bus-check/" + node); };
   EXPECT_NE(heard("fluid").find(" heard=coordinator,particles"), std::string::npos) << heard("fluid");
   EXPECT_NE(heard("particles").find(" heard=coordinator,fluid"), std::string::npos) << heard("particles");
 }

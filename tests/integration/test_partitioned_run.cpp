@@ -57,14 +57,8 @@ const RankedRun& two_by_two() {
   return r;
 }
 
-// A diagnostic's values over the coupled steps (step 0, the start-up, left out).
 std::vector<double> over_steps(const RankedRun& r, const std::string& node, const std::string& name) {
-  std::vector<double> v;
-  const auto it = r.metrics.find({node, name});
-  if (it == r.metrics.end()) return v;
-  for (const auto& [step, value] : it->second)
-    if (step > 0) v.push_back(value);
-  return v;
+  return hemo::test::over_steps(r.metrics, node, name);
 }
 
 double sum(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0); }

@@ -71,14 +71,8 @@ SmallRun run_small(const std::string& name, int axial_cells, const std::string& 
   return r;
 }
 
-// A diagnostic's values over the coupled steps (step 0, the start-up, left out).
 std::vector<double> over_steps(const SmallRun& r, const std::string& node, const std::string& name) {
-  std::vector<double> v;
-  const auto it = r.metrics.find({node, name});
-  if (it == r.metrics.end()) return v;
-  for (const auto& [step, value] : it->second)
-    if (step > 0) v.push_back(value);
-  return v;
+  return hemo::test::over_steps(r.metrics, node, name);
 }
 
 double smallest(const std::vector<double>& v) { return v.empty() ? -1 : *std::min_element(v.begin(), v.end()); }

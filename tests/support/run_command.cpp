@@ -34,6 +34,15 @@ std::string fresh_run_dir(const std::string& name) {
   return dir.string();
 }
 
+std::vector<double> over_steps(const Metrics& m, const std::string& node, const std::string& name) {
+  std::vector<double> v;
+  const auto it = m.find({node, name});
+  if (it == m.end()) return v;
+  for (const auto& [step, value] : it->second)
+    if (step > 0) v.push_back(value);
+  return v;
+}
+
 Metrics read_metrics(const std::string& run_dir) {
   std::ifstream in(run_dir + "/metrics.csv");
   if (!in) throw std::runtime_error("no metrics.csv in " + run_dir);

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 #include <utility>
 
 namespace hemo::test {
@@ -25,6 +26,8 @@ std::string file_text(const std::string& path);      // a file's whole text ("" 
 // metrics.csv of a run: (node, name) -> step -> value
 using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;
 Metrics read_metrics(const std::string& run_dir);
+// One series' values over the coupled steps (step 0, the start-up, left out; empty when absent).
+std::vector<double> over_steps(const Metrics& m, const std::string& node, const std::string& name);
 // The last value of one series (throws when absent).
 double last(const Metrics& m, const std::string& node, const std::string& name);
 
