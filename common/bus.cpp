@@ -615,14 +615,12 @@ void Heartbeat::Impl::run(const RunContext& ctx, const std::string& sender, doub
   const bool listening = report.listen && wire && listen(*wire, channel, ctx, sender);
   const auto key = seal_key(ctx.secret);
   std::size_t reported = 0;  // heard senders in the file so far (the constructor wrote none)
-  bool written = true;
   // At once when the set grows, not at the next heartbeat: a short run may end before that.
   const auto report_heard = [&] {
     if (report.file.empty()) return;
     const auto now_heard = heard_senders();
-    if (written && now_heard.size() == reported) return;
+    if (now_heard.size() == reported) return;
     write_heard_report(report.file, now_heard);
-    written = true;
     reported = now_heard.size();
   };
   const auto start = Clock::now();

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_checkpoint.h"
+#include "engine_state_merge.h"
 
 #include "agree.h"
 
@@ -178,9 +179,10 @@ void LiggghtsCheckpoint::save_contact_history(EngineState& s) const {
 void LiggghtsCheckpoint::restore(const EngineState& written, LiggghtsSession::OpenEndsListener listener) {
   // Written on another rank count: every rank has all the atoms and keeps those in its own
   // sub-domain (the box is set up), each exactly once.
+  const bool other_count = written.ranks != ranks_of(comm_);
   EngineState redistributed;
-  if (written.ranks != ranks_of(comm_)) agreed([&] { redistributed = atoms_in(written, in_own_sub_domain()); }, comm_);
-  const EngineState& s = written.ranks != ranks_of(comm_) ? redistributed : written;
+  if (other_count) agreed([&] { redistributed = atoms_in(written, in_own_sub_domain()); }, comm_);
+  const EngineState& s = other_count ? redistributed : written;
   agreed([&] { check_atoms(s); }, comm_);
   liggghts_.set_timestep(s.dt);
   liggghts_.command(fmt::format("reset_timestep {}", s.dem_step));

@@ -140,14 +140,4 @@ inline EngineState read_engine_state(const std::string& path) {
   return state;
 }
 
-// The states of a checkpoint written on other rank counts, made one: what is the same on every
-// rank from the first, the atoms (and their contact histories) of all of them in rank order.
-// DemEngine::restore then keeps on each rank the atoms inside its own sub-domain (atoms_in).
-EngineState merged(std::vector<EngineState> ranks);
-// The atoms of `s` for which `keep(x, y, z)` is true, with their partners and values.
-template <class Keep>
-EngineState atoms_in(const EngineState& s, Keep&& keep);
-
 }  // namespace hemo::particles
-
-#include "engine_state_merge.h"

@@ -36,6 +36,8 @@ void for_each_atom_vector(F&& f) {
 }
 }  // namespace detail
 
+// The states of a checkpoint written on another rank count, made one: what is the same on every
+// rank from the first, the atoms (and their contact histories) of all of them in rank order.
 inline EngineState merged(std::vector<EngineState> ranks) {
   if (ranks.empty()) throw std::invalid_argument("the checkpoint has no rank's state");
   EngineState all = std::move(ranks.front());
@@ -52,6 +54,8 @@ inline EngineState merged(std::vector<EngineState> ranks) {
   return all;
 }
 
+// The atoms of `s` for which `keep(x, y, z)` is true, with their partners and values (each rank
+// of the new count keeps those inside its own sub-domain).
 template <class Keep>
 EngineState atoms_in(const EngineState& s, Keep&& keep) {
   const std::size_t atoms = s.tag.size();

@@ -5,6 +5,7 @@
 #include "cell_fields.h"
 #include "checkpoint_file.h"
 #include "engine_state.h"
+#include "engine_state_merge.h"
 
 #include <checkpoint.h>
 #include <clock.h>

@@ -1,7 +1,7 @@
 // A checkpoint written on one rank count and restored on another: the ranks' states made one,
 // and each new rank's share of it by sub-domain (engine_state_merge.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
-#include <engine_state.h>
+#include <engine_state_merge.h>
 
 #include <gtest/gtest.h>
 
