@@ -36,7 +36,9 @@ void broadcast(Msg& msg, MPI_Comm comm, int rank) {
 
 }  // namespace
 
-RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<ParticlePort>()>& make_port) : comm_(comm) {
+RankedPort::RankedPort(MPI_Comm comm, const RunContext& ctx,
+                       const std::function<std::unique_ptr<ParticlePort>()>& make_port)
+    : comm_(comm), step_(ctx.resume_step) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &ranks_);
   // Rank 0 may fail to join the bus: the others must hear of it rather than wait forever.
@@ -55,6 +57,15 @@ RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<Partic
     if (rank_ == 0) throw std::runtime_error(error);
     throw std::runtime_error("rank 0 could not join the bus: " + error);
   }
+  if (rank_ > 0) {
+    try {
+      reporter_ = std::make_unique<RankReporter>(ctx, "particles", rank_);
+    } catch (const std::exception& e) {
+      error = fmt::format("rank {} could not join the bus: {}", rank_, e.what());
+    }
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw std::runtime_error(error);
 }
 
 void RankedPort::broadcast_control(int& control, std::string& error) {
@@ -135,18 +146,15 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
 
 Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   const TrafficBytes mine = RankTraffic::take();
-  const std::uint64_t own[3] = {mine.sent, mine.received, receiver_ ? receiver_->take_received_bytes() : 0};
-  std::vector<std::uint64_t> all(3 * static_cast<std::size_t>(ranks_));
-  MPI_Gather(own, 3, MPI_UINT64_T, all.data(), 3, MPI_UINT64_T, 0, comm_);
-  Diagnostics out = diag;
-  if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
-  for (int r = 0; r < ranks_; ++r) {
-    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[3 * r]));
-    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[3 * r + 1]));
-    // The partitioned exchange's own measure: the fluid state that reached this rank.
-    if (partitioned_)
-      out.emplace_back(fmt::format("rank{}_received_fluid_state_B", r), static_cast<double>(all[3 * r + 2]));
-  }
+  const std::uint64_t state = receiver_ ? receiver_->take_received_bytes() : 0;
+  const std::uint64_t reports = reporter_ ? reporter_->take_sent_bytes() : 0;
+  Diagnostics out = rank_ == 0 ? diag : Diagnostics();
+  if (diag.empty()) return out;  // a report without diagnostics stays without
+  for (const auto& bytes : rank_bytes(rank_, mine)) out.push_back(bytes);
+  // The partitioned exchange's own measure: the fluid state that reached this rank.
+  if (partitioned_) out.emplace_back(fmt::format("rank{}_received_fluid_state_B", rank_), static_cast<double>(state));
+  // Its own reports and heartbeats (rank 0's are its port's).
+  if (reporter_) out.emplace_back(fmt::format("rank{}_sent_report_B", rank_), static_cast<double>(reports));
   return out;
 }
 
@@ -154,8 +162,8 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   std::optional<ParticleStep> step;
   int control = kContinue;
   std::string error;
-  // Every rank's bytes since its last report (this gather itself not counted: it is the measuring).
   const Diagnostics reported = with_rank_traffic(diag);
+  if (reporter_) reporter_->report(step_, reported);
   if (rank_ == 0) {
     try {
       step = partitioned_ ? port_->advance_partitioned(feedback, reported) : port_->advance(feedback, reported);
@@ -169,6 +177,13 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
   if (control == kStop) return std::nullopt;
   if (rank_ != 0) step.emplace();
+  // Whatever comes next, the rank's wait is over once the step's order and inputs are here.
+  struct WaitEnds {
+    RankReporter* reporter;
+    ~WaitEnds() {
+      if (reporter) reporter->begin_step();
+    }
+  } wait_ends{reporter_.get()};
   broadcast(step->order, comm_, rank_);
   step_ = step->order.envelope.step;
   if (!partitioned_) {
@@ -193,11 +208,15 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   return step;
 }
 
+// The ranks' own ends of the bus go too: the process may exit without unwinding, and a resend
+// thread still signing at exit could crash it.
 void RankedPort::finalize() {
+  reporter_.reset();
   if (port_) port_->finalize();
 }
 
 void RankedPort::fail(const std::string& error) {
+  reporter_.reset();
   if (port_) port_->fail(error);
 }
 
