@@ -188,11 +188,12 @@ TEST(PartitionedRun, LostPartitionsAreAskedAgainAndLeaveTheResultUnchanged) {
 }
 
 // A particle rank takes its state after the order (RankedPort::advance), while the fluid solves:
-// that wait is waiting, not the particle node's computing. In the serial scheme the fluid's
-// compute (from its order to its state) and the particles' (from their state to their report)
-// are disjoint parts of every step's wall time, so what the lockstep calls the coupling overhead,
+// that wait is waiting, not the particle node's computing; and the fluid ranks' publishing of
+// their partitions is coupling, not the fluid's computing (NodePort::end_computing). In the serial
+// scheme the fluid's compute (from its order to its state) and the particles' (from their state
+// to their report) are then disjoint parts of every step's wall time, so what the lockstep calls the coupling overhead,
 // the wall time less both, is never negative (it was by about the fluid's solve when the wait
-// counted as computing).
+// counted as computing, and by up to 0.1 ms, the publishing, under load).
 TEST(PartitionedRun, WaitingForTheStateIsNotComputing) {
   const RankedRun& b = two_by_two();
   const auto overhead = over_steps(b, "lockstep", "coupling_overhead_s");
