@@ -238,12 +238,16 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
   if (dir.placement.across_hosts()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
-  if (opt.particle_ranks > 0 && opt.particle_ranks != scene.run.particle_ranks) {
+  // A node's ranks on other hosts were placed at the run's start (host:ranks): a new count
+  // would need a new placement.
+  for (const auto& [asked, ranks, what] : {std::tuple{opt.particle_ranks, &scene.run.particle_ranks, "particle"},
+                                           std::tuple{opt.fluid_ranks, &scene.run.fluid_ranks, "fluid"}}) {
+    if (asked <= 0 || asked == *ranks) continue;
     if (dir.placement.across_hosts())
       throw std::runtime_error(fmt::format(
-          "{} runs across hosts, whose ranks were placed at its start: resume it on its {} particle ranks", dir.path,
-          scene.run.particle_ranks));
-    scene.run.particle_ranks = opt.particle_ranks;
+          "{} runs across hosts, whose ranks were placed at its start: resume it on its {} {} ranks", dir.path,
+          *ranks, what));
+    *ranks = asked;
   }
   if (dir.transport_recorded) {
     scene.hosts.transport = dir.placement.transport;
