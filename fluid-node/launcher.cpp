@@ -117,7 +117,7 @@ void copy_folder(const std::filesystem::path& from, const std::filesystem::path&
 // Logs: RUN_DIR/fluid/log.redistribute.*.
 void redistribute_checkpoint(const std::string& scene_file, const std::string& run_dir, long step, int ranks) try {
   namespace fs = std::filesystem;
-  const fs::path checkpoint = hemo::checkpoint_of(run_dir, step, "fluid");
+  const fs::path checkpoint = fs::path(hemo::checkpoint_folder(run_dir, step)) / "fluid";
   if (!fs::is_directory(checkpoint)) return;  // the solver names what is missing
   const int written = checkpoint_ranks(checkpoint);
   if (written == ranks) return;
