@@ -86,6 +86,12 @@ class NodePort {
   // still signing while OpenSSL is torn down at exit crashes the process after a good run.
   void finalize();
   void fail(const std::string& error);
+  // A wait for this step's input that happened after advance() returned (the partitioned
+  // exchange's ranks take their parts themselves): counted as waiting, not computing.
+  void count_as_waiting(double seconds) {
+    times_.wait_s += seconds;
+    step_started_ += seconds;
+  }
 
  protected:
   // Publishes `kind` for the current step (kept for resends) and STEP_DONE, in the order that

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -194,9 +195,11 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   try {
     // Rank 0 keeps serving its port meanwhile: the fluid may be asking again for the feedback
     // it needs before it can publish this state.
+    const auto waiting = std::chrono::steady_clock::now();
     step->fluid = receiver_->receive(step_ - fluid_lag_, [this] {
       if (port_) port_->serve();
     });
+    if (port_) port_->count_as_waiting(std::chrono::duration<double>(std::chrono::steady_clock::now() - waiting).count());
   } catch (const std::exception& e) {
     error = e.what();
   }
