@@ -226,6 +226,32 @@ TEST(Checkpoint, ResumedRunOfOneFluidRankOnTwoEqualsTheUninterruptedRunToRoundOf
   expect_resumed_run_equals_uninterrupted("checkpoint-1-fluid-rank", "", 1e-12, " --np-fluid 2");
 }
 
+// More fluid ranks than the mesh has layers along the axis: `run` refuses them before it makes the
+// run directory, `resume` before it changes the run (its recorded counts stay), in one line.
+TEST(Checkpoint, MoreFluidRanksThanAxialLayersAreRefusedInOneLine) {
+  const std::string dir = fresh_run_dir("fluid-ranks-refused");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(40, 8);
+  const auto fresh = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + "-never --np-fluid 7");
+  EXPECT_NE(fresh.exit_code, 0);
+  EXPECT_NE(error_line(fresh.output).find("7 ranks need at least as many axial cells (mesh.axial_cells = 6)"),
+            std::string::npos)
+      << fresh.output;
+  EXPECT_FALSE(fs::exists(dir + "-never"));
+
+  const auto first = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --stop-after-step 8");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string recorded = file_text(dir + "/run.toml");
+  const auto resumed = run(bin("hemocosim") + " resume " + dir + " --np-fluid 7");
+  EXPECT_NE(resumed.exit_code, 0);
+  const std::string line = error_line(resumed.output);
+  EXPECT_NE(line.find(dir + ": the fluid is decomposed along the vessel axis: 7 ranks need at least as many axial "
+                            "cells (mesh.axial_cells = 6)"),
+            std::string::npos)
+      << resumed.output;
+  EXPECT_EQ(resumed.output.find("restarting"), std::string::npos) << resumed.output;
+  EXPECT_EQ(file_text(dir + "/run.toml"), recorded);
+}
+
 namespace {
 
 // Waits until the run in `dir` has a checkpoint of both nodes other than `but`, then sends
