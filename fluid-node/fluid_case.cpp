@@ -339,10 +339,7 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
 
 void write_decomposition(const std::string& case_dir, int ranks, const MeshSpec& mesh) {
   if (ranks < 2) throw std::invalid_argument("a decomposed fluid needs at least 2 ranks");
-  if (mesh.axial_cells < ranks)
-    throw std::invalid_argument(
-        "the fluid is decomposed along the vessel axis: " + std::to_string(ranks) +
-        " ranks need at least as many axial cells (mesh.axial_cells = " + std::to_string(mesh.axial_cells) + ")");
+  if (const auto problem = fluid_ranks_problem(mesh, ranks)) throw std::invalid_argument(*problem);
   std::string s = header("dictionary", "system", "decomposeParDict");
   s += "numberOfSubdomains " + std::to_string(ranks) +
        ";\n\n"

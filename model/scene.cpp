@@ -1049,6 +1049,14 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
 // A regular n-gon tangent to the circle of radius R has its corners at R / cos(π/n) and area over
 // perimeter R/2; one with its corners on the circle has area over perimeter (R/2) cos(π/n).
+std::optional<std::string> fluid_ranks_problem(const MeshSpec& mesh, int ranks) {
+  if (ranks <= mesh.axial_cells) return std::nullopt;
+  return fmt::format(
+      "the fluid is decomposed along the vessel axis: {} ranks need at least as many axial cells (mesh.axial_cells = "
+      "{})",
+      ranks, mesh.axial_cells);
+}
+
 double MeshSpec::wall_corner_radius() const {
   return wall_polygon == "inscribed" ? 1.0 : 1.0 / std::cos(units::pi / wall_sides());
 }

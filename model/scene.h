@@ -62,6 +62,11 @@ struct MeshSpec {
   double hydraulic_diameter_ratio() const;  // 4A/P of the cross-section, in vessel diameters
 };
 
+// Why the fluid node cannot run on `ranks` MPI ranks: it splits whole cross-sections along the
+// vessel axis (fluid-node/fluid_case.h, write_decomposition), so it needs as many axial cells at
+// least. Nothing when it can.
+std::optional<std::string> fluid_ranks_problem(const MeshSpec& mesh, int ranks);
+
 struct Plasma {
   double density = 1025;      // kg/m^3
   double viscosity = 1.2e-3;  // Pa s (dynamic)
