@@ -494,24 +494,24 @@ void check_geometry_and_work(Reader& r, const Scene& s, double narrowest_end) {
   const double d_vessel = s.vessel.diameter;
   // A surface vessel's cells are snapped cubes (fluid-node/surface_mesh.h): unresolved CFD-DEM
   // needs them wider than the cells it carries, unless a kernel wider than the particle shares them
-  // (model/solid_fraction_names.h), which must span a cube and fit the narrowest end.
+  // (model/solid_fraction_names.h), at least a cube wide at half maximum and at most the narrowest
+  // end's radius.
   if (surface_vessel(s.vessel)) {
     const double cube = s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : d_vessel / 12;
-    if (s.solid_fraction == kKernelSolidFraction) {
+    if (shares_over_kernel(s.solid_fraction)) {
       for (const Species* sp : {&s.rbc, &s.platelet}) {
         if (!sp->present) continue;
         const double fwhm = s.kernel_width_diameters * sp->diameter;
-        const double across = 2 * kernel_reach(s.kernel_width_diameters, sp->diameter);
         if (fwhm < cube)
           fail("coupling.kernel_width_diameters", fmt::format("{:g}", s.kernel_width_diameters),
                fmt::format("a {}'s kernel ({:g} um at half maximum) is narrower than the snapped cubes ({:g} um): "
                            "the cells' centres would not sample it; widen it or use smaller cubes",
                            sp->name, fwhm / units::um, cube / units::um));
-        else if (narrowest_end > 0 && across > narrowest_end)
+        else if (narrowest_end > 0 && fwhm > narrowest_end / 2)
           fail("coupling.kernel_width_diameters", fmt::format("{:g}", s.kernel_width_diameters),
-               fmt::format("a {}'s kernel reaches {:.3g} um across, more than the vessel's narrowest end ({:.3g} "
-                           "um): it would average the flow across the vessel; narrow it",
-                           sp->name, across / units::um, narrowest_end / units::um));
+               fmt::format("a {}'s kernel ({:.3g} um at half maximum) is wider than the radius of the vessel's "
+                           "narrowest end ({:.3g} um): it would average the flow across the vessel; narrow it",
+                           sp->name, fwhm / units::um, narrowest_end / 2 / units::um));
       }
       return;
     }
@@ -1105,9 +1105,9 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                                           : "ours: K from the interval's drag response"},
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
-  if (s.solid_fraction == kKernelSolidFraction)  // the others are the paper's unresolved sharing
+  if (shares_over_kernel(s.solid_fraction))  // the others are the paper's unresolved sharing
     r.push_back({"coupling.solid_fraction", s.solid_fraction,
-                 fmt::format("Capecelatro & Desjardins (2013)'s Gaussian filter, {:g} particle diameters at half "
+                 fmt::format("Capecelatro & Desjardins (2013)'s Gaussian filter, {:g} x the particle's diameter at half "
                              "maximum, cut at 3 sigma, read over the same cells",
                              s.kernel_width_diameters)});
   if (!surface_vessel(s.vessel))  // the O-grid's wall; a surface vessel's is snappyHexMesh's

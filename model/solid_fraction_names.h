@@ -18,6 +18,7 @@ inline constexpr std::array<std::string_view, 3> kSolidFractionNames = {"centre_
 // The model that shares a particle over a kernel wider than the particle, set by
 // coupling.kernel_width_diameters; the scene accepts fluid cells narrower than a particle with it.
 inline constexpr std::string_view kKernelSolidFraction = kSolidFractionNames[1];
+inline bool shares_over_kernel(const std::string& solid_fraction) { return solid_fraction == kKernelSolidFraction; }
 
 inline const std::vector<std::string>& known_solid_fractions() {
   static const std::vector<std::string> n(kSolidFractionNames.begin(), kSolidFractionNames.end());

@@ -84,10 +84,12 @@ class FluidSampler {
     kernel_ = model != nullptr && model->samples_over_shares() ? model : nullptr;
   }
   // What a particle of radius r centred at x (wrapped, in `cell`) sees: velocity(cell, x) and the
-  // cell's values, or with read_over's model their means with its fractions (each cell's velocity
-  // at x, as seen from that cell, the gradient, and the pressure gradient and viscous force when
-  // the state carries them); the shear rate is the mean gradient's. `gradient`: false leaves the
-  // gradient and shear rate zero.
+  // cell's values, or with read_over's model their means with its fractions: of the gradient, the
+  // pressure gradient and viscous force when the state carries them, and of each cell's velocity
+  // carried to x (as seen from that cell) by the mean of its own and the kernel's mean gradient,
+  // u_c + (1/2) (G_c + G_mean)^T (x - x_c), exact for a linear field and for a quadratic one where
+  // the cells' weighted centre is x (Sampling::cell: the mean of the u_c); the shear rate is the
+  // mean gradient's. `gradient`: false leaves the gradient and shear rate zero.
   struct Seen {
     Vec3 velocity = Vec3::Zero();
     Mat3 gradient = Mat3::Zero();

@@ -629,8 +629,8 @@ TEST(BifurcationWall, APointInTheParentBeforeTheJunctionIsInTheParentsSection) {
 
 // A 30-um bifurcation's default cubes (2.5 um, d/12) are narrower than a red cell: refused with
 // the particle's own sharing, accepted with a Gaussian kernel (coupling.solid_fraction
-// "gaussian_kernel"), whose width is refused in one line when it is narrower than a cube or
-// reaches across more than the narrowest end (the Murray daughters' 23.8 um).
+// "gaussian_kernel"), whose width is refused in one line when it is narrower than a cube or wider
+// than the narrowest end's radius (the Murray daughters' 23.8 um across), at half maximum.
 TEST(SurfaceScene, AKernelCarriesRedCellsInCubesNarrowerThanThem) {
   auto one = [](const std::string& text, const std::string& key, const std::string& part) {
     const auto ps = scene_problems(text);
@@ -650,9 +650,10 @@ TEST(SurfaceScene, AKernelCarriesRedCellsInCubesNarrowerThanThem) {
   EXPECT_EQ(s.kernel_width_diameters, 1.0);
   one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 0.4\n"), "coupling.kernel_width_diameters",
       "a rbc's kernel (2.224 um at half maximum) is narrower than the snapped cubes (2.5 um)");
-  // 2 diameters: three sigma each side, 28.3 um across, against daughters of 23.8 um.
-  one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 2\n"), "coupling.kernel_width_diameters",
-      "a rbc's kernel reaches 28.3 um across, more than the vessel's narrowest end (23.");
+  // 2.2 diameters: 12.2 um at half maximum, against daughters of 23.8 um (a radius of 11.9); 2 fit.
+  one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 2.2\n"), "coupling.kernel_width_diameters",
+      "a rbc's kernel (12.2 um at half maximum) is wider than the radius of the vessel's narrowest end (11.9 um)");
+  EXPECT_TRUE(scene_problems(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 2\n")).empty());
   one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 0\n"), "coupling.kernel_width_diameters",
       "must be positive");
 }
