@@ -220,6 +220,7 @@ class Reader {
         {"run.particle_ranks", {ninf, 4096}},
         {"run.bus_check_s", {ninf, 3600}},
         {"run.max_courant", {ninf, 1000}},
+        {"coupling.kernel_width_diameters", {ninf, 100}},  // a kernel wider averages the flow away
         {"vessel.diameter_um", {5, 1e4}},  // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
         {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
