@@ -3,6 +3,7 @@
 #include "fluid_case.h"
 
 #include <geometry.h>
+#include <solid_fraction_names.h>
 
 #include <algorithm>
 #include <cmath>
@@ -230,8 +231,11 @@ FluidSettings fluid_settings(const Scene& scene) {
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");
   f.solver = scene.fluid;
   f.skip_when_steady = scene.fluid.skip_when_steady && !scene.two_way;
-  for (const Species* s : {&scene.rbc, &scene.platelet})
-    if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
+  // A kernel wider than the particles shares them over cells narrower than they are (the scene
+  // checks the kernel against the cells): nothing to refuse here.
+  if (!shares_over_kernel(scene.solid_fraction))
+    for (const Species* s : {&scene.rbc, &scene.platelet})
+      if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
   return f;
 }
 
