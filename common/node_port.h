@@ -92,6 +92,9 @@ class NodePort {
     times_.wait_s += seconds;
     step_started_ += seconds;
   }
+  // The step's computing ends now, before the node's ranks publish their parts themselves (the
+  // partitioned exchange): publishing counts as coupling, not computing, as advance's own does.
+  void end_computing() { computed_at_ = now(); }
 
  protected:
   // Publishes `kind` for the current step (kept for resends) and STEP_DONE, in the order that
@@ -103,7 +106,9 @@ class NodePort {
   std::optional<std::pair<step_order_t, Received>> advance_with(const std::string& out_kind, Out& out,
                                                                 const std::string& input_kind, int input_offset,
                                                                 const Diagnostics& diag, bool report_first) {
-    times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
+    // Publishing counts as coupling, not computing.
+    times_.compute_s = computed_at_.value_or(now()) - step_started_;
+    computed_at_.reset();
     const Diagnostics reported = with_bus_traffic(diag);
     if (report_first) report_done(true, "", reported);
     // No `out_kind`: the node's ranks published their parts themselves (the partitioned exchange).
@@ -147,6 +152,7 @@ class NodePort {
   std::int64_t step_ = 0;
   std::optional<int> peer_ranks_;  // the other node's hello's, once heard
   StepTimes times_;
+  std::optional<double> computed_at_;  // end_computing's, for the next report
   BusTraffic traffic_reported_;  // the bus's totals at the last report
   double step_started_ = 0;
 };

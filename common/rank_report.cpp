@@ -74,7 +74,8 @@ void RankReporter::report(std::int64_t step, const Diagnostics& diag) {
   step_done_t done;
   done.node = role_;
   done.ok = true;
-  done.compute_s = now() - step_started_;
+  done.compute_s = (computed_at_ >= 0 ? computed_at_ : now()) - step_started_;
+  computed_at_ = -1;
   done.wait_s = wait_s_;
   done.n_diagnostics = static_cast<int32_t>(diag.size());
   for (const auto& [name, value] : diag) {

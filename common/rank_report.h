@@ -44,6 +44,8 @@ class RankReporter {
   void report(std::int64_t step, const Diagnostics& diag);
   // The rank has the next step's order and inputs: its wait ends and its computing begins.
   void begin_step();
+  // Its computing ends now, before it publishes its part of the step (publishing is coupling).
+  void end_computing() { computed_at_ = now(); }
   // The bytes of its reports and heartbeats published (resends too) since the last call: what
   // reporting by rank costs the rank (rank<r>_sent_report_B).
   std::uint64_t take_sent_bytes();
@@ -56,6 +58,7 @@ class RankReporter {
   std::string channel_;
   Bus bus_;
   double step_started_;
+  double computed_at_ = -1;  // end_computing's (< 0: at the report)
   double waiting_since_ = 0;
   double wait_s_ = 0;  // of the step being computed: from the last report to its order
   std::atomic<bool> stop_{false};
