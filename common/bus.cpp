@@ -5,6 +5,7 @@
 #include "run_files.h"
 
 #include <hemo/control_t.hpp>
+#include <hemo/feedback_partition_t.hpp>
 #include <hemo/fluid_decomposition_t.hpp>
 #include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
@@ -268,7 +269,8 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
     return kind == channel_kind ? decode_as<fluid_state_t>(bytes) : decode_as<fluid_partition_t>(bytes);
   if (kind == channel::partition) return decode_as<fluid_decomposition_t>(bytes);
   if (kind == channel::domain) return decode_as<particle_domain_t>(bytes);
-  if (kind == channel::particle_feedback) return decode_as<particle_feedback_t>(bytes);
+  if (kind == channel::particle_feedback)
+    return kind == channel_kind ? decode_as<particle_feedback_t>(bytes) : decode_as<feedback_partition_t>(bytes);
   if (kind == channel::step_done) return decode_as<step_done_t>(bytes);
   if (kind == channel::resend) return decode_as<resend_request_t>(bytes);
   if (kind == channel::control) return decode_as<control_t>(bytes);

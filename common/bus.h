@@ -77,7 +77,8 @@ std::string base_kind(const std::string& kind);
 // A kind's channel between fluid rank f of nf and particle rank p of np: "<KIND>.<f>.<p>" (its
 // publisher's alone), or the kind itself with one rank each. A FLUID_STATE channel of a pair
 // carries fluid_partition_t, the state of the cells p takes from f; FLUID_STATE itself, the
-// whole mesh's fluid_state_t.
+// whole mesh's fluid_state_t. A PARTICLE_FEEDBACK channel of a pair carries feedback_partition_t,
+// p's partial feedback for those cells; PARTICLE_FEEDBACK itself, the whole mesh's.
 std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, int particle_rank, int particle_ranks);
 
 // Every kind: what the monitor and the tests listen to.

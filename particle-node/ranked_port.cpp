@@ -83,11 +83,13 @@ mesh_t RankedPort::initialize() {
   broadcast_control(control, error);
   if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
   broadcast(mesh, comm_, rank_);
-  int shared[2] = {fluid_ranks, fluid_lag_};
-  MPI_Bcast(shared, 2, MPI_INT, 0, comm_);
-  fluid_lag_ = shared[1];
-  partitioned_ = hemo::partitioned(shared[0], ranks_);
-  fluid_ranks_ = shared[0];
+  // The step each rank's feedback is published as (a resumed run's first is its checkpoint's).
+  long long shared[3] = {fluid_ranks, fluid_lag_, rank_ == 0 ? static_cast<long long>(port_->step()) : 0};
+  MPI_Bcast(shared, 3, MPI_LONG_LONG, 0, comm_);
+  fluid_lag_ = static_cast<int>(shared[1]);
+  step_ = shared[2];
+  fluid_ranks_ = static_cast<int>(shared[0]);
+  partitioned_ = hemo::partitioned(fluid_ranks_, ranks_);
   return mesh;
 }
 
@@ -124,6 +126,7 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
     receiver_ = std::make_unique<ParticleRankReceiver>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_],
                                                        mesh.mesh_hash, mesh.n_cells,
                                                        kCoordinatorPatience * ctx.timeout_s);
+    publisher_ = std::make_unique<ParticleRankPublisher>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_]);
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -134,17 +137,21 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
 
 Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   const TrafficBytes mine = RankTraffic::take();
-  const std::uint64_t own[3] = {mine.sent, mine.received, receiver_ ? receiver_->take_received_bytes() : 0};
-  std::vector<std::uint64_t> all(3 * static_cast<std::size_t>(ranks_));
-  MPI_Gather(own, 3, MPI_UINT64_T, all.data(), 3, MPI_UINT64_T, 0, comm_);
+  const std::uint64_t own[4] = {mine.sent, mine.received, receiver_ ? receiver_->take_received_bytes() : 0,
+                                publisher_ ? publisher_->take_sent_bytes() : 0};
+  std::vector<std::uint64_t> all(4 * static_cast<std::size_t>(ranks_));
+  MPI_Gather(own, 4, MPI_UINT64_T, all.data(), 4, MPI_UINT64_T, 0, comm_);
   Diagnostics out = diag;
   if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
   for (int r = 0; r < ranks_; ++r) {
-    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[3 * r]));
-    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[3 * r + 1]));
-    // The partitioned exchange's own measure: the fluid state that reached this rank.
-    if (partitioned_)
-      out.emplace_back(fmt::format("rank{}_received_fluid_state_B", r), static_cast<double>(all[3 * r + 2]));
+    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[4 * r]));
+    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[4 * r + 1]));
+    // The partitioned exchange's own measures: the fluid state that reached this rank, the
+    // feedback it sent.
+    if (partitioned_) {
+      out.emplace_back(fmt::format("rank{}_received_fluid_state_B", r), static_cast<double>(all[4 * r + 2]));
+      out.emplace_back(fmt::format("rank{}_sent_feedback_B", r), static_cast<double>(all[4 * r + 3]));
+    }
   }
   return out;
 }
@@ -153,11 +160,22 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   std::optional<ParticleStep> step;
   int control = kContinue;
   std::string error;
+  if (partitioned_) {
+    // Every rank its own partial sums to the fluid ranks whose cells they reach, before rank 0
+    // reports the step: what the next order makes the fluid wait for is then published.
+    try {
+      publisher_->publish(feedback, step_);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    error = agree_on_error(error, comm_);
+    if (!error.empty()) throw ExchangeError(error);
+  }
   // Every rank's bytes since its last report (this gather itself not counted: it is the measuring).
   const Diagnostics reported = with_rank_traffic(diag);
   if (rank_ == 0) {
     try {
-      step = partitioned_ ? port_->advance_partitioned(feedback, reported) : port_->advance(feedback, reported);
+      step = partitioned_ ? port_->advance_partitioned(reported) : port_->advance(feedback, reported);
       control = step ? kContinue : kStop;
     } catch (const std::exception& e) {
       control = kError;
