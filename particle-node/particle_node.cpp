@@ -34,6 +34,12 @@ void require_same(double scene_value, double mesh_value, const char* what) {
 }
 
 constexpr const char* kRole = "particles";     // the checkpoint's folder (common/checkpoint.h)
+
+// A partitioned exchange's rank's own deposition in a checkpoint folder: the cells it takes and
+// their accumulators (Deposition::kStride each).
+std::string own_deposition_file(const std::string& folder, int rank) {
+  return folder + "/deposition-rank" + std::to_string(rank) + ".h5";
+}
 constexpr std::int64_t kCheckpointFormat = 2;  // 2: the fluid state's pressure gradient
 
 void broadcast(std::string& text, int root, MPI_Comm comm) {
@@ -143,6 +149,7 @@ void ParticleNode::resume(long step) {
     fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient,
                      saved.fluid_viscous_force);
   if (rank_ == 0) output_resumes_after_ = step;  // particles.h5 is opened at the first snapshot
+  resumed_from_ = {checkpoint_of(run_dir_, step, kRole), saved.ranks};
   spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
 }
 
@@ -234,11 +241,59 @@ void ParticleNode::use_overlap(const OverlapMap& map) {
         if (p == rank_) designated_[static_cast<std::size_t>(c)] = 1;
       }
   fluid_.set_held(held_);
-  // The deposition so far (placed or resumed) was summed over the ranks: each cell's sum stays
-  // with the one rank that speaks for it, so that the fluid's sum of the partials is it.
-  for (std::size_t c = 0; c < n; ++c)
-    if (!designated_[c]) std::fill_n(deposition_.data() + Deposition::kStride * c, Deposition::kStride, 0.0);
+  if (!take_own_deposition()) {
+    // The deposition so far (placed, or resumed on other rank counts) was summed over the ranks:
+    // each cell's sum stays with the one rank that speaks for it, so that the fluid's sum of
+    // the partials is it.
+    for (std::size_t c = 0; c < n; ++c)
+      if (!designated_[c]) std::fill_n(deposition_.data() + Deposition::kStride * c, Deposition::kStride, 0.0);
+  }
   engine_->use_halo(std::make_unique<CellHaloSum>(map, rank_, comm_));
+}
+
+bool ParticleNode::take_own_deposition() {
+  // Resumed on the ranks that wrote the checkpoint: each rank's own, so that the fluid sums the
+  // same partials as the run that wrote it did (bit for bit). Every rank or none. Collective.
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  std::vector<std::int64_t> cells;
+  std::vector<double> values;
+  int usable = 0;
+  if (resumed_from_.second == ranks && std::filesystem::exists(own_deposition_file(resumed_from_.first, rank_))) {
+    try {
+      const CheckpointReader in(own_deposition_file(resumed_from_.first, rank_));
+      in.get("cells", cells);
+      in.get("values", values);
+      usable = values.size() == static_cast<std::size_t>(Deposition::kStride) * cells.size() &&
+               std::all_of(cells.begin(), cells.end(), [&](std::int64_t c) {
+                 return c >= 0 && static_cast<std::size_t>(c) < held_.size() && held_[static_cast<std::size_t>(c)];
+               });
+    } catch (const std::exception&) {
+      usable = 0;
+    }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &usable, 1, MPI_INT, MPI_MIN, comm_);
+  if (!usable) return false;
+  std::fill_n(deposition_.data(), deposition_.size(), 0.0);
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(Deposition::kStride * i), Deposition::kStride,
+                deposition_.data() + Deposition::kStride * static_cast<std::size_t>(cells[i]));
+  return true;
+}
+
+void ParticleNode::write_own_deposition(const std::string& path) const {
+  std::vector<std::int64_t> cells;
+  std::vector<double> values;
+  const double* a = deposition_.data();
+  for (std::size_t c = 0; c < held_.size(); ++c) {
+    if (!held_[c]) continue;
+    cells.push_back(static_cast<std::int64_t>(c));
+    values.insert(values.end(), a + Deposition::kStride * c, a + Deposition::kStride * (c + 1));
+  }
+  CheckpointWriter out(path);
+  out.put("cells", cells);
+  out.put("values", values);
+  out.close();
 }
 
 std::string ParticleNode::deposited_outside_held() const {
@@ -365,7 +420,10 @@ void ParticleNode::write_checkpoint() {
   write_engine_state(engine_state, engine_state_file(folder, rank_));
   const auto fluid = whole_fluid_fields();  // collective
   std::vector<double> deposition(deposition_.data(), deposition_.data() + deposition_.size());
-  if (!held_.empty()) sum_to_root(deposition, rank_, comm_);  // each rank's own: the sum is the node's
+  if (!held_.empty()) {
+    write_own_deposition(own_deposition_file(folder, rank_));
+    sum_to_root(deposition, rank_, comm_);  // each rank's own: the sum is the node's
+  }
   if (rank_ == 0) write_node_checkpoint(folder + "/node.h5", fluid, deposition);
   MPI_Barrier(comm_);  // every rank's file is on disk
   if (rank_ == 0) commit_checkpoint(run_dir_, step_, kRole);

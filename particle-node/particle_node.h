@@ -14,7 +14,9 @@
 //
 // The checkpoint folder (common/checkpoint.h): node.h5 (this class: step, time, interval,
 // warnings given, the interval's deposition and the fluid state it was computed in, the mesh
-// hash and rank count it fits) and engine-rank<r>.h5 per MPI rank (engine_state.h).
+// hash and rank count it fits), engine-rank<r>.h5 per MPI rank (engine_state.h) and, in a
+// partitioned exchange, deposition-rank<r>.h5 (each rank's own deposition of its cells; node.h5
+// holds their sum).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -34,6 +36,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hemo::particles {
@@ -107,6 +110,10 @@ class ParticleNode {
                              const std::vector<double>& deposition);
   // "" when this rank deposited into none but its held cells, else one line naming the cell.
   std::string deposited_outside_held() const;
+  // Partitioned: this rank's own deposition of its held cells, in a checkpoint folder, and its
+  // reading at a resume on the same rank counts (false, on every rank, when any rank cannot).
+  void write_own_deposition(const std::string& path) const;
+  bool take_own_deposition();
   void set_interval(double interval);
   void warn_reynolds();
 
@@ -145,6 +152,8 @@ class ParticleNode {
   // The partitioned exchange's, per cell (empty: not partitioned): this rank holds its fluid
   // state (needed(p)), and it is the lowest rank to.
   std::vector<char> held_, designated_;
+  // The checkpoint folder this node resumed from and the ranks that wrote it (none: not resumed).
+  std::pair<std::string, long> resumed_from_{"", 0};
 };
 
 }  // namespace hemo::particles

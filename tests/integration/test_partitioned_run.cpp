@@ -24,8 +24,8 @@ namespace {
 
 // The small scene twice as long on cells half as long (24 layers of 5 um, 480 cells), so that
 // a particle rank's half of the vessel, with its margin and halo, is not the whole mesh.
-std::string long_scene_text(const std::string& run_keys = "") {
-  std::string text = small_scene_text(12, run_keys);
+std::string long_scene_text(const std::string& run_keys = "", const std::string& more = "") {
+  std::string text = small_scene_text(12, run_keys, more);
   for (const auto& [from, to] : {std::pair<std::string, std::string>{"length_um = 60", "length_um = 120"},
                                  {"axial_cells = 6", "axial_cells = 24"}}) {
     const auto at = text.find(from);
@@ -40,9 +40,10 @@ struct RankedRun {
   Metrics metrics;
 };
 
-RankedRun run_long(const std::string& name, const std::string& ranks, const std::string& run_keys = "") {
+RankedRun run_long(const std::string& name, const std::string& ranks, const std::string& run_keys = "",
+                   const std::string& more = "") {
   RankedRun r{fresh_run_dir(name), {}};
-  std::ofstream(r.dir + ".toml") << long_scene_text(run_keys);
+  std::ofstream(r.dir + ".toml") << long_scene_text(run_keys, more);
   const auto result = run(bin("hemocosim") + " run " + r.dir + ".toml --out " + r.dir + ranks);
   EXPECT_EQ(result.exit_code, 0) << result.output;
   r.metrics = read_metrics(r.dir);
@@ -125,6 +126,17 @@ TEST(PartitionedRun, OneByTwoAndTwoByOneEndAsOneByOneToRoundOff) {
         << r->dir << ": the whole feedback was sent";
     EXPECT_EQ(over_steps(*r, "fluid", "rank0_received_feedback_B").size(), 12u) << r->dir;
   }
+}
+
+// The drag over the void fraction (coupling.momentum = "cfdem_B") reads each cell's solid volume,
+// which every particle rank deposits only its own share of: each rank sums it over the ranks
+// sharing its cells (CellHaloSum). Left out, a cell at the boundary of two slabs would count one
+// rank's particles only, and the drag on the other's would move them by far more than round-off.
+TEST(PartitionedRun, TheDragOverTheVoidFractionSumsTheSolidVolumeOfEveryRank) {
+  const std::string form = "[coupling]\nmomentum = \"cfdem_B\"\n";
+  const RankedRun one = run_long("partitioned-cfdem-1x1", "", "", form);
+  const RankedRun two = run_long("partitioned-cfdem-2x2", " --np-fluid 2 --np-particles 2", "", form);
+  expect_same_run_to_round_off(one, two, "cfdem_B, 2 x 2");
 }
 
 // What each rank of the 2 x 2 run moves: every fluid rank sends its partitions and nothing else
