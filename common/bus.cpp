@@ -366,7 +366,7 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
   RankTraffic::sent(out.size());
   if (keep) {
     std::lock_guard<std::mutex> lock(kept_mutex_);
-    kept_[kind][step] = std::move(buf);
+    kept_[kind][step] = {std::move(buf), wall_clock_us()};
   }
 }
 
@@ -475,14 +475,22 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
     if (msg.kind == channel::resend) {
       const auto req = msg.as<resend_request_t>();  // decoded on arrival
       std::optional<std::vector<std::uint8_t>> kept;
+      bool answered = false;
       {
         std::lock_guard<std::mutex> lock(kept_mutex_);
         const auto kind = kept_.find(req.channel);
         if (kind != kept_.end()) {
           const auto it = kind->second.find(req.wanted_step);
-          if (it != kind->second.end()) kept = it->second;
+          if (it != kind->second.end()) {
+            // A request that reached this host before the message's last publish is answered by
+            // that publish: the requests a busy node finds queued after it publishes (the other
+            // node asks every retry interval while it waits) would each send it again.
+            answered = msg.received_unix_us > 0 && msg.received_unix_us < it->second.published_us;
+            if (!answered) kept = it->second.bytes;
+          }
         }
       }
+      if (answered) continue;
       if (kept) {
         // Publish the same content again with a fresh sequence number and tag.
         auto buf = std::move(*kept);

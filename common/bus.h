@@ -237,7 +237,11 @@ class Bus {
   // A rank's own bus may answer resends from a thread while its owner publishes (fluid ranks of a
   // partitioned exchange: fluidLink.H): what it keeps is under its own lock.
   mutable std::mutex kept_mutex_;
-  std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
+  struct Kept {
+    std::vector<std::uint8_t> bytes;
+    std::int64_t published_us = 0;  // this host's wall clock at its last publish (resends too)
+  };
+  std::map<std::string, std::map<std::int64_t, Kept>> kept_;  // kind -> step -> message
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;
   std::uint64_t received_for_drop_ = 0;
