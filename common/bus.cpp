@@ -287,6 +287,9 @@ std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, in
   if (fluid_ranks * particle_ranks <= 1) return kind;
   return kind + "." + std::to_string(fluid_rank) + "." + std::to_string(particle_rank);
 }
+std::string of_node_rank(const std::string& kind, const std::string& role, int rank) {
+  return kind + "." + role + "." + std::to_string(rank);
+}
 std::vector<std::string> all() {
   return {hello, heartbeat, step, mesh, fluid_state, particle_feedback, step_done, resend, control, partition, domain};
 }
@@ -309,9 +312,13 @@ Bus::Bus(const RunContext& ctx, std::string sender, const std::vector<std::strin
   // receipt: a burst of junk while a node computes a step would push genuine messages out
   // uncounted. Room for a flood of several seconds instead (kSubscriptionQueue), so that whatever
   // arrives is handled here and counted by cause; bounded, so that a flood cannot take all memory.
-  for (const auto& kind : kinds)
-    wire_->subscribe(topic(kind), [this](const std::uint8_t* data, std::size_t len, const std::string& chan,
-                                         std::int64_t recv_utime) { on_raw(data, len, chan, recv_utime); });
+  for (const auto& kind : kinds) listen(kind);
+}
+
+void Bus::listen(const std::string& kind) {
+  if (!listening_.insert(kind).second) return;
+  wire_->subscribe(topic(kind), [this](const std::uint8_t* data, std::size_t len, const std::string& chan,
+                                       std::int64_t recv_utime) { on_raw(data, len, chan, recv_utime); });
 }
 
 Bus::~Bus() { log_counters(/*even_if_clean=*/false); }

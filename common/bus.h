@@ -22,6 +22,7 @@
 #include <string>
 #include <typeindex>
 #include <typeinfo>
+#include <utility>
 #include <vector>
 
 namespace CLI {
@@ -80,6 +81,12 @@ std::string base_kind(const std::string& kind);
 // whole mesh's fluid_state_t. A PARTICLE_FEEDBACK channel of a pair carries feedback_partition_t,
 // p's partial feedback for those cells; PARTICLE_FEEDBACK itself, the whole mesh's.
 std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, int particle_rank, int particle_ranks);
+
+// What rank `rank` (>= 1) of a node on several ranks (`role`: "fluid", "particles") tells the
+// coordinator alone, its step reports (STEP_DONE) and heartbeats (HEARTBEAT): on
+// "<KIND>.<role>.<rank>", that rank's own channels (common/rank_report.h). Rank 0's are the
+// node's, on STEP_DONE and HEARTBEAT.
+std::string of_node_rank(const std::string& kind, const std::string& role, int rank);
 
 // Every kind: what the monitor and the tests listen to.
 std::vector<std::string> all();
@@ -190,6 +197,10 @@ class Bus {
     publish_encoded(kind, step, std::move(buf), keep);
   }
 
+  // Listens to the run's channel of `kind` from now on as well (nothing if it already does). Not
+  // from inside LCM's dispatch: from the polling thread, between polls or in poll's handler.
+  void listen(const std::string& kind);
+
   // Asks the publisher of (kind, step) to publish it again.
   void request_resend(const std::string& kind, std::int64_t step);
 
@@ -226,6 +237,7 @@ class Bus {
   RunContext ctx_;
   std::string sender_;
   std::unique_ptr<Wire> wire_;
+  std::set<std::string> listening_;  // the kinds subscribed to
   std::vector<std::uint8_t> seal_key_;  // opens sealed messages, whether this process seals or not
   std::mutex publish_mutex_;
   mutable std::mutex counters_mutex_;

@@ -86,6 +86,15 @@ class NodePort {
   // still signing while OpenSSL is torn down at exit crashes the process after a good run.
   void finalize();
   void fail(const std::string& error);
+  // A wait for this step's input that happened after advance() returned (the partitioned
+  // exchange's ranks take their parts themselves): counted as waiting, not computing.
+  void count_as_waiting(double seconds) {
+    times_.wait_s += seconds;
+    step_started_ += seconds;
+  }
+  // The step's computing ends now, before the node's ranks publish their parts themselves (the
+  // partitioned exchange): publishing counts as coupling, as advance()'s own publishing does.
+  void end_computing() { computing_ended_at_ = now(); }
 
  protected:
   // Publishes `kind` for the current step (kept for resends) and STEP_DONE, in the order that
@@ -97,7 +106,9 @@ class NodePort {
   std::optional<std::pair<step_order_t, Received>> advance_with(const std::string& out_kind, Out& out,
                                                                 const std::string& input_kind, int input_offset,
                                                                 const Diagnostics& diag, bool report_first) {
-    times_.compute_s = now() - step_started_;  // publishing counts as coupling, not computing
+    // Publishing counts as coupling, not computing.
+    times_.compute_s = (computing_ended_at_ ? *computing_ended_at_ : now()) - step_started_;
+    computing_ended_at_.reset();
     const Diagnostics reported = with_bus_traffic(diag);
     if (report_first) report_done(true, "", reported);
     // No `out_kind`: the node's ranks published their parts themselves (the partitioned exchange).
@@ -143,6 +154,7 @@ class NodePort {
   StepTimes times_;
   BusTraffic traffic_reported_;  // the bus's totals at the last report
   double step_started_ = 0;
+  std::optional<double> computing_ended_at_;  // end_computing's, for the step's report
 };
 
 class FluidPort : public NodePort {

@@ -5,10 +5,12 @@
 #include "hosts.h"
 #include "liveness.h"
 #include "node_port.h"
+#include "rank_exchange.h"
 #include "stability_guard.h"
 #include "traffic.h"
 
 #include <hemo/heartbeat_t.hpp>
+#include <hemo/hello_t.hpp>
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
 
@@ -95,6 +97,16 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
   std::ofstream(dir_.path + "/" + node + ".pid") << state.process->pid() << "\n";
   state.last_heard = now();
   state.heard = false;
+  state.reports = RankReports(ranks, now());
+  listen_to_ranks(node);
+}
+
+void Lockstep::listen_to_ranks(const std::string& node) {
+  for (int r = 1; r < nodes_.at(node).reports.ranks(); ++r) {
+    rank_senders_[rank_sender(node, r)] = {node, r};
+    bus_->listen(channel::of_node_rank(channel::step_done, node, r));
+    bus_->listen(channel::of_node_rank(channel::heartbeat, node, r));
+  }
 }
 
 void Lockstep::order(long step, double time_s, double dt_s, bool write_output, bool write_checkpoint) {
@@ -139,8 +151,7 @@ void Lockstep::record(const Received& msg) {
                       paused_s_ > 0 ? ", because the coordinator was " + pause_words(paused_s_) : "", done.error));
     throw std::runtime_error(fmt::format("{} node failed at step {}: {}", done.node, msg.envelope.step, done.error));
   }
-  if (msg.envelope.step <= node.done_step) return;  // a repeat
-  node.done_step = msg.envelope.step;
+  if (!node.reports.reported(0, msg.envelope.step, now())) return;  // a repeat
   node.compute = done.compute_s;
   node.wait = done.wait_s;
   node.last.clear();
@@ -168,6 +179,31 @@ void Lockstep::record(const Received& msg) {
   for (std::size_t i = 0; i < done.names.size(); ++i) row(done.names[i], done.values[i]);
   // Raised by await() once the bus has returned: never thrown through the bus's handlers.
   if (unstable_.empty()) unstable_ = unstable_step(done.node, k, done.names, done.values, scene_.run);
+}
+
+void Lockstep::record_rank(const Received& msg, const std::string& name, int rank) {
+  const auto done = msg.as<step_done_t>();
+  if (done.node != name || msg.envelope.sender != rank_sender(name, rank)) return;
+  if (!done.ok)
+    throw std::runtime_error(
+        fmt::format("{} node's rank {} failed at step {}: {}", name, rank, msg.envelope.step, done.error));
+  auto& node = nodes_.at(name);
+  if (!node.reports.reported(rank, msg.envelope.step, now())) return;  // a repeat
+  const long k = msg.envelope.step;
+  if (k == first_step_ && k > 0) return;  // a resumed run's start-up: the run kept its metrics
+  const std::string compute = fmt::format("rank{}_compute_s", rank), wait = fmt::format("rank{}_wait_s", rank);
+  if (k > first_step_) {
+    node.totals[compute] += done.compute_s;
+    node.totals[wait] += done.wait_s;
+    for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i) {
+      const std::string& n = done.names[i];
+      if (n.size() > 2 && n.compare(n.size() - 2, 2, "_B") == 0) node.bytes[n] += done.values[i];
+    }
+  }
+  unwritten_.push_back({k, step_time_s_, name, compute, done.compute_s});
+  unwritten_.push_back({k, step_time_s_, name, wait, done.wait_s});
+  for (std::size_t i = 0; i < done.names.size() && i < done.values.size(); ++i)
+    unwritten_.push_back({k, step_time_s_, name, done.names[i], done.values[i]});
 }
 
 long Lockstep::common_checkpoint() const {
@@ -200,6 +236,15 @@ void Lockstep::check_health(long step) {
       throw NodeLost(fmt::format("{} node {} at step {}: no heartbeat for {:.0f} s{} (log: {})", name,
                                  node.heard ? "stopped answering" : "did not start", step, allowance,
                                  why_silent(name, node), node.process->log_path()));
+    // Its other ranks beat on their own: one of them stopped (killed, frozen, its host gone)
+    // while rank 0 still beats.
+    if (const auto rank = node.reports.silent(now(), scene_.run.node_timeout, scene_.run.startup_timeout))
+      throw NodeLost(fmt::format("{} node's rank {} of {} {} at step {}: no heartbeat for {:.0f} s (log: {})", name,
+                                 rank->rank, node.reports.ranks(),
+                                 rank->started ? "stopped answering" : "did not start", step,
+                                 rank->started ? scene_.run.node_timeout
+                                               : std::max(scene_.run.node_timeout, scene_.run.startup_timeout),
+                                 node.process->log_path()));
   }
 }
 
@@ -221,7 +266,10 @@ std::string Lockstep::why_silent(const std::string& name, NodeState& node) const
 void Lockstep::forgive_own_pause(long step, double* step_started) {
   const double away = pauses_.turn();
   if (away <= 0) return;
-  for (auto& [name, node] : nodes_) node.last_heard = std::min(now(), node.last_heard + away);
+  for (auto& [name, node] : nodes_) {
+    node.last_heard = std::min(now(), node.last_heard + away);
+    node.reports.forgive(away, now());
+  }
   if (step_started) *step_started += away;
   paused_s_ = away;
   if (away > std::min(5.0, scene_.run.node_timeout / 2))
@@ -274,8 +322,24 @@ void Lockstep::hear(double wait_s) {
     if (it != nodes_.end()) {
       it->second.last_heard = now();
       it->second.heard = true;
+      // Its hello says on how many ranks it runs: every one of them reports each step.
+      if (msg.kind == channel::hello) {
+        const auto hello = msg.as<hello_t>();
+        if (hello.role == it->first && hello.ranks >= 1) {
+          it->second.said_hello = true;
+          it->second.reports.set_ranks(hello.ranks, now());
+          listen_to_ranks(it->first);
+        }
+      }
+      if (msg.kind == channel::step_done) record(msg);
+      return;
     }
-    if (msg.kind == channel::step_done) record(msg);
+    const auto rank = rank_senders_.find(msg.envelope.sender);
+    if (rank == rank_senders_.end()) return;
+    const auto& [node, r] = rank->second;
+    auto& state = nodes_.at(node);
+    state.reports.heard(r, now());
+    if (msg.kind == channel::of_node_rank(channel::step_done, node, r)) record_rank(msg, node, r);
   });
 }
 
@@ -298,7 +362,7 @@ void Lockstep::await(long step, double timeout_s) {
   double last_asked = start;
   auto all_done = [&] {
     for (auto& [name, node] : nodes_)
-      if (node.done_step < step) return false;
+      if (node.reports.done_step() < step) return false;
     return true;
   };
   while (!all_done()) {
@@ -308,7 +372,15 @@ void Lockstep::await(long step, double timeout_s) {
     check_bus();
     check_health(step);
     if (now() - last_asked > ctx_.retry_s) {
-      bus_->request_resend(channel::step_done, step);  // a report may have been dropped: ask again
+      // A report may have been dropped: ask again, each rank on its own channel.
+      bus_->request_resend(channel::step_done, step);
+      for (auto& [name, node] : nodes_)
+        for (const int r : node.reports.missing(step)) {
+          if (r == 0) continue;
+          bus_->request_resend(channel::of_node_rank(channel::step_done, name, r), step);
+          // Until its hello is heard the rank count is the launch's: the hello may say fewer.
+          if (!node.said_hello) bus_->request_resend(channel::hello, 0);
+        }
       last_asked = now();
     }
     // The coordinator's own bytes, one window a step like the nodes' (the start-up's dropped).
@@ -331,10 +403,15 @@ void Lockstep::await(long step, double timeout_s) {
       unwritten_.push_back({step, step_time_s_, "lockstep", "coupling_overhead_s", wall - computing});
     }
     if (now() - start > timeout_s) {
-      for (auto& [name, node] : nodes_)
-        if (node.done_step < step)
-          throw std::runtime_error(fmt::format("{} node did not finish step {} within {:.0f} s (log: {})", name, step,
-                                               timeout_s, node.process->log_path()));
+      for (auto& [name, node] : nodes_) {
+        const auto missing = node.reports.missing(step);
+        if (!missing.empty())
+          throw std::runtime_error(fmt::format(
+              "{} node did not finish step {} within {:.0f} s{} (log: {})", name, step, timeout_s,
+              node.reports.ranks() > 1 ? ": " + rank_list_words(missing, node.reports.ranks()) + " did not report it"
+                                       : "",
+              node.process->log_path()));
+      }
     }
   }
 }

@@ -6,6 +6,7 @@
 #include "bus.h"
 #include "liveness.h"
 #include "node_launcher.h"
+#include "rank_reports.h"
 #include "run_directory.h"
 #include "run_files.h"
 #include "scene.h"
@@ -40,8 +41,8 @@ class Lockstep {
 
   // Orders step k (time at its end, its interval; output, checkpoint wanted or not).
   void order(long step, double time_s, double dt_s, bool write_output, bool write_checkpoint = false);
-  // Waits until both nodes have reported step k done; throws a one-line error naming the node
-  // that failed, exited or stopped answering (NodeLost for the last two).
+  // Waits until every rank of both nodes has reported step k done; throws a one-line error
+  // naming the node (and rank) that failed, exited or stopped answering (NodeLost for the last two).
   void await(long step, double timeout_s);
   // Until the bus check (check_bus) has passed: called once the nodes are up, before the first
   // step is ordered, so that a run shorter than a heartbeat does not end with the check
@@ -73,7 +74,8 @@ class Lockstep {
     std::unique_ptr<NodeHandle> process;
     double last_heard = 0;
     bool heard = false;  // anything from it since it was launched (before that, it is starting up)
-    long done_step = -1;
+    bool said_hello = false;  // its rank count is its hello's, not the launch's
+    RankReports reports{1, 0};  // which of its ranks reported which step (rank 0: the node's report)
     long checkpoint_step = -1;  // the newest checkpoint the node acknowledged
     double compute = 0, wait = 0;
     std::map<std::string, double> totals;  // compute_s, wait_s and the node's phase_* times, summed
@@ -82,6 +84,8 @@ class Lockstep {
   };
   void launch(const std::string& node, const std::string& command, const char* default_program, int ranks,
               long first_step);
+  // From a node's hello (or its launch): listens to the channels of its ranks >= 1.
+  void listen_to_ranks(const std::string& node);
   void check_health(long step);
   std::string why_silent(const std::string& name, NodeState& node) const;
   void forgive_own_pause(long step, double* step_started);
@@ -92,6 +96,8 @@ class Lockstep {
   // Handles what reaches the coordinator within wait_s: who was heard, the step reports.
   void hear(double wait_s);
   void record(const Received& msg);
+  // A report of rank `rank` >= 1 of `node` (its timings and bytes).
+  void record_rank(const Received& msg, const std::string& node, int rank);
   // Appends the reports recorded so far to RUN_DIR/metrics.csv. Called once the next step is
   // ordered (the coordinator would otherwise keep the nodes waiting while it formats them), at
   // the stop and when the lockstep ends, also by an error.
@@ -105,6 +111,11 @@ class Lockstep {
   std::unique_ptr<Bus> bus_;
   std::unique_ptr<Heartbeat> heartbeat_;
   std::map<std::string, NodeState> nodes_;
+  struct RankOf {
+    std::string node;
+    int rank;
+  };
+  std::map<std::string, RankOf> rank_senders_;  // "particles.1" -> its node and rank
   AppendFile metrics_;  // rows appended whole (common/run_files.h)
   struct MetricsRow {
     long step;

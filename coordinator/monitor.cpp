@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <deque>
 #include <hemo/heartbeat_t.hpp>
+#include <hemo/hello_t.hpp>
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
 #include <map>
@@ -149,6 +150,9 @@ int monitor_command(const MonitorOptions& opt) {
   double window_start = start;
   stats.close_interval(start, unix_now());  // the first interval starts now, not at the first message
 
+  // The reports of a node's ranks >= 1, on channels of their own: listened to once its hello
+  // says how many it has. Channel -> node and rank.
+  std::map<std::string, std::pair<std::string, int>> rank_reports;
   while (!stop_monitor && (opt.duration_s <= 0 || now() - start < opt.duration_s)) {
     bus.poll(0.05, [&](const Received& msg) {
       const double t = now();
@@ -163,6 +167,18 @@ int monitor_command(const MonitorOptions& opt) {
         const auto d = msg.as<step_done_t>();
         if (d.node == msg.envelope.sender)  // a node reports for itself only
           stats.step_done(d.node, msg.envelope.step, d.ok, d.error, d.compute_s, d.wait_s, d.names, d.values);
+      } else if (msg.kind == channel::hello) {
+        const auto h = msg.as<hello_t>();
+        if (h.role == msg.envelope.sender && (h.role == "fluid" || h.role == "particles"))
+          for (int r = 1; r < h.ranks; ++r) {
+            const std::string kind = channel::of_node_rank(channel::step_done, h.role, r);
+            rank_reports[kind] = {h.role, r};
+            bus.listen(kind);
+          }
+      } else if (const auto rank = rank_reports.find(msg.kind); rank != rank_reports.end()) {
+        const auto d = msg.as<step_done_t>();
+        if (d.ok && d.node == rank->second.first)
+          stats.rank_done(d.node, rank->second.second, msg.envelope.step, d.compute_s, d.wait_s, d.names, d.values);
       }
     });
     const double t = now();

@@ -107,6 +107,15 @@ void MonitorStats::step_done(const std::string& node, std::int64_t step, bool ok
   }
 }
 
+void MonitorStats::rank_done(const std::string& node, int rank, std::int64_t step, double compute_s, double wait_s,
+                             const std::vector<std::string>& names, const std::vector<double>& values) {
+  auto& [last, shown] = nodes_[node].ranks[rank];
+  if (step <= last && !shown.empty()) return;  // a resend, or a report from before a restart
+  last = step;
+  shown = {{fmt::format("rank{}_compute_s", rank), compute_s}, {fmt::format("rank{}_wait_s", rank), wait_s}};
+  for (std::size_t i = 0; i < names.size() && i < values.size(); ++i) shown.emplace_back(names[i], values[i]);
+}
+
 void MonitorStats::balance_reference(const Scene& scene) {
   wall_shear_.imposed_Pa = imposed_wall_shear_stress(scene);
   wall_shear_.viscosity_Pa_s = scene.plasma.viscosity;
@@ -214,6 +223,8 @@ json MonitorStats::close_interval(double now_s, double unix_s) {
     nodes[name] = j;
     json d = json::object();
     for (const auto& [k, v] : n.diagnostics) d[k] = std::isfinite(v) ? json(v) : json(nullptr);
+    for (const auto& [r, rank] : n.ranks)
+      for (const auto& [k, v] : rank.second) d[k] = std::isfinite(v) ? json(v) : json(nullptr);
     if (n.step >= 0) diagnostics[name] = {{"step", n.step}, {"values", d}};
     n.window_compute = n.window_wait = 0;
     n.window_reports = 0;

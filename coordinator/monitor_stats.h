@@ -51,6 +51,10 @@ class MonitorStats {
   void step_order(std::int64_t step, double time_s);
   void step_done(const std::string& node, std::int64_t step, bool ok, const std::string& error, double compute_s,
                  double wait_s, const std::vector<std::string>& names, const std::vector<double>& values);
+  // The report of a node's rank >= 1 (its timings and bytes: rank<r>_sent_B, ...): shown with
+  // the node's diagnostics, its timings as rank<r>_compute_s and rank<r>_wait_s.
+  void rank_done(const std::string& node, int rank, std::int64_t step, double compute_s, double wait_s,
+                 const std::vector<std::string>& names, const std::vector<double>& values);
   void heartbeat(const std::string& sender, double uptime_s, const ProcessCounts& counts);
   void own_counts(const ProcessCounts& counts) { own_ = counts; }
   // The imposed wall shear stress (model/momentum_balance.h) and the plasma's viscosity, to hold
@@ -82,6 +86,7 @@ class MonitorStats {
     int window_reports = 0;
     double last_compute = 0, last_wait = 0;
     std::vector<std::pair<std::string, double>> diagnostics;
+    std::map<int, std::pair<std::int64_t, std::vector<std::pair<std::string, double>>>> ranks;  // r >= 1: step, values
   };
   struct Process {
     double last_heard_s = -1;

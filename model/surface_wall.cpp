@@ -2,6 +2,7 @@
 #include "surface_wall.h"
 
 #include "facet_distance.h"
+#include "units.h"
 
 #include <algorithm>
 #include <cmath>
@@ -277,6 +278,80 @@ std::vector<VesselWall::Opening> SurfaceWall::outlets() const {
     if (r < 0) return out;
     out.push_back({surface_.centroid(r), surface_.area_vector(r).normalized()});
   }
+}
+
+}  // namespace hemo
+
+namespace hemo {
+
+VesselWall::Branch SurfaceWall::end_branch(int region, bool inward) const {
+  const Point centre = surface_.centroid(region), area = surface_.area_vector(region);
+  const Point in = -area.normalized();  // into the vessel
+  const double radius = std::sqrt(area.norm() / units::pi), tolerance = kBranchWallTolerance * radius;
+  const Point u = in.unitOrthogonal(), v = in.cross(u);
+  // The wall runs round the tube's circle s in from the end.
+  auto round = [&](double s) {
+    constexpr int points = 64;
+    for (int k = 0; k < points; ++k) {
+      const double phi = 2 * units::pi * k / points;
+      if (std::abs(signed_distance(centre + s * in + radius * (std::cos(phi) * u + std::sin(phi) * v))) > tolerance)
+        return false;
+    }
+    return true;
+  };
+  // Stepping in by a tenth of the radius to the surface's far side, then bisecting.
+  double reach = 0;
+  for (const Point& p : surface_.points) reach = std::max(reach, (p - centre).dot(in));
+  const int steps = static_cast<int>(std::ceil(reach / (radius / 10)));
+  double good = 0, bad = -1;
+  for (int n = 1; n <= steps; ++n) {
+    const double s = std::min(reach, n * radius / 10);
+    if (!round(s)) {
+      bad = s;
+      break;
+    }
+    good = s;
+  }
+  if (bad > 0)
+    while (bad - good > 1e-3 * radius) {
+      const double mid = 0.5 * (good + bad);
+      (round(mid) ? good : bad) = mid;
+    }
+  const Point inner = centre + good * in;
+  return inward ? Branch{centre, inner, radius, tolerance} : Branch{inner, centre, radius, tolerance};
+}
+
+std::vector<VesselWall::Branch> SurfaceWall::branches() const { return branch_list(); }
+
+const std::vector<VesselWall::Branch>& SurfaceWall::branch_list() const {
+  if (branches_) return *branches_;
+  std::vector<Branch> out;
+  if (const int inlet = surface_.region_index(surface_region::inlet); inlet >= 0) {
+    out.push_back(end_branch(inlet, true));
+    for (int k = 1;; ++k) {
+      const int r = surface_.region_index(surface_region::outlet(k));
+      if (r < 0) break;
+      out.push_back(end_branch(r, false));
+    }
+  }
+  branches_ = std::move(out);
+  return *branches_;
+}
+
+int SurfaceWall::branch_at(const Point& x) const {
+  const std::vector<Branch>& all = branch_list();
+  int best = -1;
+  double deepest = kInfinity;
+  for (std::size_t b = 0; b < all.size(); ++b) {
+    const Point axis = all[b].end - all[b].start;
+    const double length = axis.norm();
+    if (!(length > 0)) continue;
+    const double t = (x - all[b].start).dot(axis) / length;
+    if (t < 0 || t > length) continue;
+    const double depth = (x - all[b].start - t * axis / length).norm() - all[b].radius;
+    if (depth <= all[b].tolerance && depth < deepest) best = static_cast<int>(b), deepest = depth;
+  }
+  return best;
 }
 
 }  // namespace hemo

@@ -1,6 +1,6 @@
 // An imported surface's wall as the particle side asks it (model/vessel_wall.h): a closed,
 // outward-oriented triangulated surface (surface.h, check_surface) whose shape nothing else is
-// known of — no axis, no branches, no flow split.
+// known of — no axis or flow split; its branches are found from its open ends (below).
 //
 // - Signed distance: to the nearest triangle of the whole surface (a point beyond a cap is outside
 //   the vessel), its sign from the angle-weighted pseudo-normal of the feature (face, edge or
@@ -14,6 +14,15 @@
 //   slope's cosine of the section where the tube narrows. The wall region alone: the caps are no
 //   wall of a section. Where the ray meets no wall (a point outside, beyond an end) there is no
 //   section: every field NaN.
+// - Branches: one per open end, the inlet's first and then outlet_1, outlet_2, ... (each a
+//   tube of the end's equivalent radius sqrt(A / pi) about the line through the end's centroid
+//   along its normal), reaching in from the end as far as the wall runs round that tube: every
+//   one of 64 points of the tube's circle within kBranchWallTolerance of the radius of the
+//   surface (bisected to 1e-3 of the radius). A branch so ends where the vessel bends, narrows,
+//   widens or meets another branch by more than that; the analysis measures the cell-free layer
+//   of each branch over that straight stretch (postprocess/analysis, BranchAccumulator). A point
+//   is in the branch whose tube it is deepest in among those whose stretch it lies across, and in
+//   none elsewhere (the junction, a bend).
 // - No centre-line speed: it would need the vessel's flow split, which an imported surface does
 //   not say. section_at's speed_scale is NaN and defines_centreline_speed() false; the particle
 //   node refuses a closure that needs it (the spherical surrogate's shear lift).
@@ -24,6 +33,7 @@
 #include "vessel_wall.h"
 
 #include <limits>
+#include <optional>
 #include <vector>
 
 namespace hemo {
@@ -48,6 +58,14 @@ class SurfaceWall : public VesselWall {
   std::vector<WallTriangle> dem_wall() const override;
   // Each outlet region's area-weighted centroid and its outward area vector's direction.
   std::vector<Opening> outlets() const override;
+  // The open ends' straight stretches (above); made on the first call.
+  std::vector<Branch> branches() const override;
+  int branch_at(const Point& x) const override;
+
+  // How far the wall may lie from a branch's tube, as a fraction of its radius: wide enough for
+  // the facets of a ring of 23 or more segments (1 - cos(pi / 23) = 0.0093) and a rim's rounding,
+  // narrow enough that a bend of the centre line by a twentieth of the radius ends the branch.
+  static constexpr double kBranchWallTolerance = 0.05;
 
   const Surface& surface() const { return surface_; }
 
@@ -84,6 +102,10 @@ class SurfaceWall : public VesselWall {
   // a bin's first query (the particles visit a few of them), so a wall is cheap to make; not
   // thread safe, as nothing in a node queries one wall from two threads.
   const std::vector<int>& candidates(int i, int j, int k, int region) const;
+  // The branch that starts (inward = true) or ends at the open end `region`.
+  Branch end_branch(int region, bool inward) const;
+  const std::vector<Branch>& branch_list() const;
+  mutable std::optional<std::vector<Branch>> branches_;
   mutable std::vector<std::vector<int>> candidates_[2];
   mutable std::vector<char> candidates_made_[2];
 };

@@ -65,6 +65,9 @@ class VesselWall {
   struct Branch {
     Point start, end;
     double radius = 0;  // m
+    // How far inside the vessel a point of the branch's circle may lie and still be on the
+    // branch's own wall, m: 0 for an exact wall, a triangulated wall's facets' deviation else.
+    double tolerance = 0;
   };
   virtual std::vector<Branch> branches() const { return {}; }
   // The index into branches() of the branch x is in; -1 for a vessel that does not branch.

@@ -52,12 +52,11 @@ std::string one_line(std::string text) {
 }
 
 // Tells the coordinator why this node stops (rank 0), and says it on stderr; the exit code is 1.
+// Every rank leaves the bus.
 int failed(hemo::particles::RankedPort& port, const std::string& why) {
   const std::string line = one_line(why);
-  if (port.rank() == 0) {
-    spdlog::error("step {}: {}", port.step(), line);
-    port.fail(line);
-  }
+  if (port.rank() == 0) spdlog::error("step {}: {}", port.step(), line);
+  port.fail(line);
   return 1;
 }
 
@@ -104,7 +103,7 @@ int main(int argc, char** argv) {
   try {
     scene = hemo::load_scene(scene_path);
     ctx.load_secret();
-    port = std::make_unique<hemo::particles::RankedPort>(MPI_COMM_WORLD, [&] {
+    port = std::make_unique<hemo::particles::RankedPort>(MPI_COMM_WORLD, ctx, [&] {
       return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size(),
                                                   scene.coupling_scheme == "parallel");
     });

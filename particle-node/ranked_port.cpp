@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <chrono>
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -35,7 +36,9 @@ void broadcast(Msg& msg, MPI_Comm comm, int rank) {
 
 }  // namespace
 
-RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<ParticlePort>()>& make_port) : comm_(comm) {
+RankedPort::RankedPort(MPI_Comm comm, const RunContext& ctx,
+                       const std::function<std::unique_ptr<ParticlePort>()>& make_port)
+    : comm_(comm), step_(ctx.resume_step) {
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &ranks_);
   // Rank 0 may fail to join the bus: the others must hear of it rather than wait forever.
@@ -54,6 +57,15 @@ RankedPort::RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<Partic
     if (rank_ == 0) throw std::runtime_error(error);
     throw std::runtime_error("rank 0 could not join the bus: " + error);
   }
+  if (rank_ > 0) {
+    try {
+      reporter_ = std::make_unique<RankReporter>(ctx, "particles", rank_);
+    } catch (const std::exception& e) {
+      error = fmt::format("rank {} could not join the bus: {}", rank_, e.what());
+    }
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw std::runtime_error(error);
 }
 
 void RankedPort::broadcast_control(int& control, std::string& error) {
@@ -83,13 +95,11 @@ mesh_t RankedPort::initialize() {
   broadcast_control(control, error);
   if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
   broadcast(mesh, comm_, rank_);
-  // The step each rank's feedback is published as (a resumed run's first is its checkpoint's).
-  long long shared[3] = {fluid_ranks, fluid_lag_, rank_ == 0 ? static_cast<long long>(port_->step()) : 0};
-  MPI_Bcast(shared, 3, MPI_LONG_LONG, 0, comm_);
-  fluid_lag_ = static_cast<int>(shared[1]);
-  step_ = shared[2];
-  fluid_ranks_ = static_cast<int>(shared[0]);
-  partitioned_ = hemo::partitioned(fluid_ranks_, ranks_);
+  int shared[2] = {fluid_ranks, fluid_lag_};
+  MPI_Bcast(shared, 2, MPI_INT, 0, comm_);
+  fluid_lag_ = shared[1];
+  partitioned_ = hemo::partitioned(shared[0], ranks_);
+  fluid_ranks_ = shared[0];
   return mesh;
 }
 
@@ -137,22 +147,20 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
 
 Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   const TrafficBytes mine = RankTraffic::take();
-  const std::uint64_t own[4] = {mine.sent, mine.received, receiver_ ? receiver_->take_received_bytes() : 0,
-                                publisher_ ? publisher_->take_sent_bytes() : 0};
-  std::vector<std::uint64_t> all(4 * static_cast<std::size_t>(ranks_));
-  MPI_Gather(own, 4, MPI_UINT64_T, all.data(), 4, MPI_UINT64_T, 0, comm_);
-  Diagnostics out = diag;
-  if (rank_ != 0 || diag.empty()) return out;  // a report without diagnostics stays without
-  for (int r = 0; r < ranks_; ++r) {
-    out.emplace_back(fmt::format("rank{}_sent_B", r), static_cast<double>(all[4 * r]));
-    out.emplace_back(fmt::format("rank{}_received_B", r), static_cast<double>(all[4 * r + 1]));
-    // The partitioned exchange's own measures: the fluid state that reached this rank, the
-    // feedback it sent.
-    if (partitioned_) {
-      out.emplace_back(fmt::format("rank{}_received_fluid_state_B", r), static_cast<double>(all[4 * r + 2]));
-      out.emplace_back(fmt::format("rank{}_sent_feedback_B", r), static_cast<double>(all[4 * r + 3]));
-    }
+  const std::uint64_t state = receiver_ ? receiver_->take_received_bytes() : 0;
+  const std::uint64_t feedback = publisher_ ? publisher_->take_sent_bytes() : 0;
+  const std::uint64_t reports = reporter_ ? reporter_->take_sent_bytes() : 0;
+  Diagnostics out = rank_ == 0 ? diag : Diagnostics();
+  if (diag.empty()) return out;  // a report without diagnostics stays without
+  for (const auto& bytes : rank_bytes(rank_, mine)) out.push_back(bytes);
+  // The partitioned exchange's own measures: the fluid state that reached this rank, the
+  // feedback it sent.
+  if (partitioned_) {
+    out.emplace_back(fmt::format("rank{}_received_fluid_state_B", rank_), static_cast<double>(state));
+    out.emplace_back(fmt::format("rank{}_sent_feedback_B", rank_), static_cast<double>(feedback));
   }
+  // Its own reports and heartbeats (rank 0's are its port's).
+  if (reporter_) out.emplace_back(fmt::format("rank{}_sent_report_B", rank_), static_cast<double>(reports));
   return out;
 }
 
@@ -161,7 +169,7 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   int control = kContinue;
   std::string error;
   if (partitioned_) {
-    // Every rank its own partial sums to the fluid ranks whose cells they reach, before rank 0
+    // Every rank its own partial sums to the fluid ranks whose cells they reach, before it
     // reports the step: what the next order makes the fluid wait for is then published.
     try {
       publisher_->publish(feedback, step_);
@@ -171,8 +179,8 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
     error = agree_on_error(error, comm_);
     if (!error.empty()) throw ExchangeError(error);
   }
-  // Every rank's bytes since its last report (this gather itself not counted: it is the measuring).
   const Diagnostics reported = with_rank_traffic(diag);
+  if (reporter_) reporter_->report(step_, reported);
   if (rank_ == 0) {
     try {
       step = partitioned_ ? port_->advance_partitioned(reported) : port_->advance(feedback, reported);
@@ -186,6 +194,13 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   if (control == kError) throw std::runtime_error(rank_ == 0 ? error : "rank 0: " + error);
   if (control == kStop) return std::nullopt;
   if (rank_ != 0) step.emplace();
+  // Whatever comes next, the rank's wait is over once the step's order and inputs are here.
+  struct WaitEnds {
+    RankReporter* reporter;
+    ~WaitEnds() {
+      if (reporter) reporter->begin_step();
+    }
+  } wait_ends{reporter_.get()};
   broadcast(step->order, comm_, rank_);
   step_ = step->order.envelope.step;
   if (!partitioned_) {
@@ -197,9 +212,11 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   try {
     // Rank 0 keeps serving its port meanwhile: the fluid may be asking again for the feedback
     // it needs before it can publish this state.
+    const auto waiting = std::chrono::steady_clock::now();
     step->fluid = receiver_->receive(step_ - fluid_lag_, [this] {
       if (port_) port_->serve();
     });
+    if (port_) port_->count_as_waiting(std::chrono::duration<double>(std::chrono::steady_clock::now() - waiting).count());
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -208,11 +225,15 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   return step;
 }
 
+// The ranks' own ends of the bus go too: the process may exit without unwinding, and a resend
+// thread still signing at exit could crash it.
 void RankedPort::finalize() {
+  reporter_.reset();
   if (port_) port_->finalize();
 }
 
 void RankedPort::fail(const std::string& error) {
+  reporter_.reset();
   if (port_) port_->fail(error);
 }
 

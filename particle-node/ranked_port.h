@@ -5,8 +5,9 @@
 // nodes run on one rank; else every rank takes the cells it needs from the fluid ranks that own
 // them and sends them its partial feedback for those cells itself, on channels of its own (the
 // partitioned exchange: common/rank_exchange.h, docs/notes/partitioned-exchange.md). The
-// diagnostics are reduced over ranks; only rank 0's are published, with every rank's bytes of
-// the step.
+// diagnostics are reduced over ranks; only rank 0's are published. Every other rank reports its
+// own step to the coordinator (common/rank_report.h): its timings and bytes; rank 0's report
+// carries its own and the node's diagnostics.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -14,6 +15,7 @@
 #include <node_port.h>
 #include <overlap_map.h>
 #include <rank_exchange.h>
+#include <rank_report.h>
 
 #include <functional>
 #include <memory>
@@ -31,8 +33,9 @@ class ExchangeError : public std::runtime_error {
 
 class RankedPort {
  public:
-  // `make_port` is called on rank 0 only.
-  RankedPort(MPI_Comm comm, const std::function<std::unique_ptr<ParticlePort>()>& make_port);
+  // `make_port` is called on rank 0 only; every other rank joins the bus on `ctx` to report its
+  // steps. Collective; throws on every rank when one could not.
+  RankedPort(MPI_Comm comm, const RunContext& ctx, const std::function<std::unique_ptr<ParticlePort>()>& make_port);
 
   // The mesh, on every rank; rank 0 also hears how many ranks the fluid runs on (its hello).
   mesh_t initialize();
@@ -43,9 +46,10 @@ class RankedPort {
   // ends (the state in, the feedback out) on `ctx`'s bus. Returns the map. Throws ExchangeError
   // on every rank.
   OverlapMap start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx);
-  // Collective. Rank 0 publishes `feedback` and `diag` (partitioned: every rank publishes its
-  // own partial `feedback`, rank 0 `diag`); every rank gets the next step or nothing (stop).
-  // When rank 0 fails to get a step (bus error, timeout) every rank throws.
+  // Collective. Rank 0 publishes `feedback` (partitioned: every rank its own partial
+  // `feedback`) and reports the step with `diag`, every other rank reports it with its own
+  // bytes; every rank gets the next step or nothing (stop). When rank 0 fails to get a step (bus
+  // error, timeout) every rank throws.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag);
   void finalize();
   // Rank 0 tells the coordinator (other ranks: nothing).
@@ -57,8 +61,9 @@ class RankedPort {
  private:
   enum Control : int { kContinue = 0, kStop = 1, kError = 2 };
   void broadcast_control(int& control, std::string& error);
-  // `diag` and, on rank 0, the bytes each rank moved for the coupling since its last report
-  // (rank<r>_sent_B, rank<r>_received_B; common/traffic.h); collective.
+  // What this rank reports: on rank 0 `diag` and its own bytes moved for the coupling since its
+  // last report, on every other rank its bytes alone (rank<r>_sent_B, rank<r>_received_B,
+  // rank<r>_received_fluid_state_B, rank<r>_sent_report_B; common/traffic.h).
   Diagnostics with_rank_traffic(const Diagnostics& diag);
 
   MPI_Comm comm_;
@@ -71,6 +76,7 @@ class RankedPort {
   int fluid_ranks_ = 1;
   std::unique_ptr<ParticleRankReceiver> receiver_;
   std::unique_ptr<ParticleRankPublisher> publisher_;
+  std::unique_ptr<RankReporter> reporter_;  // every rank's but 0's (several ranks)
 };
 
 }  // namespace hemo::particles

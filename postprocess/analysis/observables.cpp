@@ -569,9 +569,9 @@ BranchSpan own_section_span(const VesselWall& wall, int branch) {
   const Point axis = (b.end - b.start).normalized();
   const double length = (b.end - b.start).norm();
   const auto [u, v] = normals_of(axis);
-  // A point of the circle inside the vessel is in another branch's tube; rounding leaves the
-  // branch's own wall within a few ulps of zero.
-  const double inside = -1e-9 * b.radius;
+  // A point of the circle inside the vessel is in another branch's tube; rounding leaves an exact
+  // wall within a few ulps of zero, a triangulated one within its facets' deviation.
+  const double inside = -1e-9 * b.radius - b.tolerance;
   auto clear = [&](double s) {
     constexpr int points = 64;
     for (int k = 0; k < points; ++k) {

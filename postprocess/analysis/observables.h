@@ -361,7 +361,8 @@ std::string branch_name(int branch);
 
 // Where a branch's sections are its own tube's: the span along its axis, in m from the axis's
 // start, over which the wall runs round the whole circle of the branch's radius about it (the
-// wall's signed distance at 64 points of the circle: none inside the vessel). Near the junction a
+// wall's signed distance at 64 points of the circle: none inside the vessel by more than the
+// branch's tolerance). Near the junction a
 // section meets another branch's tube: two daughters of radius r at an angle theta share their
 // sections up to r cot(theta/2) from the junction, and a gap R - r there would be to no wall. Each
 // end of the span is bisected to 1e-4 R between the last section found shared and the first found

@@ -6,6 +6,7 @@
 #include "synthetic.h"
 
 #include <bifurcation.h>
+#include <surface_wall.h>
 
 #include <gtest/gtest.h>
 
@@ -157,4 +158,40 @@ TEST(BranchObservables, DischargePlateletDensityIsTheRateOverTheBloodsFlux) {
   EndFlux e{"outlet_1", 4e-11, 1e5, 2e4, 1e5 * 90e-18, 2e4 * 6e-18};
   EXPECT_DOUBLE_EQ(e.discharge_platelet_density(), 2e4 / (4e-11 + 9e-12 + 1.2e-13));
   EXPECT_TRUE(std::isnan(EndFlux{"outlet_2"}.discharge_platelet_density()));
+}
+
+// An imported surface's branches (SurfaceWall: each open end's straight stretch) are measured
+// like the generated bifurcation's: the imported copy of the 40-um bifurcation's surface gives
+// three branches whose own sections span their whole stretch (each stretch already ends where
+// the wall leaves its tube), and a red cell 3 um from daughter 1's wall mid-stretch gives that
+// daughter a 3-um layer.
+TEST(BranchObservables, AnImportedSurfacesBranchesAreMeasuredAlongTheirStretches) {
+  hemo::BifurcationSpec spec;
+  spec.parent_diameter = 40e-6;
+  spec.parent_length = kParentLength;
+  spec.daughter_length = kDaughterLength;
+  spec.angle = kAngle;
+  const hemo::SurfaceWall wall(hemo::make_bifurcation(spec));
+  const auto branches = wall.branches();
+  ASSERT_EQ(branches.size(), 3u);
+  for (int b = 0; b < 3; ++b) {
+    const auto& br = branches[static_cast<std::size_t>(b)];
+    const BranchSpan span = own_section_span(wall, b);
+    EXPECT_EQ(span.start, 0) << b;
+    EXPECT_NEAR(span.end, (br.end - br.start).norm(), br.radius / 10) << b;
+  }
+  const auto& d1 = branches[1];
+  const Point axis = (d1.end - d1.start).normalized();
+  const Point across = axis.unitOrthogonal();
+  const double length = (d1.end - d1.start).norm();
+  BranchAccumulator acc(wall, 1, 1, kRbcDiameter);
+  Snapshot s;
+  add_rbc(s, 1, d1.start + 0.5 * length * axis + (d1.radius - kRbcDiameter / 2 - 3e-6) * across);
+  ASSERT_EQ(wall.branch_at(d1.start + 0.5 * length * axis), 1);
+  acc.add(s);
+  const auto layers = acc.result();
+  ASSERT_EQ(layers.size(), 3u);
+  EXPECT_EQ(layers[1].name, "daughter_1");
+  EXPECT_NEAR(layers[1].whole.thickness, 3e-6, 1e-12);
+  EXPECT_DOUBLE_EQ(layers[1].mean_rbc_count, 1);
 }

@@ -3,6 +3,7 @@
 
 #include "checkpoint.h"
 #include "node_port.h"
+#include "rank_report.h"
 
 #include <hemo/step_done_t.hpp>
 #include <hemo/step_order_t.hpp>
@@ -40,6 +41,8 @@ class FakeNode : public NodeHandle {
     run_dir_ = argument(argv, "--run-dir");
     const std::string resume = argument(argv, "--resume-step");
     step_ = resume.empty() ? 0 : std::stol(resume);
+    const std::string ranks = argument(argv, "--ranks");
+    ranks_ = ranks.empty() ? 1 : std::stoi(ranks);
     thread_ = std::thread([this] { body(); });
   }
   ~FakeNode() override { terminate(); }
@@ -84,7 +87,7 @@ class FakeNode : public NodeHandle {
         const auto order = msg.as<step_order_t>();
         orders_[msg.envelope.step] = order;
         owner_.ledger.add(
-            {Event::ordered, node_, launch_, msg.envelope.step, order.write_checkpoint != 0, order.stop != 0});
+            {Event::ordered, node_, launch_, msg.envelope.step, 0, order.write_checkpoint != 0, order.stop != 0});
       });
     } while (now() < until);
     return !stop_;
@@ -107,9 +110,20 @@ class FakeNode : public NodeHandle {
     }
     done.n_diagnostics = static_cast<std::int32_t>(done.names.size());
     // In the ledger before it is on the bus: an order that answers it comes after it there.
-    owner_.ledger.add({Event::reported, node_, launch_, step_, checkpointed, false});
+    owner_.ledger.add({Event::reported, node_, launch_, step_, 0, checkpointed, false});
     bus.publish(channel::step_done, done, step_, /*keep=*/true);
     bus.forget_before(step_ - 1);
+  }
+
+  // Ranks 1..N-1 report the step, `later_s` after rank 0; false once terminated.
+  bool report_ranks(Bus& bus, double later_s) {
+    if (reporters_.empty() || !listen(bus, later_s)) return !stop_;
+    for (std::size_t i = 0; i < reporters_.size(); ++i) {
+      owner_.ledger.add({Event::reported, node_, launch_, step_, static_cast<int>(i) + 1, false, false});
+      reporters_[i]->report(step_, {{fmt::format("rank{}_sent_B", i + 1), 100.0 * double(i + 1)}});
+      reporters_[i]->begin_step();
+    }
+    return true;
   }
 
   void body() {
@@ -121,8 +135,10 @@ class FakeNode : public NodeHandle {
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     Bus bus(ctx_, node_, {channel::step, channel::resend});
     auto heartbeat = std::make_unique<Heartbeat>(ctx_, node_, 0.1);
+    for (int r = 1; r < ranks_; ++r) reporters_.push_back(std::make_unique<RankReporter>(ctx_, node_, r));
     // Start-up (step 0, or the checkpoint resumed), with its set-up time as a node reports it.
     report(bus, true, "", owner_.compute_s(node_, step_), false);
+    if (!report_ranks(bus, 0)) return;
     for (;;) {
       double asked = now();
       while (!orders_.count(step_ + 1)) {
@@ -145,18 +161,26 @@ class FakeNode : public NodeHandle {
             commit_checkpoint(run_dir_, step_, node_);
           }
           report(bus, true, "", compute_s, checkpoint);
+          if (!report_ranks(bus, owner_.ranks_later_s(node_, step_))) return;
           break;
         }
+        case Act::rank_stops:
+          report(bus, true, "", compute_s, false);
+          reporters_.pop_back();  // its heartbeats end with it
+          if (!report_ranks(bus, 0)) return;
+          break;
         case Act::fail: {
           const std::string error = fmt::format("fake {} diverged at step {}", node_, step_);
           for (int i = 0; i < 3; ++i) report(bus, false, error, compute_s, false);
           heartbeat.reset();
+          reporters_.clear();
           return end("exited with status 1", error);
         }
         case Act::give_up: {
           const std::string error = fmt::format("{}: nothing heard from the coordinator for 20 s", node_);
           for (int i = 0; i < 3; ++i) report(bus, false, error, compute_s, false, /*gave_up=*/true);
           heartbeat.reset();
+          reporters_.clear();
           return end("exited with status 1", error);
         }
         case Act::die_writing_checkpoint:
@@ -164,9 +188,11 @@ class FakeNode : public NodeHandle {
           [[fallthrough]];
         case Act::die:
           heartbeat.reset();
+          reporters_.clear();
           return end("was killed by signal 9 (Killed)", fmt::format("fake {}: step {}", node_, step_));
         case Act::freeze:
           heartbeat.reset();
+          reporters_.clear();
           while (!stop_) std::this_thread::sleep_for(std::chrono::milliseconds(10));
           return;
       }
@@ -179,6 +205,8 @@ class FakeNode : public NodeHandle {
   std::string log_path_, run_dir_;
   RunContext ctx_;
   long step_ = 0;
+  int ranks_ = 1;
+  std::vector<std::unique_ptr<RankReporter>> reporters_;  // ranks 1..N-1
   std::map<long, step_order_t> orders_;
   std::atomic<bool> stop_{false};
   mutable std::mutex mutex_;

@@ -7,7 +7,11 @@
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <fstream>
+#include <iterator>
 #include <set>
+#include <sstream>
+#include <tuple>
 #include <utility>
 
 using namespace hemo;
@@ -59,6 +63,86 @@ TEST_F(RuntimeTest, StepIsOrderedOnlyAfterBothNodesReportedTheStepBefore) {
   const std::vector<long> all_steps{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};  // 11: the stop order
   EXPECT_EQ(ordered["fluid"], all_steps);
   EXPECT_EQ(ordered["particles"], all_steps);
+}
+
+// Nodes on 2 and 3 ranks: each rank but 0 reports on its own channel, a node's in turn late
+// (after its rank 0 by 80 ms), and a step is ordered only once every rank of both nodes has
+// reported the step before. The ranks' timings and bytes reach metrics.csv and profile.csv.
+TEST_F(RuntimeTest, StepIsOrderedOnlyAfterEveryRankOfBothNodesReportedTheStepBefore) {
+  scene_.time.coupling_steps = 8;
+  scene_.run.fluid_ranks = 2;
+  scene_.run.particle_ranks = 3;
+  launcher_.ranks_later_s = [](const std::string& node, long step) {
+    return (node == "fluid") == (step % 2 == 0) ? 0.08 : 0.0;
+  };
+  try {
+    const Reached reached = drive_run();
+    EXPECT_TRUE(reached.end);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << e.what();
+  }
+
+  const std::map<std::string, int> ranks{{"fluid", 2}, {"particles", 3}};
+  std::set<std::tuple<std::string, int, long>> reported;
+  int orders = 0;
+  for (const Event& e : launcher_.ledger.events()) {
+    if (e.kind == Event::reported) {
+      reported.insert({e.node, e.rank, e.step});
+      continue;
+    }
+    ++orders;
+    for (const auto& [node, n] : ranks)
+      for (int r = 0; r < n; ++r)
+        EXPECT_TRUE(reported.count({node, r, e.step - 1}))
+            << "step " << e.step << " reached " << e.node << " before rank " << r << " of " << node
+            << " reported step " << e.step - 1;
+  }
+  EXPECT_EQ(orders, 2 * 9);  // steps 1..8 and the stop, to each node
+
+  // Every rank's report of every step is in the metrics, under its node.
+  std::ifstream metrics(dir_.metrics_file());
+  std::set<std::tuple<std::string, std::string, long>> rows;
+  std::string line;
+  std::getline(metrics, line);
+  while (std::getline(metrics, line)) {
+    std::stringstream in(line);
+    std::string step, time, node, name;
+    std::getline(in, step, ',');
+    std::getline(in, time, ',');
+    std::getline(in, node, ',');
+    std::getline(in, name, ',');
+    rows.insert({node, name, std::stol(step)});
+  }
+  for (long k = 0; k <= 8; ++k) {
+    EXPECT_TRUE(rows.count({"fluid", "rank1_compute_s", k})) << k;
+    EXPECT_TRUE(rows.count({"fluid", "rank1_sent_B", k})) << k;
+    EXPECT_TRUE(rows.count({"particles", "rank2_wait_s", k})) << k;
+    EXPECT_FALSE(rows.count({"fluid", "rank2_compute_s", k})) << k;
+  }
+  std::ifstream profile(dir_.path + "/profile.csv");
+  const std::string csv((std::istreambuf_iterator<char>(profile)), std::istreambuf_iterator<char>());
+  EXPECT_NE(csv.find("particles,rank2_sent_B_per_step,200,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("fluid,rank1_sent_B_per_step,100,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("particles,rank1_compute_s,"), std::string::npos) << csv;
+}
+
+// A rank >= 1 that stops (no heartbeat, no report) while its node's rank 0 beats on is named by
+// node, rank and step once the node timeout (1 s) has passed.
+TEST_F(RuntimeTest, ARankThatStopsIsNamedByItsNodeRankAndStep) {
+  scene_.run.particle_ranks = 2;
+  launcher_.script = [](const std::string& node, int, long step) {
+    return node == "particles" && step == 3 ? Act::rank_stops : Act::ok;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    drive_run();
+    FAIL() << "a silent rank went unnoticed";
+  } catch (const NodeLost& e) {
+    EXPECT_NE(std::string(e.what()).find("particles node's rank 1 of 2 stopped answering at step 3: no heartbeat for 1 s"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_LT(seconds_since(start), 5.0);
 }
 
 // Checkpoints every 3 steps and at --stop-after-step 8 (of 10): the orders of steps 3, 6 and 8

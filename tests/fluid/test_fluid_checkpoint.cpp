@@ -547,7 +547,7 @@ void resumed_steady_run_equals_the_uninterrupted_run(int ranks) {
   }
 }
 
-// metrics.csv rows of one node, but the wall-clock ones and the bytes (*_B: heartbeats and resends
+// metrics.csv rows of one node, but the wall-clock ones (the ranks' too) and the bytes (*_B: heartbeats and resends
 // vary from run to run): "step,time,node,name" -> value text.
 std::map<std::string, std::string> node_rows(const std::string& run_dir, const std::string& node, int& repeats) {
   std::ifstream in(run_dir + "/metrics.csv");
@@ -559,7 +559,11 @@ std::map<std::string, std::string> node_rows(const std::string& run_dir, const s
     const auto value_at = line.rfind(',');
     const std::string key = line.substr(0, value_at);
     if (key.find("," + node + ",") == std::string::npos) continue;
-    if (key.find(",compute_s") != std::string::npos || key.find(",wait_s") != std::string::npos ||
+    auto ends_with = [&](const std::string& tail) {
+      return key.size() >= tail.size() && key.compare(key.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    // Every rank's timings too (rank<r>_compute_s, ...).
+    if (ends_with("compute_s") || ends_with("wait_s") ||
         key.find(",phase_") != std::string::npos || key.find(",checkpoint_step") != std::string::npos ||
         key.compare(key.size() - 2, 2, "_B") == 0)
       continue;

@@ -69,8 +69,9 @@ std::vector<std::string> metric_rows(const std::string& dir, bool values) {
   std::ifstream in(dir + "/metrics.csv");
   std::vector<std::string> rows;
   for (std::string line; std::getline(in, line);)
-    if (line.find(",checkpoint_step,") == std::string::npos && line.find(",compute_s,") == std::string::npos &&
-        line.find(",wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos &&
+    // Timings, the node's and its ranks' (rank<r>_compute_s, ...), and bytes vary from run to run.
+    if (line.find(",checkpoint_step,") == std::string::npos && line.find("compute_s,") == std::string::npos &&
+        line.find("wait_s,") == std::string::npos && line.find(",phase_") == std::string::npos &&
         line.find(",lockstep,") == std::string::npos && line.find("_B,") == std::string::npos)
       rows.push_back(values ? line : line.substr(0, line.rfind(',')));
   std::sort(rows.begin(), rows.end());

@@ -279,7 +279,8 @@ std::string shipped_imported_scene(const std::filesystem::path& root, const std:
 // one side, a shape no built-in vessel.shape makes), its first 20 steps: cells enter from the
 // feeder and leave through the outlet, the counts balance at every step, no cell is outside the
 // fluid mesh, and every cell the snapshots hold is inside the STL's surface (the DEM's mesh wall
-// holds them: a centre behind the wall is outside it), none but by less than a radius.
+// holds them: a centre behind the wall is outside it), none but by less than a radius; `analyze`
+// gives the outlet all the blood and each end's stretch a layer.
 TEST(ImportedRun, CellsFlowThroughTheShippedSurfaceInsideItsWallAndTheCountsBalance) {
   namespace fs = std::filesystem;
   const std::string dir = fresh_run_dir("imported-blood");
@@ -314,6 +315,18 @@ TEST(ImportedRun, CellsFlowThroughTheShippedSurfaceInsideItsWallAndTheCountsBala
   const auto j = nlohmann::json::parse(a.output);
   EXPECT_EQ(j["branches"]["outlet_1"]["blood_fraction"].get<double>(), 1.0);
   EXPECT_GT(j["ends"]["outlet_1"]["discharge_hematocrit"].get<double>(), 0);
+  // Its ends' straight stretches are its branches (SurfaceWall::branches): each reports its end's
+  // H_D and a cell-free layer of the cells there, between 0 and its radius.
+  const std::pair<const char*, const char*> branch_ends[] = {{"parent", "inlet"}, {"daughter_1", "outlet_1"}};
+  for (const auto& [branch, end] : branch_ends) {
+    const auto& b = j["per_branch"][branch];
+    EXPECT_EQ(b["end"], end) << branch;
+    EXPECT_EQ(b["discharge_hematocrit"], j["ends"][end]["discharge_hematocrit"]) << branch;
+    EXPECT_GT(b["cfl"]["mean_rbc_count"].get<double>(), 0) << branch;
+    const double delta = b["cfl"]["thickness_m"].get<double>();
+    EXPECT_GT(delta, 0) << branch;
+    EXPECT_LT(delta, b["radius_m"].get<double>()) << branch;
+  }
   fs::remove_all(root);
 }
 

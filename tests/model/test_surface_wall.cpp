@@ -218,3 +218,84 @@ TEST(SurfaceWall, AnImportedScenesWallIsItsSurface) {
   EXPECT_EQ(wall->outlets().size(), 1u);
   fs::remove(file);
 }
+
+// A straight tube's two ends each give a branch of the end's equivalent radius (a 32-gon's:
+// sqrt(16 sin(pi / 16) / pi) = 0.99679 r) that runs the whole length: its 32 chords stay within
+// r (1 - cos(pi / 32)) = 0.0048 r of the circle, inside the 5 % tolerance. A point is in the
+// first branch whose tube it is in, and in none outside the tubes or beyond the ends.
+TEST(SurfaceWall, AStraightTubesEndsBranchTheWholeLength) {
+  const double r = 50e-6, length = 200e-6;
+  const SurfaceWall wall(tube(Point::Zero(), Point(0, 0, 1), r, length, 32, 10));
+  const auto branches = wall.branches();
+  ASSERT_EQ(branches.size(), 2u);
+  const double equivalent = r * std::sqrt(16 * std::sin(kPi / 16) / kPi);
+  for (const auto& b : branches) {
+    EXPECT_NEAR(b.radius, equivalent, 1e-9 * r);
+    EXPECT_DOUBLE_EQ(b.tolerance, SurfaceWall::kBranchWallTolerance * b.radius);
+    EXPECT_LT(b.start.norm(), 1e-12);
+    EXPECT_LT((b.end - Point(0, 0, length)).norm(), 1e-12);
+  }
+  EXPECT_EQ(wall.branch_at(Point(10e-6, 0, 100e-6)), 0);
+  EXPECT_EQ(wall.branch_at(Point(0, 0, -1e-6)), -1);
+  EXPECT_EQ(wall.branch_at(Point(0, 0, length + 1e-6)), -1);
+  EXPECT_EQ(wall.branch_at(Point(r + 0.1 * r, 0, 100e-6)), -1);
+}
+
+// scenes/surfaces/eccentric-stenosis.stl: its centre line moves sideways as 15 um (1 - cos(pi z /
+// 300 um)), so the inlet's tube leaves the wall by 5 % of the radius (2.5 um) where that is 2.5 um,
+// z = 300 um acos(5/6) / pi = 56 um, before the plaque (from z = 90 um); the outlet's, by symmetry,
+// 56 um before the outlet. Between them a cell is in no branch.
+TEST(SurfaceWall, AnImportedVesselsBranchesEndWhereItBends) {
+  Vessel v;
+  v.shape = "imported";
+  v.diameter = 100e-6;
+  v.length = 300e-6;
+  v.surface_path = std::string(HEMO_SCENES_DIR) + "/surfaces/eccentric-stenosis.stl";
+  v.surface_inlet = "inflow";
+  v.surface_outlets = "outflow";
+  const auto wall = make_vessel_wall(v);
+  const auto b = wall->branches();
+  ASSERT_EQ(b.size(), 2u);
+  const double bend = 300e-6 * std::acos(5.0 / 6) / kPi;
+  EXPECT_NEAR(b[0].start.z(), 0, 1e-9);
+  EXPECT_NEAR(b[0].end.z(), bend, 8e-6);
+  EXPECT_NEAR(b[1].end.z(), 300e-6, 1e-9);
+  EXPECT_NEAR(300e-6 - b[1].start.z(), bend, 8e-6);
+  EXPECT_NEAR(b[0].radius, 50e-6, 0.01 * 50e-6);
+  EXPECT_EQ(wall->branch_at(Point(0, 0, 20e-6)), 0);
+  EXPECT_EQ(wall->branch_at(Point(30e-6, 0, 280e-6)), 1);
+  EXPECT_EQ(wall->branch_at(Point(15e-6, 0, 150e-6)), -1);
+}
+
+// An imported Y bifurcation (the generator's surface, as an STL would bring it): the inlet's branch
+// runs up the parent's axis from the inlet to about the junction, each outlet's along its
+// daughter's axis from near the junction to the outlet, with the daughters' radii; a point on an
+// axis is in that branch.
+TEST(SurfaceWall, AnImportedBifurcationsBranchesAreItsTubes) {
+  const BifurcationSpec spec = hemo::test::small_bifurcation();
+  const BifurcationSpec r = resolved(spec);
+  const SurfaceWall wall(make_bifurcation(spec));
+  const auto b = wall.branches();
+  ASSERT_EQ(b.size(), 3u);
+  const Point junction(0, 0, r.parent_length);
+  EXPECT_LT(b[0].start.norm(), 1e-3 * r.parent_diameter);  // the inlet cap's centroid
+  EXPECT_GT((b[0].end - b[0].start).normalized().z(), std::cos(kPi / 180));
+  EXPECT_NEAR(b[0].radius, r.parent_diameter / 2, 0.02 * r.parent_diameter / 2);
+  // The parent's tube reaches to within a parent diameter of the junction, and past it no further
+  // than where the parent's rounded end (the capsule's, radius R) has narrowed by the tolerance:
+  // R sqrt(1 - 0.95^2) = 0.312 R.
+  const double rp = r.parent_diameter / 2;
+  EXPECT_GT(b[0].end.z(), r.parent_length - r.parent_diameter);
+  EXPECT_LE(b[0].end.z(),
+            r.parent_length + rp * std::sqrt(1 - std::pow(1 - SurfaceWall::kBranchWallTolerance, 2)));
+  for (int i = 0; i < 2; ++i) {
+    const auto& d = b[static_cast<std::size_t>(i + 1)];
+    const Point direction = daughter_direction(r, i);
+    EXPECT_GT((d.end - d.start).normalized().dot(direction), std::cos(2 * kPi / 180)) << i;
+    EXPECT_LT((d.end - (junction + r.daughter_length * direction)).norm(), 0.02 * r.daughter_diameter[i]) << i;
+    EXPECT_NEAR(d.radius, r.daughter_diameter[i] / 2, 0.02 * r.daughter_diameter[i] / 2) << i;
+    EXPECT_GT((d.end - d.start).norm(), 0.5 * r.daughter_length) << i;
+    EXPECT_EQ(wall.branch_at(junction + 0.8 * r.daughter_length * direction), i + 1) << i;
+  }
+  EXPECT_EQ(wall.branch_at(Point(0, 0, 0.3 * r.parent_length)), 0);
+}
