@@ -28,6 +28,7 @@ struct ResumeOptions {
   std::string run_dir;
   long stop_after_step = 0;
   int particle_ranks = 0;       // the particle node's rank count from now on (0: as recorded)
+  int fluid_ranks = 0;          // the fluid node's likewise
   bool allow_commands = false;  // run node commands the run did not record (RunDirectory::commands_signed)
 };
 int resume_command(const ResumeOptions& opt);

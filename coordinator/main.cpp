@@ -85,6 +85,11 @@ int main(int argc, char** argv) {
                    "MPI ranks of the particle node from now on (default: as before); the checkpoint's particles "
                    "are shared anew among them")
       ->check(CLI::PositiveNumber);
+  resume_cmd
+      ->add_option("--np-fluid", resume.fluid_ranks,
+                   "MPI ranks of the fluid node from now on (default: as before); the checkpoint's fields are "
+                   "redistributed onto them (reconstructPar, decomposePar)")
+      ->check(CLI::PositiveNumber);
   resume_cmd->add_flag("--allow-commands", resume.allow_commands,
                        "Run the nodes' commands (run.fluid_command, run.particle_command, a swap's) even when this "
                        "run's coordinator did not record them: scene.toml or run.toml was changed since");

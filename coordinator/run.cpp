@@ -198,6 +198,15 @@ void place_nodes(Scene& scene, RunOptions opt) {
   }
   if (opt.relay_port >= 0) h.relay_port = opt.relay_port;
 }
+
+// The fluid node's own program cannot split the mesh into more pieces than it has layers: said
+// here, before anything is written or started (a resume would otherwise restart it in vain).
+void refuse_fluid_ranks(const Scene& scene, const std::string& what) {
+  if (!scene.run.fluid_command.empty()) return;  // another program decides for itself
+  if (const auto problem = fluid_ranks_problem(scene.mesh, scene.run.fluid_ranks))
+    throw std::runtime_error(fmt::format("{}: {}", what, *problem));
+}
+
 }  // namespace
 
 int run_command(const RunOptions& opt) {
@@ -216,6 +225,7 @@ int run_command(const RunOptions& opt) {
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(e.what());
   }
+  refuse_fluid_ranks(scene, opt.scene);
   auto [dir, ctx] = RunDirectory::create(opt.out.empty() ? default_run_dir(scene) : opt.out, opt.scene,
                                          bus_ttl(scene.run.bus_ttl, scene.hosts.across_hosts()));
   const RunLock lock(dir.path);  // for the run's life: a resume of it meanwhile is refused
@@ -238,12 +248,16 @@ int resume_command(const ResumeOptions& opt) {
   if (dir.particle_ranks > 0) scene.run.particle_ranks = dir.particle_ranks;
   use_swapped_programs(dir, scene);
   if (dir.placement.across_hosts()) scene.hosts = dir.placement;  // the ranks (run.toml) came from these hosts
-  if (opt.particle_ranks > 0 && opt.particle_ranks != scene.run.particle_ranks) {
+  // A node's ranks on other hosts were placed at the run's start (host:ranks): a new count
+  // would need a new placement.
+  for (const auto& [asked, ranks, what] : {std::tuple{opt.particle_ranks, &scene.run.particle_ranks, "particle"},
+                                           std::tuple{opt.fluid_ranks, &scene.run.fluid_ranks, "fluid"}}) {
+    if (asked <= 0 || asked == *ranks) continue;
     if (dir.placement.across_hosts())
       throw std::runtime_error(fmt::format(
-          "{} runs across hosts, whose ranks were placed at its start: resume it on its {} particle ranks", dir.path,
-          scene.run.particle_ranks));
-    scene.run.particle_ranks = opt.particle_ranks;
+          "{} runs across hosts, whose ranks were placed at its start: resume it on its {} {} ranks", dir.path,
+          *ranks, what));
+    *ranks = asked;
   }
   if (dir.transport_recorded) {
     scene.hosts.transport = dir.placement.transport;
@@ -251,6 +265,7 @@ int resume_command(const ResumeOptions& opt) {
     scene.hosts.relay_port = dir.placement.relay_port;
   }
   refuse_unsigned_commands(dir, ctx, scene, opt.allow_commands);
+  refuse_fluid_ranks(scene, dir.path);
   const auto from = dir.last_checkpoint();
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   dir.verify_checkpoint(*from);

@@ -3,6 +3,7 @@
 #include "fluid_case.h"
 
 #include <geometry.h>
+#include <solid_fraction_names.h>
 
 #include <algorithm>
 #include <cmath>
@@ -230,8 +231,11 @@ FluidSettings fluid_settings(const Scene& scene) {
   if (!(f.dt > 0)) throw std::invalid_argument("time.coupling_interval must be positive");
   f.solver = scene.fluid;
   f.skip_when_steady = scene.fluid.skip_when_steady && !scene.two_way;
-  for (const Species* s : {&scene.rbc, &scene.platelet})
-    if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
+  // A kernel wider than the particles shares them over cells narrower than they are (the scene
+  // checks the kernel against the cells): nothing to refuse here.
+  if (!shares_over_kernel(scene.solid_fraction))
+    for (const Species* s : {&scene.rbc, &scene.platelet})
+      if (s->present) f.largest_particle_diameter = std::max(f.largest_particle_diameter, s->diameter);
   return f;
 }
 
@@ -339,10 +343,7 @@ void write_case(const std::string& case_dir, const FluidSettings& fluid, const V
 
 void write_decomposition(const std::string& case_dir, int ranks, const MeshSpec& mesh) {
   if (ranks < 2) throw std::invalid_argument("a decomposed fluid needs at least 2 ranks");
-  if (mesh.axial_cells < ranks)
-    throw std::invalid_argument(
-        "the fluid is decomposed along the vessel axis: " + std::to_string(ranks) +
-        " ranks need at least as many axial cells (mesh.axial_cells = " + std::to_string(mesh.axial_cells) + ")");
+  if (const auto problem = fluid_ranks_problem(mesh, ranks)) throw std::invalid_argument(*problem);
   std::string s = header("dictionary", "system", "decomposeParDict");
   s += "numberOfSubdomains " + std::to_string(ranks) +
        ";\n\n"

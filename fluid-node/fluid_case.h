@@ -24,7 +24,7 @@ struct FluidSettings {
   double pressure_drop = 0;                 // Pa over the vessel length
   double body_force = 0;                    // m/s^2 along +z: G = dP / (rho l)
   double dt = 0;                            // s, coupling interval = one fluid time step
-  double largest_particle_diameter = 0;     // m, over the species present (0: none)
+  double largest_particle_diameter = 0;     // m, over the species present (0: none, or shared over a kernel)
   FluidSolver solver;                       // scene keys fluid.*: tolerances, PISO correctors, steady skip
   bool skip_when_steady = false;            // fluid.skip_when_steady and a one-way scene
   MomentumForm momentum;                    // coupling.momentum: the plasma's equation and what it publishes

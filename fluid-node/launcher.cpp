@@ -16,11 +16,14 @@
 //
 // With --resume-step K (passed on to the solver, which restores checkpoint K) the case and its
 // decomposition are those the run already has: they hold its output up to step K, and
-// decomposePar -force would delete the processor folders.
+// decomposePar -force would delete the processor folders. A checkpoint written by another
+// number of ranks than N (`hemocosim resume --np-fluid N`) is first redistributed onto N by
+// OpenFOAM's own tools, and the case decomposed anew (redistribute_checkpoint).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "fluid_case.h"
 #include "vessel_mesh.h"
 
+#include <checkpoint.h>
 #include <child_process.h>
 #include <mpi_job.h>
 #include <scene.h>
@@ -34,6 +37,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -78,6 +83,100 @@ void prepare_decomposed_case(const std::string& scene_file, const std::string& r
   throw std::runtime_error(std::string("cannot decompose the fluid case: ") + e.what());
 }
 
+// The fluid ranks that wrote a checkpoint: its processor<r> folders (none: one).
+int checkpoint_ranks(const std::filesystem::path& checkpoint) {
+  int ranks = 0;
+  while (std::filesystem::is_directory(checkpoint / ("processor" + std::to_string(ranks)))) ++ranks;
+  return std::max(ranks, 1);
+}
+
+// The time folder a checkpoint holds its fields in (its one time directory, whole or of rank 0).
+std::string checkpoint_time(const std::filesystem::path& checkpoint, int ranks) {
+  const auto fields = ranks > 1 ? checkpoint / "processor0" : checkpoint;
+  for (const auto& entry : std::filesystem::directory_iterator(fields))
+    if (entry.is_directory() && entry.path().filename().string().rfind("processor", 0) != 0)
+      return entry.path().filename().string();
+  throw std::runtime_error("the fluid checkpoint " + checkpoint.string() + " holds no fields");
+}
+
+void copy_folder(const std::filesystem::path& from, const std::filesystem::path& to) {
+  std::filesystem::create_directories(to.parent_path());
+  std::filesystem::copy(from, to, std::filesystem::copy_options::recursive);
+}
+
+// Resuming on `ranks` from a checkpoint of `step` that another number of fluid ranks wrote: its
+// fields go onto the new ranks by OpenFOAM's own tools (no field of ours moved by hand), in a
+// scratch case RUN_DIR/fluid-redistributed beside the sealed checkpoint, which stays untouched:
+// the mesh decomposed as the writing ranks had it (decomposePar -time none, the same
+// deterministic split), their fields put in it and joined (reconstructPar), then split for the
+// new ranks (decomposePar). Fields go in binary at 17 digits, so every value arrives unchanged;
+// the solver reads them from there (restoreCheckpoint.H). The run's case is then decomposed
+// anew: its output so far joined into the case's own time folders (reconstructPar), the old
+// processor folders replaced by the mesh and the initial fields split for the new ranks (or none
+// for one).
+// Logs: RUN_DIR/fluid/log.redistribute.*.
+void redistribute_checkpoint(const std::string& scene_file, const std::string& run_dir, long step, int ranks) try {
+  namespace fs = std::filesystem;
+  const fs::path checkpoint = fs::path(hemo::checkpoint_folder(run_dir, step)) / "fluid";
+  if (!fs::is_directory(checkpoint)) return;  // the solver names what is missing
+  const int written = checkpoint_ranks(checkpoint);
+  if (written == ranks) return;
+  const hemo::Scene scene = hemo::load_scene(scene_file);
+  const fs::path case_dir = fs::path(run_dir) / "fluid", scratch = fs::path(run_dir) / "fluid-redistributed";
+  const std::string time = checkpoint_time(checkpoint, written);
+  auto tool = [&](const std::string& name, std::vector<std::string> args) {
+    args.insert(args.begin(), name);
+    run_logged(args, (case_dir / ("log.redistribute." + name)).string());
+  };
+
+  fs::remove_all(scratch);
+  copy_folder(case_dir / "system", scratch / "system");
+  copy_folder(case_dir / "constant", scratch / "constant");
+  {
+    const fs::path dict = scratch / "system" / "controlDict";
+    std::ifstream in(dict);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()), line, out;
+    std::istringstream lines(text);
+    while (std::getline(lines, line)) {
+      if (line.rfind("writeFormat", 0) == 0) line = "writeFormat     binary;";
+      if (line.rfind("writePrecision", 0) == 0) line = "writePrecision  17;";
+      out += line + "\n";
+    }
+    std::ofstream(dict, std::ios::trunc) << out;
+  }
+  if (written > 1) {
+    hemo::write_decomposition(scratch.string(), written, scene.mesh);
+    tool("decomposePar", {"-case", scratch.string(), "-force", "-time", "none"});
+    for (int r = 0; r < written; ++r) {
+      const std::string rank = "processor" + std::to_string(r);
+      copy_folder(checkpoint / rank / time, scratch / rank / time);
+    }
+    tool("reconstructPar", {"-case", scratch.string(), "-time", time});
+  } else {
+    copy_folder(checkpoint / time, scratch / time);
+  }
+  if (ranks > 1) {
+    hemo::write_decomposition(scratch.string(), ranks, scene.mesh);
+    tool("decomposePar", {"-case", scratch.string(), "-force", "-time", time});
+  }
+  std::ofstream(scratch / "redistributed") << "step " << step << " ranks " << ranks << " time " << time << "\n";
+
+  // The run's case: its output joined, then split for the new ranks.
+  if (written > 1) tool("reconstructPar", {"-case", case_dir.string()});
+  if (ranks > 1) {
+    hemo::write_decomposition(case_dir.string(), ranks, scene.mesh);
+    tool("decomposePar", {"-case", case_dir.string(), "-force", "-time", "0"});  // the fields a rank starts from
+  } else {
+    for (int r = 0; r < written; ++r) fs::remove_all(case_dir / ("processor" + std::to_string(r)));
+  }
+  std::cout << "hemocosim-fluid: the checkpoint of step " << step << " of " << written
+            << " fluid ranks redistributed onto " << ranks << " (reconstructPar, decomposePar; "
+            << scratch.string() << ")" << std::endl;
+} catch (const std::exception& e) {
+  throw std::runtime_error("cannot redistribute the fluid checkpoint of step " + std::to_string(step) + " onto " +
+                           std::to_string(ranks) + " ranks: " + e.what());
+}
+
 // A resumed N-rank run goes on in the case as the run decomposed it: N subdomains.
 void check_decomposed_case(const std::string& run_dir, int ranks) {
   const std::filesystem::path case_dir = std::filesystem::path(run_dir) / "fluid";
@@ -115,13 +214,21 @@ int main(int argc, char* argv[]) {
     std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
     return 2;
   }
-  if (ranks <= 1 && job.starter == hemo::MpiStarter::mpirun) exec(solver_args);
-
   const std::string resume_step = hemo::argv_option(argc, argv, "--resume-step");
   const bool resuming = !resume_step.empty() && std::atol(resume_step.c_str()) > 0;
+  const std::string scene = hemo::argv_option(argc, argv, "--scene"), run_dir = hemo::argv_option(argc, argv, "--run-dir");
+  if (resuming && !scene.empty() && !run_dir.empty()) {
+    try {
+      redistribute_checkpoint(scene, std::filesystem::absolute(run_dir).lexically_normal().string(),
+                              std::atol(resume_step.c_str()), std::max(ranks, 1));
+    } catch (const std::exception& e) {
+      std::cerr << "hemocosim-fluid: error: " << e.what() << std::endl;
+      return 1;
+    }
+  }
+  if (ranks <= 1 && job.starter == hemo::MpiStarter::mpirun) exec(solver_args);
+
   try {
-    const std::string scene = hemo::argv_option(argc, argv, "--scene"),
-                      run_dir = hemo::argv_option(argc, argv, "--run-dir");
     if (scene.empty() || run_dir.empty()) throw std::runtime_error("--ranks needs --scene and --run-dir");
     const std::string dir = std::filesystem::absolute(run_dir).lexically_normal().string();
     if (ranks > 1 && resuming)

@@ -2,6 +2,7 @@
 #include "scene.h"
 
 #include "bifurcation.h"
+#include "solid_fraction_names.h"
 
 #include "momentum_forms.h"
 #include "suspension_viscosity.h"
@@ -219,6 +220,7 @@ class Reader {
         {"run.particle_ranks", {ninf, 4096}},
         {"run.bus_check_s", {ninf, 3600}},
         {"run.max_courant", {ninf, 1000}},
+        {"coupling.kernel_width_diameters", {ninf, 100}},  // a kernel wider averages the flow away
         {"vessel.diameter_um", {5, 1e4}},  // a capillary to a 10-mm artery
         {"vessel.length_um", {ninf, 1e5}},
         {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
@@ -388,12 +390,13 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 // A vessel given as a closed surface (vessel.shape "bifurcation", "imported"; docs/design.md,
 // "Surface vessels"): its surface must be one (built here, as the fluid node will build it), its
 // ends open, its fluid on one rank, and cells only in a shape with a wall for the particle side;
-// a feeder needs its inlet to face -z (feeder_layout says why not in one line).
-static void check_surface_vessel(Reader& r, const Scene& s) {
+// a feeder needs its inlet to face -z (feeder_layout says why not in one line). Returns the width of
+// its narrowest end (the diameter of a disc of its area; 0 when it was not built).
+static double check_surface_vessel(Reader& r, const Scene& s) {
   const auto names = vessel_shape_names();
-  if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return;  // refused as read
+  if (std::find(names.begin(), names.end(), s.vessel.shape) == names.end()) return 0;  // refused as read
   const VesselShape& shape = vessel_shape(s.vessel.shape);
-  if (!shape.surface()) return;
+  if (!shape.surface()) return 0;
   const bool cells = (s.rbc.present && s.rbc.hematocrit > 0) || (s.platelet.present && s.platelet.number_density > 0);
   r.refuse_once(!cells || shape.carries_cells(), "vessel.shape",
                 "vessel.shape \"" + shape.name +
@@ -405,27 +408,29 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
   }
   r.refuse_once(s.run.fluid_ranks == 1, "run.fluid_ranks",
                 "a surface vessel's fluid runs on one rank for now (the decomposition splits the O-grid's layers)");
-  if (!r.problems().empty()) return;
+  if (!r.problems().empty()) return 0;
   const bool from_file = shape.takes("vessel.surface");  // a problem of the surface is blamed on its file
   const std::string key = from_file ? "vessel.surface" : "vessel.shape";
   if (from_file && s.vessel.surface_file.empty()) {
     r.refuse_once(false, key, "missing: the ASCII STL of the vessel.shape \"" + shape.name + "\"");
-    return;
+    return 0;
   }
   Surface surface;
   try {
     surface = make_vessel_surface(s.vessel);
   } catch (const std::exception& e) {
     r.refuse_once(false, key, e.what());
-    return;
+    return 0;
   }
   // Every end wide enough for a red cell (as a bifurcation's daughters are, check_bifurcation):
   // the vessel is for blood. An end's width is the diameter of a disc of its area.
   const std::vector<std::string> outlets = from_file ? surface_outlet_names(s.vessel) : std::vector<std::string>{};
+  double narrowest = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < surface.region_names.size(); ++k) {
     const std::string& region = surface.region_names[k];
     if (region == surface_region::wall) continue;
     const double width = 2 * std::sqrt(surface.area(static_cast<int>(k)) / units::pi);
+    narrowest = std::min(narrowest, width);
     if (width >= kMinDaughterDiameter) continue;
     std::string named = region;  // an imported surface's ends by the file's names
     if (from_file && region == surface_region::inlet) named = "'" + s.vessel.surface_inlet + "' (the inlet)";
@@ -435,14 +440,16 @@ static void check_surface_vessel(Reader& r, const Scene& s) {
                   fmt::format("the surface's end {} is {:.1f} um across (a disc of its area), narrower than a red "
                               "cell ({:g} um)",
                               named, width / units::um, kMinDaughterDiameter / units::um));
-    return;
+    return 0;
   }
-  if (!fed_by_feeder(s.vessel)) return;
-  try {
-    (void)feeder_layout(s);
-  } catch (const std::exception& e) {
-    r.refuse_once(false, "vessel.inlet", e.what());
+  if (fed_by_feeder(s.vessel)) {
+    try {
+      (void)feeder_layout(s);
+    } catch (const std::exception& e) {
+      r.refuse_once(false, "vessel.inlet", e.what());
+    }
   }
+  return std::isfinite(narrowest) ? narrowest : 0;
 }
 
 double surface_cell_size(const Scene& s) {
@@ -476,7 +483,8 @@ namespace {
 // and are smaller than its fluid cells (unresolved CFD-DEM), and the run is a sane amount of work.
 constexpr double kMinMeshWallSpan = 100 * units::um;
 
-void check_geometry_and_work(Reader& r, const Scene& s) {
+// narrowest_end: a surface vessel's narrowest end (m, 0: not known).
+void check_geometry_and_work(Reader& r, const Scene& s, double narrowest_end) {
   // Blame the key the file gives (the species' diameter if it sets one, else the vessel's).
   auto blame = [&](const std::string& own, const std::string& other) {
     return r.line_of(own) > 0 || r.line_of(other) == 0 ? own : other;
@@ -486,14 +494,34 @@ void check_geometry_and_work(Reader& r, const Scene& s) {
   };
   const double d_vessel = s.vessel.diameter;
   // A surface vessel's cells are snapped cubes (fluid-node/surface_mesh.h): unresolved CFD-DEM
-  // needs them wider than the cells it carries.
+  // needs them wider than the cells it carries, unless a kernel wider than the particle shares them
+  // (model/solid_fraction_names.h), at least a cube wide at half maximum and at most the narrowest
+  // end's radius.
   if (surface_vessel(s.vessel)) {
     const double cube = s.mesh.surface_cell_size > 0 ? s.mesh.surface_cell_size : d_vessel / 12;
+    if (shares_over_kernel(s.solid_fraction)) {
+      for (const Species* sp : {&s.rbc, &s.platelet}) {
+        if (!sp->present) continue;
+        const double fwhm = s.kernel_width_diameters * sp->diameter;
+        if (fwhm < cube)
+          fail("coupling.kernel_width_diameters", fmt::format("{:g}", s.kernel_width_diameters),
+               fmt::format("a {}'s kernel ({:g} um at half maximum) is narrower than the snapped cubes ({:g} um): "
+                           "the cells' centres would not sample it; widen it or use smaller cubes",
+                           sp->name, fwhm / units::um, cube / units::um));
+        else if (narrowest_end > 0 && fwhm > narrowest_end / 2)
+          fail("coupling.kernel_width_diameters", fmt::format("{:g}", s.kernel_width_diameters),
+               fmt::format("a {}'s kernel ({:.3g} um at half maximum) is wider than the radius of the vessel's "
+                           "narrowest end ({:.3g} um): it would average the flow across the vessel; narrow it",
+                           sp->name, fwhm / units::um, narrowest_end / 2 / units::um));
+      }
+      return;
+    }
     for (const Species* sp : {&s.rbc, &s.platelet})
       if (sp->present && sp->diameter >= cube)
         fail("mesh.surface_cell_size_um", fmt::format("{:g}", cube / units::um),
              fmt::format("the snapped cubes ({:g} um) must be wider than a {} ({:g} um): the particles are unresolved "
-                         "in the fluid's cells (CFD-DEM); widen mesh.surface_cell_size_um",
+                         "in the fluid's cells (CFD-DEM); widen mesh.surface_cell_size_um, or share them over "
+                         "a kernel (coupling.solid_fraction = \"gaussian_kernel\")",
                          cube / units::um, sp->name, sp->diameter / units::um));
     return;
   }
@@ -939,7 +967,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_species(r, s.rbc, true);
   read_species(r, s.platelet, false);
   refuse_cells_without_feeder(r, s);
-  check_surface_vessel(r, s);
+  const double narrowest_end = check_surface_vessel(r, s);
 
   auto& c = s.contact;
   r.read("contact.cell_youngs_modulus_Pa", c.cell_youngs_modulus);
@@ -1019,7 +1047,9 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(f.solve_every >= 1, "fluid.solve_every", "must be at least 1 (1: the fluid solved every coupling step)");
 
   r.read("coupling.two_way", s.two_way);
-  read_name(r, "coupling.solid_fraction", s.solid_fraction, {"sphere_overlap", "centre_cell"});
+  read_name(r, "coupling.solid_fraction", s.solid_fraction, known_solid_fractions());
+  r.read("coupling.kernel_width_diameters", s.kernel_width_diameters);
+  r.check(s.kernel_width_diameters > 0, "coupling.kernel_width_diameters", "must be positive");
   read_name(r, "coupling.scheme", s.coupling_scheme, {"serial", "parallel"});
   read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
@@ -1039,7 +1069,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
-  if (r.problems().empty()) check_geometry_and_work(r, s);
+  if (r.problems().empty()) check_geometry_and_work(r, s, narrowest_end);
   if (check == SceneCheck::placement && r.problems().empty()) check_placement(r, s);
   r.report_unknown();
   catalogue = std::move(r.catalogue());
@@ -1049,6 +1079,14 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
 
 // A regular n-gon tangent to the circle of radius R has its corners at R / cos(π/n) and area over
 // perimeter R/2; one with its corners on the circle has area over perimeter (R/2) cos(π/n).
+std::optional<std::string> fluid_ranks_problem(const MeshSpec& mesh, int ranks) {
+  if (ranks <= mesh.axial_cells) return std::nullopt;
+  return fmt::format(
+      "the fluid is decomposed along the vessel axis: {} ranks need at least as many axial cells (mesh.axial_cells = "
+      "{})",
+      ranks, mesh.axial_cells);
+}
+
 double MeshSpec::wall_corner_radius() const {
   return wall_polygon == "inscribed" ? 1.0 : 1.0 / std::cos(units::pi / wall_sides());
 }
@@ -1076,6 +1114,11 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                                           : "ours: K from the interval's drag response"},
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
+  if (shares_over_kernel(s.solid_fraction))  // the others are the paper's unresolved sharing
+    r.push_back({"coupling.solid_fraction", s.solid_fraction,
+                 fmt::format("Capecelatro & Desjardins (2013)'s Gaussian filter, {:g} x the particle's diameter at half "
+                             "maximum, cut at 3 sigma, read over the same cells",
+                             s.kernel_width_diameters)});
   if (!surface_vessel(s.vessel))  // the O-grid's wall; a surface vessel's is snappyHexMesh's
     r.push_back({"mesh.wall_polygon", s.mesh.wall_polygon,
                  s.mesh.wall_polygon == "inscribed"

@@ -62,6 +62,11 @@ struct MeshSpec {
   double hydraulic_diameter_ratio() const;  // 4A/P of the cross-section, in vessel diameters
 };
 
+// Why the fluid node cannot run on `ranks` MPI ranks: it splits whole cross-sections along the
+// vessel axis (fluid-node/fluid_case.h, write_decomposition), so it needs as many axial cells at
+// least. Nothing when it can.
+std::optional<std::string> fluid_ranks_problem(const MeshSpec& mesh, int ranks);
+
 struct Plasma {
   double density = 1025;      // kg/m^3
   double viscosity = 1.2e-3;  // Pa s (dynamic)
@@ -249,8 +254,12 @@ struct Scene {
   bool two_way = true;  // particles push back on the fluid
   // How a particle's volume, drag and coefficient are shared among fluid cells:
   // "sphere_overlap" (the cells its sphere overlaps, by the volume of the sphere beyond each
-  // face of its cell) or "centre_cell" (all to the cell holding its centre).
+  // face of its cell), "centre_cell" (all to the cell holding its centre) or
+  // "gaussian_kernel" (a Gaussian of full width at half maximum kernel_width_diameters particle
+  // diameters, cut at three sigma, over the cells it reaches: particle-node/gaussian_kernel.h) for
+  // fluid cells narrower than the particles.
   std::string solid_fraction = "sphere_overlap";
+  double kernel_width_diameters = 1.0;
   // How a coupling step is shared between the nodes (docs/design.md "Lockstep coupling"): "serial"
   // (Gauss-Seidel: the fluid solves step k, then the particles move in it) or "parallel"
   // (Jacobi: both compute step k at once, the particles in the fluid of step k - 1).

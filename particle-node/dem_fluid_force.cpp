@@ -191,11 +191,13 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
   const SpeciesForces& forces = *species_.forces[p.species];
   ParticleFlow flow;
   flow.cell = cell;
-  flow.velocity = fluid.velocity(cell, locator_.wrap(p.x));
+  const FluidSampler::Seen seen =
+      fluid.seen(cell, locator_.wrap(p.x), 0.5 * species_.diameter[p.species], forces.needs_gradient());
+  flow.velocity = seen.velocity;
   flow.slip = flow.velocity - p.v;
   if (forces.needs_gradient()) {
-    flow.gradient = fluid.gradient(cell);
-    flow.shear_rate = fluid.shear_rate(cell);
+    flow.gradient = seen.gradient;
+    flow.shear_rate = seen.shear_rate;
   }
   if (forces.needs_centreline_speed()) {
     // The fastest cell is at the narrowest section: the local section's own centre-line speed.
@@ -207,7 +209,7 @@ int DemFluidForce::evaluate_fluid_force(const Particle& p, const Vec3& other, st
   flow.axis = p.axis;
   // The plasma's stress on the particle's volume acts like its weight in the drag's exponential
   // update.
-  const Vec3 stress = stress_force(fluid, cell, species_.volume[p.species]);
+  const Vec3 stress = stress_force(seen, species_.volume[p.species]);
   const double drag_scale = void_fraction_.empty() ? 1.0 : 1.0 / void_fraction_[cell];
   // CFDEM's explicit force (coupling.fluid_force = "held") is the closures at the exchange's own
   // slip, held: evaluated as over a step of no length (drag beta (u - v), lift at that slip).
@@ -321,10 +323,10 @@ void DemFluidForce::take_solid_volume(const SolidVolume& solid_volume) {
     cell_plasma_->set_plasma_mass(c, scene_.plasma.density * std::max(0.0, locator_.volume(c) - solid_volume(c)));
 }
 
-Vec3 DemFluidForce::stress_force(const FluidSampler& fluid, int cell, double volume) const {
+Vec3 DemFluidForce::stress_force(const FluidSampler::Seen& seen, double volume) const {
   Vec3 f = Vec3::Zero();
-  if (form_.pressure_force) f -= volume * fluid.pressure_gradient(cell);
-  if (form_.viscous_force) f += volume * fluid.viscous_force(cell);
+  if (form_.pressure_force) f -= volume * seen.pressure_gradient;
+  if (form_.viscous_force) f += volume * seen.viscous_force;
   return f;
 }
 

@@ -158,8 +158,8 @@ class DemFluidForce {
   // states carry both per cell), whether they go to the plasma with the drag and lift, and the
   // drag over the void fraction (CFDEM's model B).
   const MomentumForm& form_ = momentum_form(scene_.momentum);
-  // The plasma's stress on a particle of volume `volume` in `cell`, F_p + F_v (N).
-  Vec3 stress_force(const FluidSampler& fluid, int cell, double volume) const;
+  // The plasma's stress on a particle of volume `volume` that sees `seen`, F_p + F_v (N).
+  Vec3 stress_force(const FluidSampler::Seen& seen, double volume) const;
   // What the particle hands the plasma: drag and lift, with F_p + F_v where the form exchanges them.
   Vec3 exchanged(const FluidForce& ff) const { return form_.stress_exchanged ? Vec3(ff.total() + ff.stress) : ff.total(); }
   // Each cell's void fraction alpha at the last deposition (for beta / alpha; else empty).

@@ -2,10 +2,15 @@
 #include "deposition.h"
 
 #include "cell_fields.h"
+#include "gaussian_kernel.h"
+
+#include <solid_fraction_names.h>
 
 #include <algorithm>
-
+#include <cmath>
+#include <iterator>
 #include <stdexcept>
+#include <string_view>
 
 namespace hemo::particles {
 
@@ -20,52 +25,89 @@ double cap_beyond(double d, double r) {
 }
 }  // namespace
 
-int SphereOverlapFraction::share(int cell, const Vec3& x, double radius, CellShare* out) const {
-  out[0] = {cell, 1.0};
-  if (!(radius > 0)) return 1;
+int SolidFractionModel::share(int cell, const Vec3& x, double radius, CellShare* out) const {
+  std::vector<CellShare> shares;
+  share(cell, x, radius, shares);
+  if (shares.size() > static_cast<std::size_t>(kMaxShares))
+    throw std::length_error(name() + " shares a particle with " + std::to_string(shares.size()) + " cells, more than " +
+                            std::to_string(kMaxShares));
+  std::copy(shares.begin(), shares.end(), out);
+  return static_cast<int>(shares.size());
+}
+
+void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const {
+  out.assign(1, {cell, 1.0});
+  if (!(radius > 0)) return;
   // The cells the sphere reaches: from the centre's cell across every face whose plane cuts
   // the sphere, and on from there (across a cyclic face with the centre moved by the period).
   // Each gets the product over its own non-wall faces of the part of the sphere on its side,
   // and the products are normalised. A cell's product depends only on the position and that
   // cell, and is 0 when it enters or leaves the set (the sphere then touches their shared
   // plane from outside), so the shares are continuous whichever cell holds the centre.
-  Vec3 seen_from[kMaxShares];
-  double weight[kMaxShares];
-  seen_from[0] = x;
-  int n = 1;
+  std::vector<double> weight;
   double total = 0;
-  for (int k = 0; k < n; ++k) {
+  for (std::size_t k = 0; k < out.size(); ++k) {
     const int c = out[k].cell;
-    const Vec3 xc = seen_from[k];
+    const Vec3 xc(x.x(), x.y(), x.z() + out[k].dz);
+    const double dz = out[k].dz;
     double w = 1;
     locator_->for_each_face_kind(c, xc, [&](double d, int beyond, const Vec3& normal, bool wall, bool cyclic) {
       if (wall) return;  // what is behind a wall stays with the cells along it
       w *= 1 - cap_beyond(d, radius);
       if (d <= -radius || beyond < 0) return;
-      Vec3 xb = xc;
-      if (cyclic) xb.z() -= std::copysign(locator_->length(), normal.z());
-      for (int j = 0; j < n; ++j)
-        if (out[j].cell == beyond) return;
-      if (n < kMaxShares) {
-        seen_from[n] = xb;
-        out[n++] = {beyond, 0.0};
-      }
+      for (const CellShare& s : out)
+        if (s.cell == beyond) return;
+      out.push_back({beyond, 0.0, cyclic ? dz - std::copysign(locator_->length(), normal.z()) : dz});
     });
-    weight[k] = w;
+    weight.push_back(w);
     total += w;
   }
-  for (int k = 0; k < n; ++k) out[k].fraction = total > 0 ? weight[k] / total : (k == 0 ? 1.0 : 0.0);
+  for (std::size_t k = 0; k < out.size(); ++k) out[k].fraction = total > 0 ? weight[k] / total : (k == 0 ? 1.0 : 0.0);
   // Cells that get nothing (reached across a plane the sphere only touches) are dropped.
-  int kept = 1;
-  for (int k = 1; k < n; ++k)
+  std::size_t kept = 1;
+  for (std::size_t k = 1; k < out.size(); ++k)
     if (out[k].fraction > 0) out[kept++] = out[k];
-  return kept;
+  out.resize(kept);
 }
 
-std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator) {
-  if (name == "centre_cell") return std::make_unique<CentreCellFraction>();
-  if (name == "sphere_overlap") return std::make_unique<SphereOverlapFraction>(locator);
-  throw std::invalid_argument("unknown solid fraction model '" + name + "' (known: centre_cell, sphere_overlap)");
+namespace {
+
+// Every model by name, in model/solid_fraction_names.h's order (the scene validates names against
+// that list, which cannot read this table: the build stops here when the two differ).
+using Factory = std::unique_ptr<SolidFractionModel> (*)(const CellLocator&, double);
+struct Entry {
+  std::string_view name;
+  Factory make;
+};
+constexpr Entry kModels[] = {
+    {CentreCellFraction::kName, [](const CellLocator&, double) -> std::unique_ptr<SolidFractionModel> {
+       return std::make_unique<CentreCellFraction>();
+     }},
+    {GaussianKernelFraction::kName, [](const CellLocator& l, double width) -> std::unique_ptr<SolidFractionModel> {
+       return std::make_unique<GaussianKernelFraction>(l, width);
+     }},
+    {SphereOverlapFraction::kName, [](const CellLocator& l, double) -> std::unique_ptr<SolidFractionModel> {
+       return std::make_unique<SphereOverlapFraction>(l);
+     }},
+};
+
+constexpr bool same_names() {
+  if (std::size(kModels) != kSolidFractionNames.size()) return false;
+  for (std::size_t i = 0; i < std::size(kModels); ++i)
+    if (kModels[i].name != kSolidFractionNames[i]) return false;
+  return true;
+}
+static_assert(same_names(), "deposition.cpp's kModels and model/solid_fraction_names.h's kSolidFractionNames differ");
+
+}  // namespace
+
+std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator,
+                                                              double kernel_width_diameters) {
+  for (const Entry& e : kModels)
+    if (e.name == name) return e.make(locator, kernel_width_diameters);
+  std::string known;
+  for (const Entry& e : kModels) known += (known.empty() ? "" : ", ") + std::string(e.name);
+  throw std::invalid_argument("unknown solid fraction model '" + name + "' (known: " + known + ")");
 }
 
 Deposition::Deposition(const CellLocator& locator, std::unique_ptr<SolidFractionModel> model)

@@ -11,7 +11,8 @@
 // The fluid uses S - K u = source_explicit - drag_coefficient u, which at u = u_c is exactly
 // -<sum F>_c / V_c: the fluid gets back every newton the particles got, cell by cell.
 //
-// How a particle is shared among cells is a SolidFractionModel (scene coupling.solid_fraction).
+// How a particle is shared among cells is a SolidFractionModel (scene coupling.solid_fraction;
+// solid_fraction.h; for cells narrower than the particles, "gaussian_kernel", gaussian_kernel.h).
 // Its volume, its interval impulse (the integral of F dt) and its drag response are all
 // shared with the same fractions, so the identity above holds cell by cell whatever the model,
 // and sum_c phi_c V_c = sum_p V_p exactly.
@@ -40,52 +41,42 @@
 
 #include "cell_locator.h"
 #include "fluid_sampler.h"
+#include "solid_fraction.h"
 
 #include <vec.h>
 #include <hemo/particle_feedback_t.hpp>
 
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace hemo::particles {
 
-struct CellShare {
-  int cell;
-  double fraction;
-};
-
-class SolidFractionModel {
- public:
-  static constexpr int kMaxShares = 16;
-  virtual ~SolidFractionModel() = default;
-  virtual std::string name() const = 0;
-  // Writes the fractions (>= 0, summing to 1) in which a sphere of radius r centred at x
-  // (wrapped, in `cell`) is shared; returns how many (at most kMaxShares, the first `cell`).
-  virtual int share(int cell, const Vec3& x, double radius, CellShare* out) const = 0;
-};
-
 class CentreCellFraction final : public SolidFractionModel {
  public:
-  std::string name() const override { return "centre_cell"; }
-  int share(int cell, const Vec3&, double, CellShare* out) const override {
-    out[0] = {cell, 1.0};
-    return 1;
-  }
+  static constexpr std::string_view kName = "centre_cell";
+  std::string name() const override { return std::string(kName); }
+  using SolidFractionModel::share;
+  void share(int cell, const Vec3&, double, std::vector<CellShare>& out) const override { out.assign(1, {cell, 1.0}); }
 };
 
 class SphereOverlapFraction final : public SolidFractionModel {
  public:
   explicit SphereOverlapFraction(const CellLocator& locator) : locator_(&locator) {}
-  std::string name() const override { return "sphere_overlap"; }
-  int share(int cell, const Vec3& x, double radius, CellShare* out) const override;
+  static constexpr std::string_view kName = "sphere_overlap";
+  std::string name() const override { return std::string(kName); }
+  using SolidFractionModel::share;
+  void share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const override;
 
  private:
   const CellLocator* locator_;
 };
 
-// "centre_cell" or "sphere_overlap"; throws std::invalid_argument otherwise.
-std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator);
+// The model of that name (model/solid_fraction_names.h; "gaussian_kernel" with the kernel's width
+// in particle diameters, coupling.kernel_width_diameters); throws std::invalid_argument otherwise.
+std::unique_ptr<SolidFractionModel> make_solid_fraction_model(const std::string& name, const CellLocator& locator,
+                                                              double kernel_width_diameters = 1.0);
 
 class Deposition {
  public:
@@ -103,11 +94,10 @@ class Deposition {
   // the interval the integral of its fluid force (N s) and its drag response dJ/du (kg), shared
   // among cells with the model's fractions.
   void add_particle(int cell, const Vec3& x, double radius, double volume, const Vec3& impulse, double drag_response) {
-    CellShare shares[SolidFractionModel::kMaxShares];
-    const int n = model_->share(cell, x, radius, shares);
-    for (int k = 0; k < n; ++k) {
-      double* a = &acc_[static_cast<std::size_t>(shares[k].cell) * kStride];
-      const double w = shares[k].fraction;
+    model_->share(cell, x, radius, shares_);
+    for (const CellShare& share : shares_) {
+      double* a = &acc_[static_cast<std::size_t>(share.cell) * kStride];
+      const double w = share.fraction;
       a[0] += w * impulse.x();
       a[1] += w * impulse.y();
       a[2] += w * impulse.z();
@@ -148,6 +138,7 @@ class Deposition {
   const CellLocator* locator_;
   std::unique_ptr<SolidFractionModel> model_;
   std::vector<double> acc_;
+  std::vector<CellShare> shares_;  // add_particle's, kept to spare an allocation per particle
 };
 
 }  // namespace hemo::particles

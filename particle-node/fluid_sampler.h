@@ -2,10 +2,13 @@
 // from the cell centre (exact for a linear field), or the cell's value alone (CFDEM's default;
 // coupling.fluid_velocity), the local shear rate, and the pressure gradient and viscous force
 // per volume when the fluid sends them (the momentum forms that put F_p, F_v on the particles).
+// With a solid-fraction model that samples over its shares (gaussian_kernel.h), a particle sees
+// the means of those over the cells it is shared with (seen()).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
 #include "cell_locator.h"
+#include "solid_fraction.h"
 
 #include <vec.h>
 #include <hemo/fluid_state_t.hpp>
@@ -74,6 +77,28 @@ class FluidSampler {
 
   const CellLocator& locator() const { return *locator_; }
 
+  // Read what a particle sees over the shares of `model` when it samples over them
+  // (SolidFractionModel::samples_over_shares; nullptr or another model: at the particle's centre).
+  // The model must outlive the sampler.
+  void read_over(const SolidFractionModel* model) {
+    kernel_ = model != nullptr && model->samples_over_shares() ? model : nullptr;
+  }
+  // What a particle of radius r centred at x (wrapped, in `cell`) sees: velocity(cell, x) and the
+  // cell's values, or with read_over's model their means with its fractions: of the gradient, the
+  // pressure gradient and viscous force when the state carries them, and of each cell's velocity
+  // carried to x (as seen from that cell) by the mean of its own and the kernel's mean gradient,
+  // u_c + (1/2) (G_c + G_mean)^T (x - x_c), exact for a linear field and for a quadratic one where
+  // the cells' weighted centre is x (Sampling::cell: the mean of the u_c); the shear rate is the
+  // mean gradient's. `gradient`: false leaves the gradient and shear rate zero.
+  struct Seen {
+    Vec3 velocity = Vec3::Zero();
+    Mat3 gradient = Mat3::Zero();
+    double shear_rate = 0;
+    Vec3 pressure_gradient = Vec3::Zero();  // when has_pressure_gradient()
+    Vec3 viscous_force = Vec3::Zero();      // when has_viscous_force()
+  };
+  Seen seen(int cell, const Vec3& x, double radius, bool gradient) const;
+
  private:
   const CellLocator* locator_;
   Sampling sampling_;
@@ -84,6 +109,8 @@ class FluidSampler {
   std::vector<double> shear_rate_;
   double max_speed_ = 0;
   std::vector<char> held_;
+  const SolidFractionModel* kernel_ = nullptr;
+  mutable std::vector<CellShare> shares_;  // seen()'s, kept to spare an allocation per particle
 };
 
 }  // namespace hemo::particles

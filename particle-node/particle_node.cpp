@@ -71,9 +71,10 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       locator_(mesh, make_vessel_wall(scene.vessel),
                fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene)) : std::nullopt),
       fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
-      deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_)),
+      deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_, scene.kernel_width_diameters)),
       run_dir_(run_dir) {
   MPI_Comm_rank(comm_, &rank_);
+  fluid_.read_over(&deposition_.model());
   require_same(scene.vessel.diameter, mesh.vessel_diameter_m, "vessel diameter");
   require_same(scene.vessel.length, mesh.vessel_length_m, "vessel length");
   std::filesystem::create_directories(run_dir);
@@ -84,6 +85,13 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
   else
     start();
   log_particles();
+}
+
+double ParticleNode::exchange_margin() const {
+  double beyond = 0;
+  for (const Species* sp : {&scene_.rbc, &scene_.platelet})
+    beyond = std::max(beyond, deposition_.model().reach(0.5 * sp->diameter) - 0.5 * sp->diameter);
+  return engine_->exchange_margin() + beyond;
 }
 
 void ParticleNode::find_used_species() {

@@ -58,9 +58,10 @@ class ParticleNode {
   // Throws std::exception with a one-line reason when the scene and mesh do not fit together.
   ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm, long resume_step = 0);
 
-  // This rank's box and margin (DemEngine::sub_domain, exchange_margin), for the overlap map.
+  // This rank's box and margin (DemEngine::sub_domain, exchange_margin), for the overlap map; the
+  // margin widened by how far a solid-fraction kernel reaches beyond the particles' spheres.
   Box sub_domain() const;
-  double exchange_margin() const { return engine_->exchange_margin(); }
+  double exchange_margin() const;
   // The partitioned exchange's map (RankedPort::start_exchange): this rank holds the fluid state
   // of its needed(p) cells only, deposits into those only (checked every step), and its
   // feedback is its own particles' partial sums, which the fluid adds up. Its share of a

@@ -247,7 +247,7 @@ int main(int argc, char** argv) {
     FluidSampler fluid(locator);
     fluid.set_state(with_poiseuille_stress(fluid_state(mesh, poiseuille(R, scene.driving.wall_shear_rate * R / 2)),
                                            scene));
-    Deposition deposition(locator, make_solid_fraction_model(scene.solid_fraction, locator));
+    Deposition deposition(locator, make_solid_fraction_model(scene.solid_fraction, locator, scene.kernel_width_diameters));
     long pid = getpid();  // rank 0's: one folder for the job
     MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);
     work = fs::temp_directory_path() / ("hemocosim-dem-bench-" + std::to_string(pid));

@@ -101,6 +101,21 @@ TEST(MonitorStats, DiagnosticsAreTheLatestStepsAndAFailureIsShown) {
             std::string::npos);
 }
 
+// A node's rank >= 1 reports on its own channel: its timings and bytes are shown with the node's
+// diagnostics, the latest of each rank, a resend of an older step changing nothing.
+TEST(MonitorStats, ARanksOwnReportIsShownWithItsNodesDiagnostics) {
+  MonitorStats s("run1");
+  done(s, "particles", 3, 0.1, 0, {"rank0_sent_B"}, {500});
+  s.rank_done("particles", 1, 3, 0.2, 0.05, {"rank1_sent_B"}, {700});
+  s.rank_done("particles", 1, 2, 9.0, 9.0, {"rank1_sent_B"}, {1});  // a resend of step 2
+  const auto row = s.close_interval(1, 1);
+  const auto& v = row["diagnostics"]["particles"]["values"];
+  EXPECT_DOUBLE_EQ(v["rank0_sent_B"].get<double>(), 500);
+  EXPECT_DOUBLE_EQ(v["rank1_sent_B"].get<double>(), 700);
+  EXPECT_DOUBLE_EQ(v["rank1_compute_s"].get<double>(), 0.2);
+  EXPECT_DOUBLE_EQ(v["rank1_wait_s"].get<double>(), 0.05);
+}
+
 TEST(MonitorStats, RateAndEtaOverTheWindow) {
   std::deque<std::pair<double, std::int64_t>> h;
   EXPECT_FALSE(rate_and_eta(h, 10, 100).steps_per_s);

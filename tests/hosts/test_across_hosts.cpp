@@ -9,8 +9,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -198,6 +200,59 @@ TEST_F(AcrossHosts, TwoRankParticleJobAcrossHostsEqualsTheOneHostRunBitForBit) {
             std::string::npos);
   EXPECT_EQ((fs::status(across + "/secret").permissions() & fs::perms::all),
             fs::perms::owner_read | fs::perms::owner_write);
+}
+
+// Both nodes on two ranks spread over the three hosts (the fluid's on hosts 1 and 2, the
+// particles' on 2 and 3), so that every rank's partitions, feedback and reports cross a host
+// boundary: the small scene ends bit for bit as the same 2 x 2 run on one host, and so as the
+// one-rank run to the decomposed fluid's round-off (PartitionedRun's bounds: 1e-12 m, 1e-6 of
+// the fastest velocity, 1e-7 of the mean flow). The coordinator heard every rank's report of
+// every step.
+TEST_F(AcrossHosts, TwoByTwoRanksAcrossHostsEqualTheOneHostRuns) {
+  const std::string scene = scene_file("hosts-2x2-scene", 40, 0);
+  const std::string one = fresh_run_dir("hosts-2x2-1x1"), two = fresh_run_dir("hosts-2x2-one-host"),
+                    across = fresh_run_dir("hosts-2x2-across");
+  const auto a = run(bin("hemocosim") + " run " + scene + " --out " + one);
+  ASSERT_EQ(a.exit_code, 0) << a.output;
+  const auto b = run(bin("hemocosim") + " run " + scene + " --out " + two + " --np-fluid 2 --np-particles 2");
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+
+  Watch watch(across);
+  const auto c = run("ip netns exec " + ns(1) + " " + bin("hemocosim") + " run " + scene + " --out " + across +
+                     " --fluid-hosts " + ip(1) + ":1," + ip(2) + ":1 --particle-hosts " + ip(2) + ":1," + ip(3) +
+                     ":1 --launch-command '" + g_dir + "/ssh {host} {command}'");
+  watch.finish();
+  ASSERT_EQ(c.exit_code, 0) << c.output;
+  expect_bit_for_bit(two, across);
+  EXPECT_EQ(watch.particle_namespaces, (std::set<std::string>{ns(2), ns(3)}));
+  const std::string info = read_file(across + "/run.toml");
+  EXPECT_NE(info.find("fluid_ranks = 2"), std::string::npos) << info;
+
+  const auto names = snapshot_names(one + "/particles.h5");
+  ASSERT_EQ(names, snapshot_names(across + "/particles.h5"));
+  const auto sa = read_snapshot(one + "/particles.h5", names.back());
+  const auto sb = read_snapshot(across + "/particles.h5", names.back());
+  ASSERT_EQ(sa.id, sb.id);
+  double fastest = 0, position = 0, velocity = 0;
+  for (std::size_t i = 0; i < sa.position.size(); ++i) {
+    fastest = std::max(fastest, std::abs(sa.velocity[i]));
+    position = std::max(position, std::abs(sa.position[i] - sb.position[i]));
+    velocity = std::max(velocity, std::abs(sa.velocity[i] - sb.velocity[i]));
+  }
+  std::printf("[ info ] 2 x 2 across hosts against 1 x 1 after %s: positions %.3g m, velocities %.3g of the fastest\n",
+              names.back().c_str(), position, velocity / fastest);
+  EXPECT_LT(position, 1e-12);
+  EXPECT_LT(velocity, 1e-6 * fastest);
+  const auto ma = read_metrics(one), mc = read_metrics(across);
+  const auto &ua = ma.at({"fluid", "mean_velocity_m_s"}), &uc = mc.at({"fluid", "mean_velocity_m_s"});
+  ASSERT_EQ(ua.size(), uc.size());
+  for (const auto& [step, value] : ua) EXPECT_NEAR(uc.at(step), value, 1e-7 * std::abs(value)) << step;
+  for (const char* node : {"fluid", "particles"}) {
+    const auto it = mc.find({node, "rank1_compute_s"});
+    ASSERT_NE(it, mc.end()) << node;
+    EXPECT_EQ(it->second.size(), mc.at({node, "compute_s"}).size()) << node << "'s rank 1 reported every step";
+    EXPECT_EQ(it->second.size(), 41u) << node << ": the start-up and 40 steps";
+  }
 }
 
 // A particle rank killed on the third host (SIGKILL): its MPI job ends, the coordinator restarts

@@ -151,9 +151,14 @@ void expect_resumed_run_equals_uninterrupted(const std::string& name, const std:
 
   const auto third = run(bin("hemocosim") + " resume " + other + other_ranks);
   ASSERT_EQ(third.exit_code, 0) << third.output;
-  EXPECT_NE(file_text(other + "/particles.log").find("its particles are shared anew"), std::string::npos);
+  const bool fluid = other_ranks.find("--np-fluid") != std::string::npos;
+  if (fluid)
+    EXPECT_NE(file_text(other + "/fluid.log").find("redistributed onto"), std::string::npos);
+  else
+    EXPECT_NE(file_text(other + "/particles.log").find("its particles are shared anew"), std::string::npos);
   const std::string count = other_ranks.substr(other_ranks.rfind(' ') + 1);
-  EXPECT_NE(file_text(other + "/run.toml").find("particle_ranks = " + count), std::string::npos)
+  EXPECT_NE(file_text(other + "/run.toml").find((fluid ? "fluid_ranks = " : "particle_ranks = ") + count),
+            std::string::npos)
       << "a later resume goes on with the new count";
   expect_same_run(whole, other, round_off);
 }
@@ -204,6 +209,47 @@ TEST(Checkpoint, AdaptiveRunResumedEqualsTheUninterruptedRun) {
 // behind stops the resume or moves cells by far more.
 TEST(Checkpoint, ResumedRunOnTwoParticleRanksEqualsTheUninterruptedRunToRoundOff) {
   expect_resumed_run_equals_uninterrupted("checkpoint-2-ranks", " --np-particles 2", 1e-15, " --np-particles 1");
+}
+
+// The fluid on another rank count: the checkpoint's fields (a decomposed case of processor<r>
+// folders, or the whole case's) are redistributed by OpenFOAM's own tools (reconstructPar, then
+// decomposePar, fluid-node/launcher.cpp) and the run goes on with the same values on other
+// subdomains, summed in another order: to the decomposed fluid's round-off, the bound of
+// PartitionedRun.TwoRanksEachEndAsOneRankEachToRoundOff (1e-12 m, and 1e-7 of the scale in
+// velocities and flow). Two fluid ranks stopped at step 20 and resumed on one, ...
+TEST(Checkpoint, ResumedRunOfTwoFluidRanksOnOneEqualsTheUninterruptedRunToRoundOff) {
+  expect_resumed_run_equals_uninterrupted("checkpoint-2-fluid-ranks", " --np-fluid 2", 1e-12, " --np-fluid 1");
+}
+
+// ... and one resumed on two (the case decomposed anew at the resume).
+TEST(Checkpoint, ResumedRunOfOneFluidRankOnTwoEqualsTheUninterruptedRunToRoundOff) {
+  expect_resumed_run_equals_uninterrupted("checkpoint-1-fluid-rank", "", 1e-12, " --np-fluid 2");
+}
+
+// More fluid ranks than the mesh has layers along the axis: `run` refuses them before it makes the
+// run directory, `resume` before it changes the run (its recorded counts stay), in one line.
+TEST(Checkpoint, MoreFluidRanksThanAxialLayersAreRefusedInOneLine) {
+  const std::string dir = fresh_run_dir("fluid-ranks-refused");
+  std::ofstream(dir + ".toml") << scene_with_checkpoints(40, 8);
+  const auto fresh = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + "-never --np-fluid 7");
+  EXPECT_NE(fresh.exit_code, 0);
+  EXPECT_NE(error_line(fresh.output).find("7 ranks need at least as many axial cells (mesh.axial_cells = 6)"),
+            std::string::npos)
+      << fresh.output;
+  EXPECT_FALSE(fs::exists(dir + "-never"));
+
+  const auto first = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --stop-after-step 8");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string recorded = file_text(dir + "/run.toml");
+  const auto resumed = run(bin("hemocosim") + " resume " + dir + " --np-fluid 7");
+  EXPECT_NE(resumed.exit_code, 0);
+  const std::string line = error_line(resumed.output);
+  EXPECT_NE(line.find(dir + ": the fluid is decomposed along the vessel axis: 7 ranks need at least as many axial "
+                            "cells (mesh.axial_cells = 6)"),
+            std::string::npos)
+      << resumed.output;
+  EXPECT_EQ(resumed.output.find("restarting"), std::string::npos) << resumed.output;
+  EXPECT_EQ(file_text(dir + "/run.toml"), recorded);
 }
 
 namespace {

@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 using namespace hemo::test;
 
@@ -54,6 +56,64 @@ TEST(Failures, FrozenNodeTimesOutNamingIt) {
   const auto r = run_and_signal("fluid", SIGSTOP, "freeze-fluid");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("fluid node stopped answering"), std::string::npos) << r.output;
+}
+
+namespace {
+// The process of MPI rank `rank` among the descendants of `pid` (Open MPI tells each rank its
+// number in OMPI_COMM_WORLD_RANK); 0 when there is none.
+pid_t mpi_rank_below(pid_t pid, int rank) {
+  std::map<pid_t, std::vector<pid_t>> children;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line) || line.rfind(')') == std::string::npos) continue;
+    std::istringstream rest(line.substr(line.rfind(')') + 2));
+    char state = 0;
+    pid_t parent = 0;
+    rest >> state >> parent;
+    children[parent].push_back(static_cast<pid_t>(std::stol(name)));
+  }
+  const std::string wanted = "OMPI_COMM_WORLD_RANK=" + std::to_string(rank);
+  std::vector<pid_t> todo{pid};
+  while (!todo.empty()) {
+    const pid_t p = todo.back();
+    todo.pop_back();
+    for (const pid_t c : children[p]) {
+      todo.push_back(c);
+      std::ifstream environ("/proc/" + std::to_string(c) + "/environ");
+      for (std::string var; std::getline(environ, var, '\0');)
+        if (var == wanted) return c;
+    }
+  }
+  return 0;
+}
+}  // namespace
+
+// One rank of a two-rank particle node stopped alone (SIGSTOP), its node's rank 0 beating on:
+// the coordinator names the node, the rank and the step once the rank's own heartbeat has been
+// silent for node_timeout_s (10 s), without a restart to go on from (no checkpoint yet).
+TEST(Failures, AFrozenRankOfATwoRankNodeIsNamedByNodeRankAndStep) {
+  const std::string dir = fresh_run_dir("freeze-particle-rank");
+  std::ofstream(dir + ".toml") << small_scene_text(100000);
+  auto result = std::async(std::launch::async, [&] {
+    return run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --np-particles 2");
+  });
+  ASSERT_TRUE(wait_until_stepping(dir, 300)) << "the run never stepped";
+  long node = 0;
+  std::ifstream(dir + "/particles.pid") >> node;
+  const pid_t rank1 = mpi_rank_below(static_cast<pid_t>(node), 1);
+  EXPECT_GT(rank1, 0) << "no rank 1 below the particle node's process " << node;
+  if (rank1 > 0) kill(rank1, SIGSTOP);
+  const auto r = result.get();
+  if (rank1 > 0) kill(rank1, SIGKILL);  // whatever its job's end left of it
+  EXPECT_NE(r.exit_code, 0);
+  const std::string line = error_line(r.output);
+  EXPECT_TRUE(std::regex_search(line, std::regex("particles node's rank 1 of 2 stopped answering at step [0-9]+: "
+                                                 "no heartbeat for 10 s")))
+      << r.output;
+  EXPECT_LT(r.seconds, 200);
 }
 
 // Until a node has been heard from it is starting up (MPI launch, engine set-up, a loaded host):

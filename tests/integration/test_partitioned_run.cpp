@@ -194,7 +194,8 @@ TEST(PartitionedRun, NoRankGathersBroadcastsOrReceivesTheWholeState) {
   // The deposition's all-reduce alone was 40 B a cell each way on every particle rank, the K u
   // sum 24 B a cell from rank 1, the scatter 40 B a cell to fluid rank 1: each about the whole
   // feedback or half of it. What a rank moves besides its partials (its reports, the order, the
-  // halo's solid volume where the drag needs it) stays below a quarter of it.
+  // halo's solid volume where the drag needs it, resend requests) stays below a quarter of it on
+  // average and below 0.6 of it in any step.
   for (int r = 0; r < 2; ++r) {
     const std::string rank = "rank" + std::to_string(r);
     const auto sent = over_steps(b, "particles", rank + "_sent_B");
@@ -220,14 +221,21 @@ TEST(PartitionedRun, NoRankGathersBroadcastsOrReceivesTheWholeState) {
     EXPECT_LT(*std::min_element(summed.begin(), summed.end()), 0.9 * whole_feedback)
         << "fluid " << rank << " received the whole feedback";
     EXPECT_LT(after_first(summed), 0.9 * whole_feedback) << "fluid " << rank << " received the whole feedback";
+    // Besides: its reports and the resend requests every bus of the rank hears (a few kB in a
+    // busy step); the scatter or the all-reduce added the whole feedback to every step.
+    std::vector<double> other_sent, other_received;
     for (std::size_t i = 0; i < sent.size(); ++i) {
       EXPECT_GT(partials[i], 0) << "particle " << rank << ", step " << i + 1;
-      EXPECT_LT(sent[i] - partials[i], 0.25 * whole_feedback) << "particle " << rank << ", step " << i + 1;
+      other_sent.push_back(sent[i] - partials[i]);
+      EXPECT_LT(other_sent.back(), 0.6 * whole_feedback) << "particle " << rank << ", step " << i + 1;
     }
     for (std::size_t i = 0; i < received.size(); ++i) {
       EXPECT_GT(summed[i], 0) << "fluid " << rank << ", step " << i + 1;
-      EXPECT_LT(received[i] - summed[i], 0.25 * whole_feedback) << "fluid " << rank << ", step " << i + 1;
+      other_received.push_back(received[i] - summed[i]);
+      EXPECT_LT(other_received.back(), 0.6 * whole_feedback) << "fluid " << rank << ", step " << i + 1;
     }
+    EXPECT_LT(after_first(other_sent), 0.25 * whole_feedback) << "particle " << rank;
+    EXPECT_LT(after_first(other_received), 0.25 * whole_feedback) << "fluid " << rank;
   }
 }
 

@@ -626,3 +626,34 @@ TEST(BifurcationWall, APointInTheParentBeforeTheJunctionIsInTheParentsSection) {
   EXPECT_DOUBLE_EQ(s.radius, 50e-6);
   EXPECT_LT(s.off_axis, s.radius);
 }
+
+// A 30-um bifurcation's default cubes (2.5 um, d/12) are narrower than a red cell: refused with
+// the particle's own sharing, accepted with a Gaussian kernel (coupling.solid_fraction
+// "gaussian_kernel"), whose width is refused in one line when it is narrower than a cube or wider
+// than the narrowest end's radius (the Murray daughters' 23.8 um across), at half maximum.
+TEST(SurfaceScene, AKernelCarriesRedCellsInCubesNarrowerThanThem) {
+  auto one = [](const std::string& text, const std::string& key, const std::string& part) {
+    const auto ps = scene_problems(text);
+    ASSERT_EQ(ps.size(), 1u) << text;
+    EXPECT_EQ(ps[0].key, key) << text;
+    EXPECT_NE(ps[0].message.find(part), std::string::npos) << ps[0].message;
+    EXPECT_EQ(ps[0].message.find('\n'), std::string::npos) << ps[0].message;
+  };
+  const std::string blood = "[rbc]\nhematocrit = 0.15\n";
+  one(fed_bifurcation_scene("", blood), "mesh.surface_cell_size_um",
+      "the snapped cubes (2.5 um) must be wider than a rbc (5.56 um)");
+  const std::string kernel = "[coupling]\nsolid_fraction = \"gaussian_kernel\"\n";
+  const auto ps = scene_problems(fed_bifurcation_scene("", blood + kernel));
+  EXPECT_TRUE(ps.empty()) << (ps.empty() ? "" : ps[0].message);
+  const Scene s = load_scene(hemo::test::write_temp(fed_bifurcation_scene("", blood + kernel)));
+  EXPECT_EQ(s.solid_fraction, "gaussian_kernel");
+  EXPECT_EQ(s.kernel_width_diameters, 1.0);
+  one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 0.4\n"), "coupling.kernel_width_diameters",
+      "a rbc's kernel (2.224 um at half maximum) is narrower than the snapped cubes (2.5 um)");
+  // 2.2 diameters: 12.2 um at half maximum, against daughters of 23.8 um (a radius of 11.9); 2 fit.
+  one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 2.2\n"), "coupling.kernel_width_diameters",
+      "a rbc's kernel (12.2 um at half maximum) is wider than the radius of the vessel's narrowest end (11.9 um)");
+  EXPECT_TRUE(scene_problems(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 2\n")).empty());
+  one(fed_bifurcation_scene("", blood + kernel + "kernel_width_diameters = 0\n"), "coupling.kernel_width_diameters",
+      "must be positive");
+}

@@ -1,0 +1,44 @@
+// How a particle is shared among fluid cells (scene coupling.solid_fraction): the interface of the
+// solid-fraction models (deposition.h: centre_cell, sphere_overlap; gaussian_kernel.h), which
+// Deposition uses to share a particle's volume, impulse and drag response, and FluidSampler, for
+// a model that reads the fluid over the same cells (samples_over_shares), to average what the
+// particle sees.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+
+#include <vec.h>
+
+#include <string>
+#include <vector>
+
+namespace hemo::particles {
+
+struct CellShare {
+  int cell;
+  double fraction;
+  // The particle's centre as seen from this cell is x + dz e_z: -/+ the period for a cell reached
+  // across a cyclic face.
+  double dz = 0;
+};
+
+class SolidFractionModel {
+ public:
+  virtual ~SolidFractionModel() = default;
+  virtual std::string name() const = 0;
+  // Fills `out` (cleared first) with the cells among which a particle of radius r centred at x
+  // (wrapped, in `cell`) is shared, the first `cell`, with fractions >= 0 summing to 1; as many
+  // cells as the model reaches.
+  virtual void share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const = 0;
+  // The same into an array of kMaxShares (the bounded models' tests); throws std::length_error
+  // when the particle reaches more cells. Returns how many.
+  static constexpr int kMaxShares = 16;
+  int share(int cell, const Vec3& x, double radius, CellShare* out) const;
+  // True when the fluid a particle sees is the mean, with its shares, of what its cells hold
+  // (FluidSampler::seen); else the value at its centre in its own cell.
+  virtual bool samples_over_shares() const { return false; }
+  // How far from its centre a particle of radius r reaches the cells it is shared with (m): what
+  // a rank must hold of the fluid around its particles.
+  virtual double reach(double radius) const { return radius; }
+};
+
+}  // namespace hemo::particles
