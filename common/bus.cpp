@@ -5,6 +5,7 @@
 #include "run_files.h"
 
 #include <hemo/control_t.hpp>
+#include <hemo/feedback_partition_t.hpp>
 #include <hemo/fluid_decomposition_t.hpp>
 #include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
@@ -268,7 +269,8 @@ std::pair<std::shared_ptr<const void>, std::type_index> decode_kind(const std::s
     return kind == channel_kind ? decode_as<fluid_state_t>(bytes) : decode_as<fluid_partition_t>(bytes);
   if (kind == channel::partition) return decode_as<fluid_decomposition_t>(bytes);
   if (kind == channel::domain) return decode_as<particle_domain_t>(bytes);
-  if (kind == channel::particle_feedback) return decode_as<particle_feedback_t>(bytes);
+  if (kind == channel::particle_feedback)
+    return kind == channel_kind ? decode_as<particle_feedback_t>(bytes) : decode_as<feedback_partition_t>(bytes);
   if (kind == channel::step_done) return decode_as<step_done_t>(bytes);
   if (kind == channel::resend) return decode_as<resend_request_t>(bytes);
   if (kind == channel::control) return decode_as<control_t>(bytes);
@@ -371,7 +373,7 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
   RankTraffic::sent(out.size());
   if (keep) {
     std::lock_guard<std::mutex> lock(kept_mutex_);
-    kept_[kind][step] = std::move(buf);
+    kept_[kind][step] = {std::move(buf), wall_clock_us()};
   }
 }
 
@@ -480,14 +482,22 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
     if (msg.kind == channel::resend) {
       const auto req = msg.as<resend_request_t>();  // decoded on arrival
       std::optional<std::vector<std::uint8_t>> kept;
+      bool answered = false;
       {
         std::lock_guard<std::mutex> lock(kept_mutex_);
         const auto kind = kept_.find(req.channel);
         if (kind != kept_.end()) {
           const auto it = kind->second.find(req.wanted_step);
-          if (it != kind->second.end()) kept = it->second;
+          if (it != kind->second.end()) {
+            // A request that reached this host before the message's last publish is answered by
+            // that publish: the requests a busy node finds queued after it publishes (the other
+            // node asks every retry interval while it waits) would each send it again.
+            answered = msg.received_unix_us > 0 && msg.received_unix_us < it->second.published_us;
+            if (!answered) kept = it->second.bytes;
+          }
         }
       }
+      if (answered) continue;
       if (kept) {
         // Publish the same content again with a fresh sequence number and tag.
         auto buf = std::move(*kept);

@@ -78,7 +78,8 @@ std::string base_kind(const std::string& kind);
 // A kind's channel between fluid rank f of nf and particle rank p of np: "<KIND>.<f>.<p>" (its
 // publisher's alone), or the kind itself with one rank each. A FLUID_STATE channel of a pair
 // carries fluid_partition_t, the state of the cells p takes from f; FLUID_STATE itself, the
-// whole mesh's fluid_state_t.
+// whole mesh's fluid_state_t. A PARTICLE_FEEDBACK channel of a pair carries feedback_partition_t,
+// p's partial feedback for those cells; PARTICLE_FEEDBACK itself, the whole mesh's.
 std::string of_pair(const std::string& kind, int fluid_rank, int fluid_ranks, int particle_rank, int particle_ranks);
 
 // What rank `rank` (>= 1) of a node on several ranks (`role`: "fluid", "particles") tells the
@@ -248,7 +249,11 @@ class Bus {
   // A rank's own bus may answer resends from a thread while its owner publishes (fluid ranks of a
   // partitioned exchange: fluidLink.H): what it keeps is under its own lock.
   mutable std::mutex kept_mutex_;
-  std::map<std::string, std::map<std::int64_t, std::vector<std::uint8_t>>> kept_;  // kind -> step -> bytes
+  struct Kept {
+    std::vector<std::uint8_t> bytes;
+    std::int64_t published_us = 0;  // this host's wall clock at its last publish (resends too)
+  };
+  std::map<std::string, std::map<std::int64_t, Kept>> kept_;  // kind -> step -> message
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
   std::vector<Received> inbox_;
   std::uint64_t received_for_drop_ = 0;

@@ -213,13 +213,14 @@ void FluidPort::initialize(mesh_t& mesh) { bus_->publish(channel::mesh, mesh, 0,
 
 std::optional<FluidStep> FluidPort::advance_partitioned(const Diagnostics& diag) {
   fluid_state_t none;
-  auto next = advance_with("", none, channel::particle_feedback, -1, diag, /*report_first=*/false);
+  auto next = advance_with("", none, "", -1, diag, /*report_first=*/false);
   if (!next) return std::nullopt;
-  return FluidStep{next->first, next->second.as<particle_feedback_t>()};
+  return FluidStep{next->first, {}};
 }
 
-std::optional<ParticleStep> ParticlePort::advance_partitioned(particle_feedback_t& feedback, const Diagnostics& diag) {
-  auto next = advance_with(channel::particle_feedback, feedback, "", 0, diag, /*report_first=*/true);
+std::optional<ParticleStep> ParticlePort::advance_partitioned(const Diagnostics& diag) {
+  particle_feedback_t none;
+  auto next = advance_with("", none, "", 0, diag, /*report_first=*/true);
   if (!next) return std::nullopt;
   return ParticleStep{next->first, {}};
 }

@@ -166,7 +166,8 @@ class FluidPort : public NodePort {
   // Publishes the state of the current step; returns the next step's order and feedback,
   // or nothing when the coordinator says stop.
   std::optional<FluidStep> advance(fluid_state_t& state, const Diagnostics& diag = {});
-  // The same when the fluid's ranks published their partitions of the state themselves.
+  // The same when the fluid's ranks publish their partitions of the state and take their
+  // readers' partial feedback themselves: only the order (`feedback` left empty).
   std::optional<FluidStep> advance_partitioned(const Diagnostics& diag = {});
 };
 
@@ -185,9 +186,10 @@ class ParticlePort : public NodePort {
   // Publishes the feedback of the current step; returns the next order and the fluid state,
   // or nothing when the coordinator says stop.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag = {});
-  // The same when the particle ranks receive their partitions of the fluid state themselves:
-  // only the order (`fluid` left empty).
-  std::optional<ParticleStep> advance_partitioned(particle_feedback_t& feedback, const Diagnostics& diag = {});
+  // The same when the particle ranks publish their partial feedback and receive their
+  // partitions of the fluid state themselves: only the report out and the order in (`fluid` left
+  // empty).
+  std::optional<ParticleStep> advance_partitioned(const Diagnostics& diag = {});
   // Steps between the fluid state used and the step computed (0 serial, 1 parallel scheme).
   int fluid_lag() const { return fluid_lag_; }
 

@@ -157,4 +157,48 @@ std::string take_partition(const fluid_partition_t& msg, const std::vector<int>&
   return {};
 }
 
+feedback_partition_t slice_feedback(const particle_feedback_t& whole, const std::vector<int>& cells, int fluid_rank,
+                                    int particle_rank) {
+  feedback_partition_t m;
+  m.mesh_hash = whole.mesh_hash;
+  m.fluid_rank = fluid_rank;
+  m.particle_rank = particle_rank;
+  m.n_cells = static_cast<std::int32_t>(cells.size());
+  m.cells.assign(cells.begin(), cells.end());
+  m.solid_fraction = slice_cells(whole.solid_fraction, 1, cells);
+  m.drag_coefficient = slice_cells(whole.drag_coefficient, 1, cells);
+  m.source_explicit = slice_cells(whole.source_explicit, kVectorValues, cells);
+  m.n_source_values = static_cast<std::int32_t>(m.source_explicit.size());
+  return m;
+}
+
+std::string add_feedback_partition(const feedback_partition_t& msg, const std::vector<int>& expected, int fluid_rank,
+                                   int particle_rank, particle_feedback_t& sum) {
+  const std::string from = fmt::format("particle rank {} -> fluid rank {}", particle_rank, fluid_rank);
+  if (msg.fluid_rank != fluid_rank || msg.particle_rank != particle_rank)
+    return fmt::format("{}: the message is particle rank {}'s for fluid rank {}", from, msg.particle_rank,
+                       msg.fluid_rank);
+  if (msg.mesh_hash != sum.mesh_hash)
+    return fmt::format("{}: the feedback is for mesh '{}', not this mesh ('{}')", from, msg.mesh_hash, sum.mesh_hash);
+  if (static_cast<int>(msg.cells.size()) != msg.n_cells)
+    return fmt::format("{}: {} cell ids for {} cells", from, msg.cells.size(), msg.n_cells);
+  const std::vector<int> cells(msg.cells.begin(), msg.cells.end());
+  if (std::string why = cell_list_problem(cells, expected); !why.empty())
+    return fmt::format("{}: {} ({} cells received, {} expected by the overlap map)", from, why, cells.size(),
+                       expected.size());
+  std::string why = flat_size_problem("solid fraction", msg.n_cells, msg.solid_fraction, 1, msg.n_cells);
+  if (why.empty()) why = flat_size_problem("drag coefficient", msg.n_cells, msg.drag_coefficient, 1, msg.n_cells);
+  if (why.empty())
+    why = flat_size_problem("explicit source", msg.n_source_values, msg.source_explicit, kVectorValues, msg.n_cells);
+  if (!why.empty()) return from + ": " + why;
+  try {
+    add_cells(cells, msg.solid_fraction, 1, sum.solid_fraction);
+    add_cells(cells, msg.drag_coefficient, 1, sum.drag_coefficient);
+    add_cells(cells, msg.source_explicit, kVectorValues, sum.source_explicit);
+  } catch (const std::invalid_argument& e) {
+    return from + ": " + e.what();
+  }
+  return {};
+}
+
 }  // namespace hemo

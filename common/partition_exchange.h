@@ -1,16 +1,19 @@
 // The partitioned exchange between the nodes' ranks (docs/notes/partitioned-exchange.md): the
 // messages of model/overlap_map.h's inputs (the fluid's cell owners on PARTITION, the particle
-// ranks' boxes on DOMAIN) and of its per-(fluid rank, particle rank) state (fluid_partition_t on
-// FLUID_STATE.<f>.<p>), turned into and out of the engine-free map and codec
+// ranks' boxes on DOMAIN), of its per-(fluid rank, particle rank) state (fluid_partition_t on
+// FLUID_STATE.<f>.<p>) and of the feedback's partial sums back (feedback_partition_t on
+// PARTICLE_FEEDBACK.<f>.<p>), turned into and out of the engine-free map and codec
 // (model/cell_partition.h). With one rank each none of it is used: the whole-mesh messages are.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <hemo/feedback_partition_t.hpp>
 #include <hemo/fluid_decomposition_t.hpp>
 #include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/mesh_t.hpp>
 #include <hemo/particle_domain_t.hpp>
+#include <hemo/particle_feedback_t.hpp>
 
 #include <overlap_map.h>
 
@@ -48,5 +51,17 @@ fluid_partition_t slice_partition(const fluid_state_t& local, const std::vector<
 // or the mesh or field that does not fit; `whole` is then left as it was.
 std::string take_partition(const fluid_partition_t& msg, const std::vector<int>& expected, int fluid_rank,
                            int particle_rank, fluid_state_t& whole);
+
+// What particle rank p sends fluid rank f: its partial feedback `whole` (the whole mesh's arrays,
+// its own particles' sums) at `cells` (from[p][f], global ids, ascending).
+feedback_partition_t slice_feedback(const particle_feedback_t& whole, const std::vector<int>& cells, int fluid_rank,
+                                    int particle_rank);
+
+// Checks a received partial against what fluid rank f expects of particle rank p (`expected`,
+// from[p][f]) and adds its values into `sum` (the whole mesh's arrays, sized by resize_cells).
+// Empty when done, else one line naming both ranks and the first cell or field that is wrong;
+// `sum` is then left as it was.
+std::string add_feedback_partition(const feedback_partition_t& msg, const std::vector<int>& expected, int fluid_rank,
+                                   int particle_rank, particle_feedback_t& sum);
 
 }  // namespace hemo

@@ -27,18 +27,73 @@ namespace hemo {
 // "fluid.3": rank 3's sender name of the node whose rank 0 says hello as `role`.
 std::string rank_sender(const std::string& role, int rank);
 
-// Fluid rank f's end: every step, each reader's partition of the rank's state on
-// FLUID_STATE.<f>.<p>, kept for resends of it and the step before; the resends are answered by
-// a thread of its own, as the rank spends the particles' wait in its node's collectives.
+// A rank's own bus whose kept messages are asked for again while the rank is busy elsewhere (in
+// its node's collectives, in the DEM): a thread of its own answers the resend requests.
+class AnsweringBus {
+ public:
+  AnsweringBus(const RunContext& ctx, const std::string& sender);
+  ~AnsweringBus();
+  AnsweringBus(const AnsweringBus&) = delete;
+  AnsweringBus& operator=(const AnsweringBus&) = delete;
+  Bus& bus() { return bus_; }
+  // Throws std::runtime_error, naming `who`, when the thread lost the bus.
+  void check(const std::string& who) const;
+  // The bytes published on channels of `kind` (resends too) since the last call.
+  std::uint64_t take_sent_bytes(const std::string& kind);
+
+ private:
+  Bus bus_;
+  std::atomic<bool> stop_{false};
+  mutable std::mutex error_mutex_;
+  std::string error_;
+  std::uint64_t sent_taken_ = 0;
+  std::thread answering_;
+};
+
+// What a rank waits for each step: one message of that step on each of its pair channels, from
+// the ranks of the other node it exchanges with; asks again for a late one by the retry interval
+// and gives up after its patience.
+class PairInbox {
+ public:
+  struct Source {
+    int rank;  // the other node's
+    std::string channel;
+  };
+  // `self`, `what`, `peer`: how a give-up names them ("particle rank 1", "fluid state",
+  // "fluid rank").
+  PairInbox(const RunContext& ctx, const std::string& sender, std::vector<Source> sources, double patience_s,
+            std::string self, std::string what, std::string peer);
+  // True once every source's message of `step` came, waiting at most `seconds` (what came is
+  // kept for the next call); `serve` is called between the polls. Throws std::runtime_error with
+  // one line when one has not come within the patience.
+  bool wait_within(std::int64_t step, double seconds, const std::function<void()>& serve);
+  const std::vector<Source>& sources() const { return sources_; }
+  // Source i's message of `step` (after wait_within said true).
+  const Received& message(std::size_t i, std::int64_t step) const { return pending_.at({sources_[i].channel, step}); }
+  // Drops what is of `step` or older (a resend answered twice, an early step's).
+  void forget_through(std::int64_t step);
+  // The bytes of every datagram of its channels it was handed since the last call.
+  std::uint64_t take_received_bytes();
+
+ private:
+  std::vector<Source> sources_;
+  double patience_s_;
+  std::string self_, what_, peer_;
+  Bus bus_;
+  std::map<std::pair<std::string, std::int64_t>, Received> pending_;
+  std::uint64_t received_taken_ = 0;
+  std::int64_t waiting_for_ = -1;  // the step last waited for, and since when
+  double waiting_since_ = 0, last_asked_ = 0;
+};
+
+// Fluid rank f's end of the state: every step, each reader's partition of the rank's state on
+// FLUID_STATE.<f>.<p>, kept for resends of it and the step before.
 class FluidRankPublisher {
  public:
   // `readers`: particle rank -> the cells it takes of this rank (from[p][f], global ids,
   // ascending); `global_of_local`: the global id of each of the rank's own cells, in its order.
   FluidRankPublisher(const RunContext& ctx, int rank, int ranks, int particle_ranks,
                      const std::map<int, std::vector<int>>& readers, const std::vector<int>& global_of_local);
-  ~FluidRankPublisher();
-  FluidRankPublisher(const FluidRankPublisher&) = delete;
-  FluidRankPublisher& operator=(const FluidRankPublisher&) = delete;
 
   // Publishes every reader's partition of `local` (the rank's cells in its own order) as `step`.
   // Throws std::runtime_error when the resend thread lost the bus.
@@ -46,7 +101,7 @@ class FluidRankPublisher {
   // The cells this rank publishes a step, summed over its readers.
   std::size_t cells_published() const;
   // The bytes of its partitions published (resends too) since the last call.
-  std::uint64_t take_sent_bytes();
+  std::uint64_t take_sent_bytes() { return out_.take_sent_bytes(channel::fluid_state); }
 
  private:
   struct Reader {
@@ -55,16 +110,12 @@ class FluidRankPublisher {
   };
   int rank_;
   std::map<int, Reader> readers_;
-  Bus bus_;
-  std::atomic<bool> stop_{false};
-  mutable std::mutex error_mutex_;
-  std::string error_;  // the resend thread's, when it lost the bus
-  std::uint64_t sent_taken_ = 0;
-  std::thread answering_;
+  AnsweringBus out_;
 };
 
-// Particle rank p's end: the partitions of the fluid ranks it takes cells from, assembled into
-// the whole mesh's arrays at the cells' global places (the cells it does not take stay zero).
+// Particle rank p's end of the state: the partitions of the fluid ranks it takes cells from,
+// assembled into the whole mesh's arrays at the cells' global places (the cells it does not
+// take stay zero).
 class ParticleRankReceiver {
  public:
   // `from`: fluid rank -> the cells (ascending) p takes of it; `patience_s`: how long a step's
@@ -84,34 +135,82 @@ class ParticleRankReceiver {
   std::optional<fluid_state_t> receive_within(std::int64_t step, double seconds,
                                               const std::function<void()>& serve = {});
   // The bytes of the partitions it was handed (every datagram of its channels) since the last call.
-  std::uint64_t take_received_bytes();
+  std::uint64_t take_received_bytes() { return in_.take_received_bytes(); }
 
  private:
-  struct Source {
-    int fluid_rank;
+  int rank_;
+  std::vector<std::vector<int>> cells_;  // per source of in_, the cells it sends
+  std::string mesh_hash_;
+  int n_cells_;
+  PairInbox in_;
+};
+
+// Particle rank p's end of the feedback: every step, its partial feedback (the sums of its own
+// particles) for the cells it takes of each fluid rank f on PARTICLE_FEEDBACK.<f>.<p>, kept for
+// resends of it and the step before.
+class ParticleRankPublisher {
+ public:
+  // `from`: fluid rank -> the cells (ascending) p takes of it, from[p][f].
+  ParticleRankPublisher(const RunContext& ctx, int rank, int ranks, int fluid_ranks,
+                        const std::map<int, std::vector<int>>& from);
+
+  // Publishes to every fluid rank its cells of `partial` (the whole mesh's arrays) as `step`.
+  // Throws std::runtime_error when the resend thread lost the bus.
+  void publish(const particle_feedback_t& partial, std::int64_t step);
+  // The bytes of its partials published (resends too) since the last call.
+  std::uint64_t take_sent_bytes() { return out_.take_sent_bytes(channel::particle_feedback); }
+
+ private:
+  struct Fluid {
     std::string channel;
     std::vector<int> cells;
   };
   int rank_;
-  std::vector<Source> sources_;
+  std::map<int, Fluid> fluids_;
+  AnsweringBus out_;
+};
+
+// Fluid rank f's end of the feedback: its readers' partials of a step, checked against the map
+// and summed (in ascending particle rank, so that every run of the same ranks adds alike) into
+// the whole mesh's arrays at its own cells' places (the other cells stay zero).
+class FluidRankReceiver {
+ public:
+  // `readers`: particle rank -> the cells it takes of this rank (from[p][f], ascending).
+  FluidRankReceiver(const RunContext& ctx, int rank, int ranks, int particle_ranks,
+                    const std::map<int, std::vector<int>>& readers, std::string mesh_hash, int n_cells,
+                    double patience_s);
+
+  // Every reader's partial of `step`, summed; as ParticleRankReceiver::receive.
+  particle_feedback_t receive(std::int64_t step, const std::function<void()>& serve = {});
+  std::optional<particle_feedback_t> receive_within(std::int64_t step, double seconds,
+                                                    const std::function<void()>& serve = {});
+  std::uint64_t take_received_bytes() { return in_.take_received_bytes(); }
+
+ private:
+  int rank_;
+  std::vector<std::vector<int>> cells_;
   std::string mesh_hash_;
   int n_cells_;
-  double patience_s_;
-  Bus bus_;
-  std::map<std::pair<std::string, std::int64_t>, Received> pending_;
-  std::uint64_t received_taken_ = 0;
-  std::int64_t waiting_for_ = -1;  // the step receive_within was last called for, and since when
-  double waiting_since_ = 0, last_asked_ = 0;
+  PairInbox in_;
+};
+
+// Each end of one rank of either node: what it publishes and what it receives.
+struct FluidRankEnd {
+  std::unique_ptr<FluidRankPublisher> state;
+  std::unique_ptr<FluidRankReceiver> feedback;
+};
+struct ParticleRankEnd {
+  std::unique_ptr<ParticleRankReceiver> state;
+  std::unique_ptr<ParticleRankPublisher> feedback;
 };
 
 // A node program of one rank (no MPI: the analytic fluid, the prescribed particles) facing a peer
-// on more: its end of the partitioned exchange, after the port's initialize (the mesh published
+// on more: its ends of the partitioned exchange, after the port's initialize (the mesh published
 // or received): the decomposition's message out (all cells its own; one box, the mesh's, with no
 // margin), the peer's in, the map. Nothing when the peer runs on one rank too (the whole-mesh
 // messages are the exchange). Throws std::runtime_error with one line.
-std::unique_ptr<FluidRankPublisher> open_one_rank_fluid_end(FluidPort& port, const mesh_t& mesh,
-                                                            const RunContext& ctx);
-std::unique_ptr<ParticleRankReceiver> open_one_rank_particle_end(ParticlePort& port, const mesh_t& mesh,
-                                                                 const RunContext& ctx);
+std::optional<FluidRankEnd> open_one_rank_fluid_end(FluidPort& port, const mesh_t& mesh, const RunContext& ctx);
+std::optional<ParticleRankEnd> open_one_rank_particle_end(ParticlePort& port, const mesh_t& mesh,
+                                                          const RunContext& ctx);
 
 }  // namespace hemo

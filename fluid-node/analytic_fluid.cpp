@@ -107,8 +107,11 @@ int main(int argc, char** argv) {
 
     auto advance = [&] {
       if (!partitions) return port->advance(state, diag);
-      partitions->publish(state, port->step());
-      return port->advance_partitioned(diag);
+      partitions->state->publish(state, port->step());
+      auto step = port->advance_partitioned(diag);
+      if (step)  // serving the port meanwhile: the particles may be asking again for its report
+        step->feedback = partitions->feedback->receive(step->order.envelope.step - 1, [&] { port->serve(); });
+      return step;
     };
     while (auto step = advance()) {
       const auto& fb = step->feedback;

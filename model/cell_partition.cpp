@@ -48,8 +48,11 @@ std::string cell_list_problem(const std::vector<int>& received, const std::vecto
   return {};  // not reached: more received than expected needs an unexpected or repeated cell
 }
 
-void assemble_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
-                    std::vector<double>& whole) {
+namespace {
+
+template <class Put>
+void put_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
+               std::vector<double>& whole, const Put& put) {
   const std::size_t k = static_cast<std::size_t>(per_cell);
   if (values.size() != k * cells.size())
     throw std::invalid_argument(std::to_string(values.size()) + " values for " + std::to_string(cells.size()) +
@@ -60,8 +63,20 @@ void assemble_cells(const std::vector<int>& cells, const std::vector<double>& va
       throw std::invalid_argument("cell " + std::to_string(cell) + " is outside the mesh of " +
                                   std::to_string(n_whole) + " cells");
   for (std::size_t i = 0; i < cells.size(); ++i) {
-    for (std::size_t j = 0; j < k; ++j) whole[k * static_cast<std::size_t>(cells[i]) + j] = values[k * i + j];
+    for (std::size_t j = 0; j < k; ++j) put(whole[k * static_cast<std::size_t>(cells[i]) + j], values[k * i + j]);
   }
+}
+
+}  // namespace
+
+void assemble_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
+                    std::vector<double>& whole) {
+  put_cells(cells, values, per_cell, whole, [](double& to, double v) { to = v; });
+}
+
+void add_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
+               std::vector<double>& whole) {
+  put_cells(cells, values, per_cell, whole, [](double& to, double v) { to += v; });
 }
 
 }  // namespace hemo

@@ -3,6 +3,8 @@
 // as the cells' ids (the whole mesh's, ascending) and, per field, k values per cell in that
 // order; the particle rank checks the ids against what it expects and writes the values into
 // whole-mesh arrays, where the rest of the node finds them at their global index as before.
+// The feedback goes back the same way, its partial sums added where the state's values are
+// written.
 // Engine-free and message-free: plain ids and flat arrays (k values per cell, cell c's at
 // [k c, k c + k), as the messages carry them: messages/cell_fields.h).
 // SPDX-License-Identifier: GPL-3.0-or-later
@@ -28,5 +30,9 @@ std::string cell_list_problem(const std::vector<int>& received, const std::vecto
 // the mesh.
 void assemble_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
                     std::vector<double>& whole);
+// The same, adding `values` to what `whole` holds at the cells' places (the feedback's partial
+// sums, one per particle rank, coming together on a fluid rank).
+void add_cells(const std::vector<int>& cells, const std::vector<double>& values, int per_cell,
+               std::vector<double>& whole);
 
 }  // namespace hemo

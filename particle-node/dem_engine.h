@@ -101,11 +101,14 @@ class DemEngine {
   long neighbour_builds() const { return liggghts_.neighbour_builds(); }
 
   // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
-  // its current position, and sums the per-cell accumulators over ranks. Collective.
+  // its current position, and sums the per-cell accumulators over ranks (after use_halo: this
+  // rank's own). Collective.
   void deposit(Deposition& deposition) { fluid_force_.deposit(deposition); }
   // The plasma mass of each cell, rho (V - solid volume), from a deposition (deposit does this;
   // a resumed node from the checkpoint's): what a co-relaxed cell's plasma weighs.
   void take_plasma_mass(const Deposition& deposition) { fluid_force_.take_plasma_mass(deposition); }
+  // The partitioned exchange: deposit() leaves each rank's deposition its own (DemFluidForce::use_halo).
+  void use_halo(std::unique_ptr<CellHaloSum> halo) { fluid_force_.use_halo(std::move(halo)); }
 
   // Largest particle Reynolds number per species in the last run, and whether it exceeded the
   // drag law's range for the first time (the node warns once per run).

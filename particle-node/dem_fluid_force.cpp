@@ -288,6 +288,16 @@ void DemFluidForce::deposit(Deposition& deposition) {
     deposition.add_particle(cell, locator_.wrap(xi), 0.5 * species_.diameter[sp], species_.volume[sp],
                             Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);
   }
+  if (halo_) {
+    // Each rank's own; the fluid sums them. The cells its particles can be in next interval are
+    // its own cells, whose other depositors the halo holds.
+    if (!form_.drag_over_void_fraction && !cell_plasma_) return;
+    std::vector<double> solid(static_cast<std::size_t>(locator_.n_cells()));
+    for (int c = 0; c < locator_.n_cells(); ++c) solid[static_cast<std::size_t>(c)] = deposition.solid_volume(c);
+    halo_->sum(solid, 1);
+    take_solid_volume([&](int c) { return solid[static_cast<std::size_t>(c)]; });
+    return;
+  }
   int size = 1;
   MPI_Comm_size(comm_, &size);
   if (size > 1) MPI_Allreduce(MPI_IN_PLACE, deposition.data(), deposition.size(), MPI_DOUBLE, MPI_SUM, comm_);
@@ -296,17 +306,21 @@ void DemFluidForce::deposit(Deposition& deposition) {
 }
 
 void DemFluidForce::take_plasma_mass(const Deposition& deposition) {
+  take_solid_volume([&](int c) { return deposition.solid_volume(c); });
+}
+
+template <class SolidVolume>
+void DemFluidForce::take_solid_volume(const SolidVolume& solid_volume) {
   if (form_.drag_over_void_fraction) {
     // The floor only keeps a cell deposited full (a numerical accident, far above any packing
     // of cells) from dividing by zero.
     void_fraction_.resize(locator_.n_cells());
     for (int c = 0; c < locator_.n_cells(); ++c)
-      void_fraction_[c] = std::max(1e-3, 1.0 - deposition.solid_volume(c) / locator_.volume(c));
+      void_fraction_[c] = std::max(1e-3, 1.0 - solid_volume(c) / locator_.volume(c));
   }
   if (!cell_plasma_) return;
   for (int c = 0; c < locator_.n_cells(); ++c)
-    cell_plasma_->set_plasma_mass(
-        c, scene_.plasma.density * std::max(0.0, locator_.volume(c) - deposition.solid_volume(c)));
+    cell_plasma_->set_plasma_mass(c, scene_.plasma.density * std::max(0.0, locator_.volume(c) - solid_volume(c)));
 }
 
 Vec3 DemFluidForce::stress_force(const FluidSampler::Seen& seen, double volume) const {

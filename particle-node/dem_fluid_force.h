@@ -11,7 +11,9 @@
 // next interval's first half kick) lives in a `fix property/atom`, so that it moves with its atom
 // between ranks; its forces are weighted as Velocity Verlet applies them (DemEngine's header).
 // After a run every rank deposits its own atoms (deposit()) and the per-cell arrays are summed
-// over ranks.
+// over ranks; in a partitioned exchange each rank's stay its own (the fluid sums them), and only
+// the solid volume, when the drag needs the void fraction or the plasma's mass, is summed over
+// the ranks sharing each cell (CellHaloSum).
 //
 // time.closure_every_dem_steps = m > 1: the particle's cell, the plasma velocity there and the
 // closures (beta, lift, torque) are evaluated at the first step of every run and every m steps
@@ -23,6 +25,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include "cell_halo_sum.h"
 #include "cell_locator.h"
 #include "cell_plasma.h"
 #include "dem_orientation.h"
@@ -80,10 +83,15 @@ class DemFluidForce {
   void finish_run(long evaluations);
 
   // Clears `deposition`, deposits every particle's volume and the impulses of the last run at
-  // its current position, and sums the per-cell accumulators over ranks. Collective.
+  // its current position, and sums the per-cell accumulators over ranks (with a halo: leaves
+  // them this rank's own). Collective.
   void deposit(Deposition& deposition);
-  // The plasma mass of each cell, rho (V - solid volume), from a deposition.
+  // The plasma mass of each cell, rho (V - solid volume), and its void fraction, from a
+  // deposition summed over ranks.
   void take_plasma_mass(const Deposition& deposition);
+  // The partitioned exchange: from now on deposit() keeps each rank's deposition its own and
+  // sums the solid volume, where it is used, over `halo` only.
+  void use_halo(std::unique_ptr<CellHaloSum> halo) { halo_ = std::move(halo); }
   const CellPlasmaRelaxation* cell_plasma() const { return cell_plasma_.get(); }
 
   // Of the last run, over all ranks.
@@ -156,6 +164,10 @@ class DemFluidForce {
   Vec3 exchanged(const FluidForce& ff) const { return form_.stress_exchanged ? Vec3(ff.total() + ff.stress) : ff.total(); }
   // Each cell's void fraction alpha at the last deposition (for beta / alpha; else empty).
   std::vector<double> void_fraction_;
+  // The void fraction and the co-relaxed plasma's mass from each cell's solid volume (m^3).
+  template <class SolidVolume>
+  void take_solid_volume(const SolidVolume& solid_volume);
+  std::unique_ptr<CellHaloSum> halo_;  // the partitioned exchange's (null: deposition summed over all ranks)
   // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
   const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
   // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).

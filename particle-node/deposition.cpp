@@ -125,24 +125,9 @@ void Deposition::clear_volume() {
 }
 
 void Deposition::finish(double interval, const FluidSampler* fluid, particle_feedback_t& out) const {
-  const bool have_u = fluid != nullptr && fluid->has_state();
-  finish_with(interval, out, [&](int c, double k) { return have_u ? Vec3(k * fluid->cell_velocity(c)) : Vec3(k * Vec3::Zero()); });
-}
-
-void Deposition::finish(double interval, const std::vector<double>& drag_velocity, particle_feedback_t& out) const {
-  if (drag_velocity.size() != static_cast<std::size_t>(kVectorValues) * locator_->n_cells())
-    throw std::invalid_argument("the drag's source has " + std::to_string(drag_velocity.size()) + " values for " +
-                                std::to_string(locator_->n_cells()) + " cells");
-  finish_with(interval, out, [&](int c, double) {
-    const double* ku = drag_velocity.data() + kVectorValues * static_cast<std::size_t>(c);
-    return Vec3(ku[0], ku[1], ku[2]);
-  });
-}
-
-template <class DragVelocity>
-void Deposition::finish_with(double interval, particle_feedback_t& out, const DragVelocity& drag_velocity) const {
   const int n = locator_->n_cells();
   const double inv_t = interval > 0 ? 1.0 / interval : 0.0;
+  const bool have_u = fluid != nullptr && fluid->has_state();
   resize_cells(out, n);
   Vec3 total = Vec3::Zero();
   for (int c = 0; c < n; ++c) {
@@ -150,7 +135,8 @@ void Deposition::finish_with(double interval, particle_feedback_t& out, const Dr
     const double v = locator_->volume(c);
     const Vec3 force(a[0] * inv_t, a[1] * inv_t, a[2] * inv_t);  // interval mean, N
     const double k = a[3] * inv_t / v;                           // N s/m^4
-    const Vec3 s = -force / v + drag_velocity(c, k);
+    const Vec3 u = have_u ? fluid->cell_velocity(c) : Vec3::Zero();
+    const Vec3 s = -force / v + k * u;
     out.solid_fraction[c] = a[kVolume] / v;
     out.drag_coefficient[c] = k;
     Eigen::Map<Vec3>(source_of(out, c)) = s;

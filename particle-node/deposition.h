@@ -113,22 +113,13 @@ class Deposition {
 
   // Raw accumulators (n_cells x kStride doubles) for summing across MPI ranks in place.
   double* data() { return acc_.data(); }
+  const double* data() const { return acc_.data(); }
   int size() const { return static_cast<int>(acc_.size()); }
 
   // Fills the per-cell arrays and total_particle_force of `out` for an interval of length
   // `interval` (s); `fluid` gives the cell velocities the particles saw (nullptr or no state:
   // zero). mesh_hash and the envelope are left to the caller.
   void finish(double interval, const FluidSampler* fluid, particle_feedback_t& out) const;
-  // The same with the drag's share of the source, K u per cell (3 values each, N/m^3), given: the
-  // partitioned exchange's rank 0, which holds the velocities of its own cells only, has it summed
-  // over the ranks that do (ParticleNode::feedback).
-  void finish(double interval, const std::vector<double>& drag_velocity, particle_feedback_t& out) const;
-  // K u of `cell` as finish() adds it (the same arithmetic: the same bits).
-  Vec3 drag_velocity(int cell, double interval, const Vec3& u) const {
-    const double inv_t = interval > 0 ? 1.0 / interval : 0.0;
-    const double k = acc_[static_cast<std::size_t>(cell) * kStride + 3] * inv_t / locator_->volume(cell);
-    return k * u;
-  }
 
   // Interval-mean sum of the forces on all particles (N).
   Vec3 total_force(double interval) const;
@@ -144,10 +135,6 @@ class Deposition {
   static constexpr int kVolume = 4;
 
  private:
-  // finish() with K u of each cell from drag_velocity(cell, K).
-  template <class DragVelocity>
-  void finish_with(double interval, particle_feedback_t& out, const DragVelocity& drag_velocity) const;
-
   const CellLocator* locator_;
   std::unique_ptr<SolidFractionModel> model_;
   std::vector<double> acc_;

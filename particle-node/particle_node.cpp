@@ -34,6 +34,12 @@ void require_same(double scene_value, double mesh_value, const char* what) {
 }
 
 constexpr const char* kRole = "particles";     // the checkpoint's folder (common/checkpoint.h)
+
+// A partitioned exchange's rank's own deposition in a checkpoint folder: the cells it takes and
+// their accumulators (Deposition::kStride each).
+std::string own_deposition_file(const std::string& folder, int rank) {
+  return folder + "/deposition-rank" + std::to_string(rank) + ".h5";
+}
 constexpr std::int64_t kCheckpointFormat = 2;  // 2: the fluid state's pressure gradient
 
 void broadcast(std::string& text, int root, MPI_Comm comm) {
@@ -151,6 +157,7 @@ void ParticleNode::resume(long step) {
     fluid_.set_state(saved.fluid_velocity, saved.fluid_gradient, saved.fluid_pressure_gradient,
                      saved.fluid_viscous_force);
   if (rank_ == 0) output_resumes_after_ = step;  // particles.h5 is opened at the first snapshot
+  resumed_from_ = {checkpoint_of(run_dir_, step, kRole), saved.ranks};
   spdlog::info("resumed from the checkpoint of step {} (t = {:.6g} s)", step_, time_);
 }
 
@@ -231,8 +238,8 @@ Box ParticleNode::sub_domain() const {
 
 void ParticleNode::use_overlap(const OverlapMap& map) {
   const std::size_t n = static_cast<std::size_t>(locator_.n_cells());
-  std::vector<char> held(n, 0);
-  for (int c : map.needed(rank_)) held[static_cast<std::size_t>(c)] = 1;
+  held_.assign(n, 0);
+  for (int c : map.needed(rank_)) held_[static_cast<std::size_t>(c)] = 1;
   designated_.assign(n, 0);
   std::vector<char> spoken(n, 0);
   for (int p = 0; p < static_cast<int>(map.from.size()); ++p)
@@ -241,23 +248,85 @@ void ParticleNode::use_overlap(const OverlapMap& map) {
         spoken[static_cast<std::size_t>(c)] = 1;
         if (p == rank_) designated_[static_cast<std::size_t>(c)] = 1;
       }
-  fluid_.set_held(std::move(held));
+  fluid_.set_held(held_);
+  if (!take_own_deposition()) {
+    // The deposition so far (placed, or resumed on other rank counts) was summed over the ranks:
+    // each cell's sum stays with the one rank that speaks for it, so that the fluid's sum of
+    // the partials is it.
+    for (std::size_t c = 0; c < n; ++c)
+      if (!designated_[c]) std::fill_n(deposition_.data() + Deposition::kStride * c, Deposition::kStride, 0.0);
+  }
+  engine_->use_halo(std::make_unique<CellHaloSum>(map, rank_, comm_));
+}
+
+bool ParticleNode::take_own_deposition() {
+  // Resumed on the ranks that wrote the checkpoint: each rank's own, so that the fluid sums the
+  // same partials as the run that wrote it did (bit for bit). Every rank or none. Collective.
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  std::vector<std::int64_t> cells;
+  std::vector<double> values;
+  int usable = 0;
+  if (resumed_from_.second == ranks && std::filesystem::exists(own_deposition_file(resumed_from_.first, rank_))) {
+    try {
+      const CheckpointReader in(own_deposition_file(resumed_from_.first, rank_));
+      in.get("cells", cells);
+      in.get("values", values);
+      usable = values.size() == static_cast<std::size_t>(Deposition::kStride) * cells.size() &&
+               std::all_of(cells.begin(), cells.end(), [&](std::int64_t c) {
+                 return c >= 0 && static_cast<std::size_t>(c) < held_.size() && held_[static_cast<std::size_t>(c)];
+               });
+    } catch (const std::exception&) {
+      usable = 0;
+    }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &usable, 1, MPI_INT, MPI_MIN, comm_);
+  if (!usable) return false;
+  std::fill_n(deposition_.data(), deposition_.size(), 0.0);
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(Deposition::kStride * i), Deposition::kStride,
+                deposition_.data() + Deposition::kStride * static_cast<std::size_t>(cells[i]));
+  return true;
+}
+
+void ParticleNode::write_own_deposition(const std::string& path) const {
+  std::vector<std::int64_t> cells;
+  std::vector<double> values;
+  const double* a = deposition_.data();
+  for (std::size_t c = 0; c < held_.size(); ++c) {
+    if (!held_[c]) continue;
+    cells.push_back(static_cast<std::int64_t>(c));
+    values.insert(values.end(), a + Deposition::kStride * c, a + Deposition::kStride * (c + 1));
+  }
+  CheckpointWriter out(path);
+  out.put("cells", cells);
+  out.put("values", values);
+  out.close();
+}
+
+std::string ParticleNode::deposited_outside_held() const {
+  const double* a = deposition_.data();
+  for (std::size_t c = 0; c < held_.size(); ++c) {
+    if (held_[c]) continue;
+    for (int k = 0; k < Deposition::kStride; ++k)
+      if (a[Deposition::kStride * c + static_cast<std::size_t>(k)] != 0)
+        return fmt::format(
+            "step {}: particle rank {} deposited into cell {}, which it does not take from the fluid (a particle "
+            "reached farther than the exchange's margin of {:.3g} um)",
+            step_, rank_, c, engine_->exchange_margin() * 1e6);
+  }
+  return {};
 }
 
 namespace {
 
-// Sums `values` (per_cell values per cell, only the `designated` cells' kept) over the ranks into
-// rank 0's; counted as a gather (common/traffic.h). Collective.
-void sum_designated_to_root(std::vector<double>& values, int per_cell, const std::vector<char>& designated,
-                            int rank, MPI_Comm comm) {
+// Sums `values` over the ranks into rank 0's; counted as a gather (common/traffic.h). Collective.
+void sum_to_root(std::vector<double>& values, int rank, MPI_Comm comm) {
   int ranks = 1;
   MPI_Comm_size(comm, &ranks);
   long size = static_cast<long>(values.size());
   MPI_Allreduce(MPI_IN_PLACE, &size, 1, MPI_LONG, MPI_MAX, comm);  // an optional field some rank lacks
   values.resize(static_cast<std::size_t>(size), 0.0);
-  const std::size_t k = static_cast<std::size_t>(per_cell);
-  for (std::size_t c = 0; c < designated.size() && k * c < values.size(); ++c)
-    if (!designated[c]) std::fill_n(values.begin() + static_cast<std::ptrdiff_t>(k * c), k, 0.0);
   if (size == 0) return;
   if (rank == 0)
     MPI_Reduce(MPI_IN_PLACE, values.data(), static_cast<int>(size), MPI_DOUBLE, MPI_SUM, 0, comm);
@@ -269,6 +338,16 @@ void sum_designated_to_root(std::vector<double>& values, int per_cell, const std
     RankTraffic::received(bytes * static_cast<std::uint64_t>(ranks - 1));
   else
     RankTraffic::sent(bytes);
+}
+
+// The same with only the `designated` cells' values kept (per_cell values per cell): a field each
+// rank holds for its own cells, whole on rank 0.
+void sum_designated_to_root(std::vector<double>& values, int per_cell, const std::vector<char>& designated,
+                            int rank, MPI_Comm comm) {
+  const std::size_t k = static_cast<std::size_t>(per_cell);
+  for (std::size_t c = 0; c < designated.size() && k * c < values.size(); ++c)
+    if (!designated[c]) std::fill_n(values.begin() + static_cast<std::ptrdiff_t>(k * c), k, 0.0);
+  sum_to_root(values, rank, comm);
 }
 
 }  // namespace
@@ -308,6 +387,8 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
   t0 = std::chrono::steady_clock::now();
   engine_->deposit(deposition_);
   phase_.deposition += seconds_since(t0);
+  if (!held_.empty())
+    if (std::string outside = agree_on_error(deposited_outside_held(), comm_); !outside.empty()) return outside;
   warn_reynolds();
   return {};
 }
@@ -315,20 +396,9 @@ std::string ParticleNode::advance(const step_order_t& order, const fluid_state_t
 particle_feedback_t ParticleNode::feedback() {
   const auto t0 = std::chrono::steady_clock::now();
   particle_feedback_t fb;
-  if (designated_.empty()) {
-    deposition_.finish(interval_, &fluid_, fb);
-  } else {
-    // Only rank 0's feedback is published; the drag's source K u needs the velocity of every
-    // cell, which the ranks hold between them.
-    std::vector<double> drag(static_cast<std::size_t>(kVectorValues) * designated_.size(), 0.0);
-    if (fluid_.has_state())
-      for (std::size_t c = 0; c < designated_.size(); ++c)
-        if (designated_[c])
-          Eigen::Map<Vec3>(drag.data() + kVectorValues * c) =
-              deposition_.drag_velocity(static_cast<int>(c), interval_, fluid_.cell_velocity(static_cast<int>(c)));
-    sum_designated_to_root(drag, kVectorValues, designated_, rank_, comm_);
-    deposition_.finish(interval_, drag, fb);
-  }
+  // Partitioned, this rank's partial sums: its deposition is its own particles', and K u is taken
+  // at the velocity of the cells it holds, which are all it deposits into.
+  deposition_.finish(interval_, &fluid_, fb);
   phase_.deposition += seconds_since(t0);
   fb.mesh_hash = mesh_hash_;
   return fb;
@@ -357,7 +427,12 @@ void ParticleNode::write_checkpoint() {
   broadcast(folder, 0, comm_);  // and it exists before any rank writes into it
   write_engine_state(engine_state, engine_state_file(folder, rank_));
   const auto fluid = whole_fluid_fields();  // collective
-  if (rank_ == 0) write_node_checkpoint(folder + "/node.h5", fluid);
+  std::vector<double> deposition(deposition_.data(), deposition_.data() + deposition_.size());
+  if (!held_.empty()) {
+    write_own_deposition(own_deposition_file(folder, rank_));
+    sum_to_root(deposition, rank_, comm_);  // each rank's own: the sum is the node's
+  }
+  if (rank_ == 0) write_node_checkpoint(folder + "/node.h5", fluid, deposition);
   MPI_Barrier(comm_);  // every rank's file is on disk
   if (rank_ == 0) commit_checkpoint(run_dir_, step_, kRole);
   checkpoint_written_ = step_;
@@ -373,7 +448,8 @@ std::array<std::vector<double>, 4> ParticleNode::whole_fluid_fields() {
   return f;
 }
 
-void ParticleNode::write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid) {
+void ParticleNode::write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid,
+                                         const std::vector<double>& deposition) {
   int ranks = 1;
   MPI_Comm_size(comm_, &ranks);
   CheckpointWriter out(path);
@@ -385,7 +461,7 @@ void ParticleNode::write_node_checkpoint(const std::string& path, const std::arr
   out.put("interval_s", interval_);
   out.put("warned_reynolds", std::vector<std::int64_t>{warned_re_[kRbc], warned_re_[kPlatelet]});
   out.put_bytes("mesh_hash", mesh_hash_);
-  out.put("deposition", std::vector<double>(deposition_.data(), deposition_.data() + deposition_.size()));
+  out.put("deposition", deposition);
   out.put("fluid_velocity", fluid[0]);
   out.put("fluid_gradient", fluid[1]);
   out.put("fluid_pressure_gradient", fluid[2]);
@@ -411,7 +487,14 @@ void ParticleNode::warn_reynolds() {
 Diagnostics ParticleNode::diagnostics() {
   const auto t0 = std::chrono::steady_clock::now();
   const EngineDiagnostics d = engine_->diagnostics(fluid_.has_state() ? &fluid_ : nullptr);
-  const Vec3 f = deposition_.total_force(interval_);
+  Vec3 f = deposition_.total_force(interval_);
+  double solid_volume = deposition_.total_volume();
+  if (!held_.empty()) {  // each rank's deposition is its own
+    double sums[4] = {f.x(), f.y(), f.z(), solid_volume};
+    MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
+    f = Vec3(sums[0], sums[1], sums[2]);
+    solid_volume = sums[3];
+  }
   const PhaseSeconds phase = std::exchange(phase_, PhaseSeconds{});
   Diagnostics out = {
       {"phase_particles_dem_s", phase.dem},
@@ -437,7 +520,7 @@ Diagnostics ParticleNode::diagnostics() {
       {"particles_in_vessel", static_cast<double>(d.in_vessel)},
       {"max_reynolds_rbc", d.max_reynolds[kRbc]},
       {"max_reynolds_platelet", d.max_reynolds[kPlatelet]},
-      {"solid_volume_m3", deposition_.total_volume()},
+      {"solid_volume_m3", solid_volume},
       {kTimeDiagnostic, time_},
   };
   if (engine_->open_ends()) {  // counts since the run started, per species and end

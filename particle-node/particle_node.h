@@ -14,7 +14,9 @@
 //
 // The checkpoint folder (common/checkpoint.h): node.h5 (this class: step, time, interval,
 // warnings given, the interval's deposition and the fluid state it was computed in, the mesh
-// hash and rank count it fits) and engine-rank<r>.h5 per MPI rank (engine_state.h).
+// hash and rank count it fits), engine-rank<r>.h5 per MPI rank (engine_state.h) and, in a
+// partitioned exchange, deposition-rank<r>.h5 (each rank's own deposition of its cells; node.h5
+// holds their sum).
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -34,6 +36,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hemo::particles {
@@ -60,9 +63,10 @@ class ParticleNode {
   Box sub_domain() const;
   double exchange_margin() const;
   // The partitioned exchange's map (RankedPort::start_exchange): this rank holds the fluid state
-  // of its needed(p) cells only. Its share of what is computed from the whole state on rank 0
-  // (the drag's source in the feedback, a checkpoint's fluid state) comes from the cells it is
-  // the lowest rank to hold.
+  // of its needed(p) cells only, deposits into those only (checked every step), and its
+  // feedback is its own particles' partial sums, which the fluid adds up. Its share of a
+  // checkpoint's fluid state comes from the cells it is the lowest rank to hold, and so does
+  // each cell's deposition summed so far (placed or resumed). Collective.
   void use_overlap(const OverlapMap& map);
 
   // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
@@ -72,7 +76,8 @@ class ParticleNode {
   // particle and the step.
   std::string advance(const step_order_t& order, const fluid_state_t& fluid);
 
-  // The feedback of the last interval (step 0: volumes only, no forces yet).
+  // The feedback of the last interval (step 0: volumes only, no forces yet); partitioned, this
+  // rank's partial sums (its own particles'), whole-mesh arrays zero outside its cells.
   particle_feedback_t feedback();
 
   void write_output(long step, double time_s);
@@ -101,7 +106,15 @@ class ParticleNode {
   // The fluid state's fields as node.h5 keeps them: velocity, gradient, pressure gradient,
   // viscous force, whole-mesh on rank 0 (summed from the ranks' own cells); collective.
   std::array<std::vector<double>, 4> whole_fluid_fields();
-  void write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid);
+  // `deposition`: the node's, summed over the ranks (Deposition::data's layout).
+  void write_node_checkpoint(const std::string& path, const std::array<std::vector<double>, 4>& fluid,
+                             const std::vector<double>& deposition);
+  // "" when this rank deposited into none but its held cells, else one line naming the cell.
+  std::string deposited_outside_held() const;
+  // Partitioned: this rank's own deposition of its held cells, in a checkpoint folder, and its
+  // reading at a resume on the same rank counts (false, on every rank, when any rank cannot).
+  void write_own_deposition(const std::string& path) const;
+  bool take_own_deposition();
   void set_interval(double interval);
   void warn_reynolds();
 
@@ -137,7 +150,11 @@ class ParticleNode {
   bool warned_re_[kSpeciesCount] = {false, false};
   PhaseSeconds phase_;
   long checkpoint_written_ = -1;  // since the last diagnostics (-1: none)
-  std::vector<char> designated_;  // the partitioned exchange's: per cell, this rank speaks for it (empty: not partitioned)
+  // The partitioned exchange's, per cell (empty: not partitioned): this rank holds its fluid
+  // state (needed(p)), and it is the lowest rank to.
+  std::vector<char> held_, designated_;
+  // The checkpoint folder this node resumed from and the ranks that wrote it (none: not resumed).
+  std::pair<std::string, long> resumed_from_{"", 0};
 };
 
 }  // namespace hemo::particles

@@ -136,6 +136,7 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
     receiver_ = std::make_unique<ParticleRankReceiver>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_],
                                                        mesh.mesh_hash, mesh.n_cells,
                                                        kCoordinatorPatience * ctx.timeout_s);
+    publisher_ = std::make_unique<ParticleRankPublisher>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_]);
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -147,12 +148,17 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
 Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   const TrafficBytes mine = RankTraffic::take();
   const std::uint64_t state = receiver_ ? receiver_->take_received_bytes() : 0;
+  const std::uint64_t feedback = publisher_ ? publisher_->take_sent_bytes() : 0;
   const std::uint64_t reports = reporter_ ? reporter_->take_sent_bytes() : 0;
   Diagnostics out = rank_ == 0 ? diag : Diagnostics();
   if (diag.empty()) return out;  // a report without diagnostics stays without
   for (const auto& bytes : rank_bytes(rank_, mine)) out.push_back(bytes);
-  // The partitioned exchange's own measure: the fluid state that reached this rank.
-  if (partitioned_) out.emplace_back(fmt::format("rank{}_received_fluid_state_B", rank_), static_cast<double>(state));
+  // The partitioned exchange's own measures: the fluid state that reached this rank, the
+  // feedback it sent.
+  if (partitioned_) {
+    out.emplace_back(fmt::format("rank{}_received_fluid_state_B", rank_), static_cast<double>(state));
+    out.emplace_back(fmt::format("rank{}_sent_feedback_B", rank_), static_cast<double>(feedback));
+  }
   // Its own reports and heartbeats (rank 0's are its port's).
   if (reporter_) out.emplace_back(fmt::format("rank{}_sent_report_B", rank_), static_cast<double>(reports));
   return out;
@@ -162,11 +168,22 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   std::optional<ParticleStep> step;
   int control = kContinue;
   std::string error;
+  if (partitioned_) {
+    // Every rank its own partial sums to the fluid ranks whose cells they reach, before it
+    // reports the step: what the next order makes the fluid wait for is then published.
+    try {
+      publisher_->publish(feedback, step_);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    error = agree_on_error(error, comm_);
+    if (!error.empty()) throw ExchangeError(error);
+  }
   const Diagnostics reported = with_rank_traffic(diag);
   if (reporter_) reporter_->report(step_, reported);
   if (rank_ == 0) {
     try {
-      step = partitioned_ ? port_->advance_partitioned(feedback, reported) : port_->advance(feedback, reported);
+      step = partitioned_ ? port_->advance_partitioned(reported) : port_->advance(feedback, reported);
       control = step ? kContinue : kStop;
     } catch (const std::exception& e) {
       control = kError;

@@ -1,12 +1,13 @@
 // The particle node's bus connection on one or more MPI ranks: rank 0 alone holds the
 // ParticlePort (joins the bus, heartbeats, publishes); what it receives — the mesh once, then
 // each step's order — is broadcast (LCM-encoded) to the other ranks, so every rank runs the same
-// steps. The fluid state comes whole to rank 0 when both nodes run on one rank; else every rank
-// takes the cells it needs from the fluid ranks that own them itself, on channels of its own
-// (the partitioned exchange: common/rank_exchange.h, docs/notes/partitioned-exchange.md). The
-// feedback and diagnostics are reduced over ranks; only rank 0's are published. Every other
-// rank reports its own step to the coordinator (common/rank_report.h): its timings and bytes;
-// rank 0's report carries its own and the node's diagnostics.
+// steps. The fluid state comes whole to rank 0 and the feedback goes whole from it when both
+// nodes run on one rank; else every rank takes the cells it needs from the fluid ranks that own
+// them and sends them its partial feedback for those cells itself, on channels of its own (the
+// partitioned exchange: common/rank_exchange.h, docs/notes/partitioned-exchange.md). The
+// diagnostics are reduced over ranks; only rank 0's are published. Every other rank reports its
+// own step to the coordinator (common/rank_report.h): its timings and bytes; rank 0's report
+// carries its own and the node's diagnostics.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -42,11 +43,13 @@ class RankedPort {
   bool partitioned() const { return partitioned_; }
   // Partitioned, collective: rank 0 publishes every rank's box and `margin` (DOMAIN) and takes
   // the fluid's decomposition (PARTITION); every rank computes the overlap map and opens its own
-  // receiving end on `ctx`'s bus. Returns the map. Throws ExchangeError on every rank.
+  // ends (the state in, the feedback out) on `ctx`'s bus. Returns the map. Throws ExchangeError
+  // on every rank.
   OverlapMap start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx);
-  // Collective. Rank 0 publishes `feedback` and reports the step with `diag`, every other rank
-  // reports it with its own bytes; every rank gets the next step or nothing (stop). When rank 0
-  // fails to get a step (bus error, timeout) every rank throws.
+  // Collective. Rank 0 publishes `feedback` (partitioned: every rank its own partial
+  // `feedback`) and reports the step with `diag`, every other rank reports it with its own
+  // bytes; every rank gets the next step or nothing (stop). When rank 0 fails to get a step (bus
+  // error, timeout) every rank throws.
   std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag);
   void finalize();
   // Rank 0 tells the coordinator (other ranks: nothing).
@@ -72,6 +75,7 @@ class RankedPort {
   int fluid_lag_ = 0;  // the port's, on every rank
   int fluid_ranks_ = 1;
   std::unique_ptr<ParticleRankReceiver> receiver_;
+  std::unique_ptr<ParticleRankPublisher> publisher_;
   std::unique_ptr<RankReporter> reporter_;  // every rank's but 0's (several ranks)
 };
 

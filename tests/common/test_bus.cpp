@@ -4,6 +4,7 @@
 #include "cell_fields.h"
 #include "test_helpers.h"
 
+#include <hemo/feedback_partition_t.hpp>
 #include <hemo/fluid_partition_t.hpp>
 #include <hemo/fluid_state_t.hpp>
 #include <hemo/heartbeat_t.hpp>
@@ -147,8 +148,9 @@ TEST(Bus, ARequestSomeoneElseKeepsIsPassedOn) {
 
 // The partitioned exchange's channels (docs/notes/partitioned-exchange.md): each rank publishes
 // its own, a receiver hears only the ranks it subscribed to, decodes them as their kind (a pair's
-// FLUID_STATE as the partition message, the plain one as the whole mesh's), asks the one keeper
-// of a channel again and refuses a replay of it; one rank each is today's channel.
+// FLUID_STATE as the partition message, the plain one as the whole mesh's; a pair's
+// PARTICLE_FEEDBACK as the partial sums' message), asks the one keeper of a channel again and
+// refuses a replay of it; one rank each is today's channel.
 TEST(Bus, PerRankChannelsKeepTheirOwnKeeperAndReplayWindow) {
   EXPECT_EQ(channel::of_rank(channel::fluid_state, 0, 1), channel::fluid_state);
   EXPECT_EQ(channel::of_rank(channel::fluid_state, 1, 2), std::string(channel::fluid_state) + ".1");
@@ -203,6 +205,30 @@ TEST(Bus, PerRankChannelsKeepTheirOwnKeeperAndReplayWindow) {
   fluid1.publish(state1, whole, 4);
   EXPECT_TRUE(collect(particles0, 1, 1).empty());
   EXPECT_EQ(particles0.counters().rejected_corrupt, 1u);
+
+  // The feedback back on a pair's channel: decoded as the partial sums' message; the whole
+  // mesh's feedback there is refused likewise.
+  Bus fluid1_in(ctx, "fluid.1", {pair});
+  Bus particles1(ctx, "particles.1", {channel::resend});
+  feedback_partition_t partial{};
+  partial.fluid_rank = 2;
+  partial.particle_rank = 1;
+  partial.n_cells = 1;
+  partial.cells = {5};
+  partial.solid_fraction = {0.25};
+  partial.drag_coefficient = {3.0};
+  partial.n_source_values = 3;
+  partial.source_explicit = {1, 2, 3};
+  particles1.publish(pair, partial, 6, /*keep=*/true);
+  const auto fed = collect(fluid1_in, 2, 1);
+  ASSERT_EQ(fed.size(), 1u);
+  EXPECT_EQ(fed[0].decoded_type, std::type_index(typeid(feedback_partition_t)));
+  EXPECT_EQ(fed[0].as<feedback_partition_t>().solid_fraction, std::vector<double>{0.25});
+  particle_feedback_t whole_feedback{};
+  resize_cells(whole_feedback, 1);
+  particles1.publish(pair, whole_feedback, 7);
+  EXPECT_TRUE(collect(fluid1_in, 1, 1).empty());
+  EXPECT_EQ(fluid1_in.counters().rejected_corrupt, 1u);
 }
 
 namespace {

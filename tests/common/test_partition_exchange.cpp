@@ -1,7 +1,8 @@
 // The partitioned exchange's messages (common/partition_exchange.h): a fluid rank's slice of its
 // own cells for one particle rank, taken into the particle rank's whole-mesh state, and every
 // way a partition can fail to be what the overlap map says, refused with one line that names
-// both ranks and leaves the state as it was.
+// both ranks and leaves the state as it was; and the feedback's partial sums back, added up on
+// the fluid rank, checked the same way.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "cell_fields.h"
 
@@ -119,4 +120,82 @@ TEST(PartitionExchange, DecompositionMessagesThatDoNotFitTheMeshAreRefused) {
   } catch (const std::runtime_error& e) {
     EXPECT_STREQ(e.what(), "the particles' domain (DOMAIN) is for mesh 'm0', not the mesh received ('m1')");
   }
+}
+
+namespace {
+
+// Particle rank p's partial feedback on a mesh of n cells: every value tells its rank, cell and
+// component, and is zero outside `cells`.
+particle_feedback_t partial_feedback(int p, int n, const std::vector<int>& cells) {
+  particle_feedback_t fb;
+  fb.mesh_hash = "m1";
+  resize_cells(fb, n);
+  for (int c : cells) {
+    fb.solid_fraction[c] = 0.01 * c + p;
+    fb.drag_coefficient[c] = 10.0 * c + p;
+    for (int k = 0; k < kVectorValues; ++k) source_of(fb, c)[k] = 1000.0 * p + 10.0 * c + k;
+  }
+  return fb;
+}
+
+}  // namespace
+
+// Fluid rank 1 owns cells 2, 3, 5, 7; particle rank 0 takes 2, 3, 7 of them and particle rank 1
+// takes 5, 7: cell 7's feedback is the sum of both partials, each other cell's is its one rank's,
+// and the cells the fluid rank does not own stay zero.
+TEST(PartitionExchange, PartialFeedbackIsSummedOnItsCellsOfTheFluidRank) {
+  const auto from0 = slice_feedback(partial_feedback(0, 8, {0, 2, 3, 7}), {2, 3, 7}, 1, 0);
+  const auto from1 = slice_feedback(partial_feedback(1, 8, {5, 7}), {5, 7}, 1, 1);
+  EXPECT_EQ(from0.n_cells, 3);
+  EXPECT_EQ(from0.n_source_values, 9);
+  EXPECT_EQ(from0.cells, (std::vector<std::int32_t>{2, 3, 7}));
+  particle_feedback_t sum;
+  sum.mesh_hash = "m1";
+  resize_cells(sum, 8);
+  ASSERT_EQ(add_feedback_partition(from0, {2, 3, 7}, 1, 0, sum), "");
+  ASSERT_EQ(add_feedback_partition(from1, {5, 7}, 1, 1, sum), "");
+  for (int c = 0; c < 8; ++c) {
+    const bool by0 = c == 2 || c == 3 || c == 7, by1 = c == 5 || c == 7;
+    const double phi = (by0 ? 0.01 * c : 0.0) + (by1 ? 0.01 * c + 1 : 0.0);
+    EXPECT_EQ(sum.solid_fraction[c], phi) << "cell " << c;
+    EXPECT_EQ(sum.drag_coefficient[c], (by0 ? 10.0 * c : 0.0) + (by1 ? 10.0 * c + 1 : 0.0)) << "cell " << c;
+    for (int k = 0; k < kVectorValues; ++k)
+      EXPECT_EQ(source_of(sum, c)[k], (by0 ? 10.0 * c + k : 0.0) + (by1 ? 1000.0 + 10.0 * c + k : 0.0)) << "cell " << c;
+  }
+}
+
+TEST(PartitionExchange, AWrongPartialFeedbackStopsWithOneLineAndLeavesTheSumAsItWas) {
+  const auto msg = slice_feedback(partial_feedback(0, 8, {2, 3, 7}), {2, 3, 7}, 1, 0);
+  particle_feedback_t untouched;
+  untouched.mesh_hash = "m1";
+  resize_cells(untouched, 8);
+  untouched.solid_fraction[3] = 0.5;
+  auto refused = [&](const feedback_partition_t& m, const std::vector<int>& expected) {
+    particle_feedback_t sum = untouched;
+    const std::string why = add_feedback_partition(m, expected, 1, 0, sum);
+    EXPECT_EQ(sum.solid_fraction, untouched.solid_fraction) << why;
+    EXPECT_EQ(sum.source_explicit, untouched.source_explicit) << why;
+    EXPECT_EQ(why.find('\n'), std::string::npos) << why;
+    return why;
+  };
+  EXPECT_EQ(refused(msg, {2, 3, 5, 7}),
+            "particle rank 0 -> fluid rank 1: cell 5 is missing (3 cells received, 4 expected by the overlap map)");
+  EXPECT_EQ(refused(msg, {2, 7}),
+            "particle rank 0 -> fluid rank 1: cell 3 was not expected (3 cells received, 2 expected by the overlap map)");
+  EXPECT_EQ(refused(slice_feedback(partial_feedback(0, 8, {2}), {2, 3, 7}, 0, 0), {2, 3, 7}),
+            "particle rank 0 -> fluid rank 1: the message is particle rank 0's for fluid rank 0");
+  auto other_mesh = msg;
+  other_mesh.mesh_hash = "m2";
+  EXPECT_EQ(refused(other_mesh, {2, 3, 7}),
+            "particle rank 0 -> fluid rank 1: the feedback is for mesh 'm2', not this mesh ('m1')");
+  auto short_source = msg;
+  short_source.source_explicit.pop_back();
+  EXPECT_EQ(refused(short_source, {2, 3, 7}),
+            "particle rank 0 -> fluid rank 1: explicit source has 8 values, not 3 per cell of 3 cells");
+  auto short_phi = msg;
+  short_phi.solid_fraction.pop_back();
+  EXPECT_EQ(refused(short_phi, {2, 3, 7}),
+            "particle rank 0 -> fluid rank 1: solid fraction has 2 values, not 1 per cell of 3 cells");
+  const auto outside = slice_feedback(partial_feedback(0, 10, {9}), {9}, 1, 0);
+  EXPECT_EQ(refused(outside, {9}), "particle rank 0 -> fluid rank 1: cell 9 is outside the mesh of 8 cells");
 }

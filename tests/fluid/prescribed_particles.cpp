@@ -317,9 +317,11 @@ int main(int argc, char** argv) {
 
     auto advance = [&] {
       if (!partitions) return port->advance(feedback, diag);
-      auto step = port->advance_partitioned(feedback, diag);
-      if (step)  // serving the port meanwhile: the fluid may be asking again for the feedback
-        step->fluid = partitions->receive(step->order.envelope.step - port->fluid_lag(), [&] { port->serve(); });
+      partitions->feedback->publish(feedback, port->step());
+      auto step = port->advance_partitioned(diag);
+      if (step)  // serving the port meanwhile: the fluid may be asking again for its report
+        step->fluid =
+            partitions->state->receive(step->order.envelope.step - port->fluid_lag(), [&] { port->serve(); });
       return step;
     };
     while (auto step = advance()) {

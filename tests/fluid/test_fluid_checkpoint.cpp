@@ -178,6 +178,7 @@ Published drive(const Drive& d) {
   // Two fluid ranks: the state comes by partition (common/rank_exchange.h), to this driver as to a
   // particle node of one rank whose box is the mesh's.
   std::unique_ptr<hemo::ParticleRankReceiver> partitions;
+  std::unique_ptr<hemo::ParticleRankPublisher> partials;  // the feedback, back to each fluid rank
   bool ok = d.ranks == 1 ||
             await([&] { return mesh && partition; },
                   [&] {
@@ -193,6 +194,7 @@ Published drive(const Drive& d) {
                                        hemo::period_of(*mesh));
     partitions = std::make_unique<hemo::ParticleRankReceiver>(ctx, 0, 1, d.ranks, map.from[0], mesh->mesh_hash,
                                                               mesh->n_cells, 120.0);
+    partials = std::make_unique<hemo::ParticleRankPublisher>(ctx, 0, 1, d.ranks, map.from[0]);
   }
   // The state of step k, as the node published it.
   auto have_state = [&](long k) {
@@ -216,7 +218,10 @@ Published drive(const Drive& d) {
     order.stop = false;
     bus.publish(hemo::channel::step, order, k, /*keep=*/true);
     auto fb = d.feedback(*mesh, k - 1, static_cast<double>(k - 1) * d.dt);
-    bus.publish(hemo::channel::particle_feedback, fb, k - 1, /*keep=*/true);
+    if (partials)
+      partials->publish(fb, k - 1);
+    else
+      bus.publish(hemo::channel::particle_feedback, fb, k - 1, /*keep=*/true);
     ok = await([&] { return out.diagnostics.count(k) && have_state(k); },
                [&] {
                  bus.request_resend(hemo::channel::step_done, k);

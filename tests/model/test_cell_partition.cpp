@@ -156,3 +156,14 @@ TEST(CellPartition, ValuesThatDoNotFitTheirCellsOrTheMeshAreRefusedWithOneLine) 
   }
   EXPECT_EQ(whole, std::vector<double>(12, 0.0)) << "a refused assembly must not have written";
 }
+
+// The feedback's partials: each adds to what the cells hold, the other cells untouched; a refused
+// one adds nothing.
+TEST(CellPartition, AddedValuesSumWithWhatTheCellsHold) {
+  std::vector<double> whole = {1, 1, 1, 1};
+  hemo::add_cells({1, 3}, {0.5, 2}, 1, whole);
+  hemo::add_cells({3}, {4}, 1, whole);
+  EXPECT_EQ(whole, (std::vector<double>{1, 1.5, 1, 7}));
+  EXPECT_THROW(hemo::add_cells({0, 4}, {1, 1}, 1, whole), std::invalid_argument);
+  EXPECT_EQ(whole, (std::vector<double>{1, 1.5, 1, 7})) << "a refused sum must not have written";
+}

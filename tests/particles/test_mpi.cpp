@@ -8,6 +8,7 @@
 #include "synthetic_case.h"
 #include "cell_fields.h"
 #include "dem_engine.h"
+#include "cell_halo_sum.h"
 #include "dem_timing.h"
 
 #include <gtest/gtest.h>
@@ -213,4 +214,54 @@ TEST(ParticleEngineMpi, UnwrappedZIsContinuousWhileCellsChangeRanksAndCrossThePe
   if (size > 1) {
     EXPECT_GT(changed_anywhere, 0) << "no cell changed ranks: the test would not test the hand-over";
   }
+}
+
+// The partitioned exchange's halo sum (cell_halo_sum.h): 12 cells, rank p of P needs a slab of
+// them and one cell either side (cyclically), and holds values only there. After the sum every
+// cell it needs holds the sum over every rank that needs it (exact: integers), the cells it does
+// not need are untouched, and two ranks sharing a cell hold the same bits (fractions this time).
+TEST(CellHaloSum, EachRankGetsTheSumOverTheRanksSharingItsCellsAndNoOther) {
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  constexpr int kCells = 12;
+  hemo::OverlapMap map;
+  map.from.resize(static_cast<std::size_t>(ranks));
+  auto needs = [&](int p, int c) {
+    const int lo = p * kCells / ranks - 1, hi = (p + 1) * kCells / ranks;  // [lo, hi], cyclic
+    for (int k = lo; k <= hi; ++k)
+      if ((k + kCells) % kCells == c) return true;
+    return false;
+  };
+  for (int p = 0; p < ranks; ++p)
+    for (int c = 0; c < kCells; ++c)
+      if (needs(p, c)) map.from[static_cast<std::size_t>(p)][0].push_back(c);
+  const CellHaloSum halo(map, rank, MPI_COMM_WORLD);
+
+  std::vector<double> values(2 * kCells, -1.0);  // two values a cell; -1 where not needed
+  for (int c = 0; c < kCells; ++c)
+    if (needs(rank, c)) {
+      values[2 * c] = 100.0 * (rank + 1) + c;
+      values[2 * c + 1] = 1.0 / (3.0 + rank + c);
+    }
+  halo.sum(values, 2);
+  std::vector<double> all(static_cast<std::size_t>(ranks) * values.size());
+  MPI_Allgather(values.data(), static_cast<int>(values.size()), MPI_DOUBLE, all.data(),
+                static_cast<int>(values.size()), MPI_DOUBLE, MPI_COMM_WORLD);
+  for (int c = 0; c < kCells; ++c) {
+    if (!needs(rank, c)) {
+      EXPECT_EQ(values[2 * c], -1.0) << "cell " << c;
+      continue;
+    }
+    double want = 0;
+    for (int p = 0; p < ranks; ++p)
+      if (needs(p, c)) want += 100.0 * (p + 1) + c;
+    EXPECT_EQ(values[2 * c], want) << "cell " << c;
+    for (int p = 0; p < ranks; ++p) {
+      if (!needs(p, c)) continue;
+      EXPECT_EQ(all[static_cast<std::size_t>(p) * values.size() + 2 * c + 1], values[2 * c + 1])
+          << "cell " << c << " on ranks " << rank << " and " << p;
+    }
+  }
+  EXPECT_EQ(halo.shared().empty(), ranks == 1);
 }

@@ -1,0 +1,100 @@
+// The partitioned exchange's point (docs/scale-out.md §4, docs/notes/partitioned-exchange.md item
+// 10): the bytes any one rank sends and receives a step scale with its own cells, not with the
+// whole mesh. A vessel of 10^5 cells (the small scene's cross-section, 48 cells a layer, made
+// 2,084 layers of 10 um long, 20.8 mm: a rank's sub-domain on 4 ranks is 521 layers against a
+// margin and halo of two at each end), 582 red cells, a few steps, on 1 x 1, 2 x 2 and 4 x 4 ranks
+// (oversubscribed on this machine). The largest per-rank volume, sent plus received, must fall
+// about as 1/P: the gather and broadcast it replaces kept a whole state (144 B a cell) on the
+// master or a particle rank whatever P was.
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "run_helpers.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+using namespace hemo::test;
+
+namespace {
+
+constexpr long kSteps = 5;
+
+std::string long_vessel_text() {
+  std::string text = small_scene_text(kSteps);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"length_um = 60", "length_um = 20840"},
+                                 {"core_cells = 2", "core_cells = 4"},
+                                 {"axial_cells = 6", "axial_cells = 2084"},
+                                 {"hematocrit = 0.08", "hematocrit = 0.002"},
+                                 {"number_density_per_ul = 300000", "number_density_per_ul = 0"}}) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) throw std::runtime_error("coupled_small.toml lost its " + from);
+    text.replace(at, from.size(), to);
+  }
+  return text;
+}
+
+struct Largest {
+  double least = 0;  // sent + received in its least step: what the exchange must move
+  double mean = 0;   // and the mean over the steps after the first, resends included
+  std::string who;
+};
+
+// The rank of either node that moves the most in a step. A message asked for again counts twice
+// in the step it was sent again, which a busy machine makes more or less often: the least step
+// is the measure, the mean is shown. The first step is left out: its report also holds the
+// start-up (the MESH, the step-0 state and feedback).
+Largest largest_rank(const Metrics& m, int ranks) {
+  Largest out;
+  for (const char* node : {"fluid", "particles"})
+    for (int r = 0; r < ranks; ++r) {
+      const std::string rank = "rank" + std::to_string(r);
+      const auto sent = over_steps(m, node, rank + "_sent_B"), received = over_steps(m, node, rank + "_received_B");
+      EXPECT_EQ(sent.size(), static_cast<std::size_t>(kSteps)) << node << " " << rank;
+      EXPECT_EQ(received.size(), sent.size()) << node << " " << rank;
+      if (sent.size() < 2 || received.size() != sent.size()) continue;
+      double least = sent[1] + received[1], total = 0;
+      for (std::size_t i = 1; i < sent.size(); ++i) {
+        least = std::min(least, sent[i] + received[i]);
+        total += sent[i] + received[i];
+      }
+      if (least > out.least) out = {least, total / static_cast<double>(sent.size() - 1), std::string(node) + " " + rank};
+    }
+  return out;
+}
+
+Largest run_ranks(int p) {
+  const std::string dir = fresh_run_dir("scaling-" + std::to_string(p) + "x" + std::to_string(p));
+  std::ofstream(dir + ".toml") << long_vessel_text();
+  const std::string ranks = p > 1 ? " --np-fluid " + std::to_string(p) + " --np-particles " + std::to_string(p) : "";
+  const auto result = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + ranks);
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  const Largest l = largest_rank(read_metrics(dir), p);
+  std::printf("[ info ] %d x %d ranks: the largest per-rank volume is %s's, %.0f B in its least step, %.0f B a step "
+              "on average (%.0f s)\n",
+              p, p, l.who.c_str(), l.least, l.mean, result.seconds);
+  return l;
+}
+
+}  // namespace
+
+// Measured (docs/scale-out.md §4): 18.41, 9.65 and 4.86 MB, 0.524 and 0.264 of 1 x 1: 192 B a cell
+// over each rank's N/P cells and 4 layers of halo. Bounds: 1/P with room for the halo, the
+// reports and the order: 2 x 2 below 0.65 and 4 x 4 below 0.4 of 1 x 1. The gather and broadcast
+// kept some rank at or above 1 x 1's volume at every P: a particle rank took the whole state by
+// broadcast and 40 B a cell each way in the deposition's all-reduce.
+TEST(PartitionedScaling, TheLargestPerRankBytesFallAsOneOverTheRanks) {
+  const Largest one = run_ranks(1), two = run_ranks(2), four = run_ranks(4);
+  ASSERT_GT(one.least, 1e5 * 144) << "1 x 1 does not move the whole state of 10^5 cells";
+  std::printf("[ info ] largest per-rank volume against 1 x 1: 2 x 2 %.3f, 4 x 4 %.3f (means: %.3f, %.3f)\n",
+              two.least / one.least, four.least / one.least, two.mean / one.mean, four.mean / one.mean);
+  EXPECT_LT(two.least, 0.65 * one.least);
+  EXPECT_LT(four.least, 0.4 * one.least);
+  EXPECT_LT(four.least, 0.65 * two.least);
+}
