@@ -232,6 +232,16 @@ std::optional<envelope_t> peek_envelope(const std::uint8_t* buf, std::size_t len
   return raw->envelope;
 }
 
+void put_counters(const BusCounters& k, heartbeat_t& hb) {
+  hb.accepted = static_cast<std::int64_t>(k.accepted);
+  hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
+  hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
+  hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
+  hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
+  hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
+  hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
+}
+
 std::string BusCounters::str() const {
   return fmt::format(
       "received {}, accepted {}; dropped: too short/malformed {}, other run {}, bad tag {}, "
@@ -589,19 +599,7 @@ std::vector<std::uint8_t> signed_heartbeat(const RunContext& ctx, const std::str
   hb.envelope.sent_unix_ns = 0;
   std::fill(std::begin(hb.envelope.tag), std::end(hb.envelope.tag), 0);
   hb.uptime_s = uptime_s;
-  if (counters) {
-    const auto k = counters();
-    hb.accepted = static_cast<std::int64_t>(k.accepted);
-    hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
-    hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
-    hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
-    hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
-    hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
-    hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
-  } else {
-    hb.accepted = hb.rejected_short = hb.rejected_foreign = hb.rejected_auth = hb.rejected_prestart =
-        hb.rejected_replay = hb.rejected_undecodable = 0;
-  }
+  put_counters(counters ? counters() : BusCounters{}, hb);
   std::vector<std::uint8_t> buf(static_cast<std::size_t>(hb.getEncodedSize()));
   hb.encode(buf.data(), 0, static_cast<int>(buf.size()));
   auto sealed = wire_bytes(buf, ctx.secret, ctx.encrypt ? &seal_key : nullptr);

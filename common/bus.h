@@ -133,6 +133,10 @@ struct BusCounters {
   std::string str() const;  // one line for a log
 };
 
+class heartbeat_t;
+// The counters a heartbeat carries, from a bus's.
+void put_counters(const BusCounters& k, heartbeat_t& hb);
+
 // Bytes of the datagrams a bus published (resends included) and was handed by LCM (every one of
 // a channel it listens to, whatever the checks then made of it), by channel kind, since it opened.
 // They are also added to the process's RankTraffic (traffic.h).

@@ -38,16 +38,9 @@ RankReporter::RankReporter(const RunContext& ctx, const std::string& role, int r
     while (!stop_.load()) {
       try {
         if (now() - beaten >= kHeartbeatPeriodS) {
-          const BusCounters k = bus_.counters();
           heartbeat_t hb{};
           hb.uptime_s = now() - started;
-          hb.accepted = static_cast<std::int64_t>(k.accepted);
-          hb.rejected_short = static_cast<std::int64_t>(k.rejected_short);
-          hb.rejected_foreign = static_cast<std::int64_t>(k.rejected_foreign);
-          hb.rejected_auth = static_cast<std::int64_t>(k.rejected_auth);
-          hb.rejected_prestart = static_cast<std::int64_t>(k.rejected_prestart);
-          hb.rejected_replay = static_cast<std::int64_t>(k.rejected_replay);
-          hb.rejected_undecodable = static_cast<std::int64_t>(k.rejected_corrupt);
+          put_counters(bus_.counters(), hb);
           bus_.publish(beat, hb, -1);  // a heartbeat is of no step
           beaten = now();
         }
