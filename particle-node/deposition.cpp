@@ -25,16 +25,6 @@ double cap_beyond(double d, double r) {
 }
 }  // namespace
 
-int SolidFractionModel::share(int cell, const Vec3& x, double radius, CellShare* out) const {
-  std::vector<CellShare> shares;
-  share(cell, x, radius, shares);
-  if (shares.size() > static_cast<std::size_t>(kMaxShares))
-    throw std::length_error(name() + " shares a particle with " + std::to_string(shares.size()) + " cells, more than " +
-                            std::to_string(kMaxShares));
-  std::copy(shares.begin(), shares.end(), out);
-  return static_cast<int>(shares.size());
-}
-
 void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const {
   out.assign(1, {cell, 1.0});
   if (!(radius > 0)) return;

@@ -29,10 +29,6 @@ class SolidFractionModel {
   // (wrapped, in `cell`) is shared, the first `cell`, with fractions >= 0 summing to 1; as many
   // cells as the model reaches.
   virtual void share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const = 0;
-  // The same into an array of kMaxShares (the bounded models' tests); throws std::length_error
-  // when the particle reaches more cells. Returns how many.
-  static constexpr int kMaxShares = 16;
-  int share(int cell, const Vec3& x, double radius, CellShare* out) const;
   // True when the fluid a particle sees is the mean, with its shares, of what its cells hold
   // (FluidSampler::seen); else the value at its centre in its own cell.
   virtual bool samples_over_shares() const { return false; }

@@ -98,7 +98,7 @@ TEST(GaussianKernel, FractionsAreTheFormulasOverTheCellsInsideWallsAndAcrossTheP
       sum += got.at(c);
     }
     EXPECT_NEAR(sum, 1.0, 1e-14);
-    EXPECT_GT(got.size(), 16u) << "more cells than the bounded models' array holds";
+    EXPECT_GT(got.size(), 16u) << "more cells than the former 16-share cap held";
   }
   // A centre half a micron from the x wall keeps all of itself inside: the wall's layer of cubes
   // holds the Gaussian's share of that layer plus, by the normalisation, the share behind the wall,
@@ -113,9 +113,6 @@ TEST(GaussianKernel, FractionsAreTheFormulasOverTheCellsInsideWallsAndAcrossTheP
   const double continuum = (Phi(2 / s_um) - Phi(-0.5 / s_um)) / (1 - Phi(-0.5 / s_um));
   EXPECT_NEAR(layer, continuum, 0.08);
   EXPECT_GT(layer, Phi(2 / s_um) - Phi(-0.5 / s_um) + 0.2);
-  // The array form does not drop cells silently.
-  CellShare array[SolidFractionModel::kMaxShares];
-  EXPECT_THROW(kernel.share(loc.locate(Vec3(0, 0, 20e-6)), Vec3(0, 0, 20e-6), kRadius, array), std::length_error);
 }
 
 TEST(GaussianKernel, DepositionConservesVolumeAndTheFeedbackIdentityCellByCell) {
