@@ -15,6 +15,7 @@
 #include "minimal_scene.h"
 #include "momentum_forms.h"
 #include "scene.h"
+#include "implicit_drags.h"
 #include "suspension_viscosity.h"
 #include "units.h"
 #include "vec.h"
@@ -192,6 +193,34 @@ implicit_drag = "explicit"
   EXPECT_NE(by_key["coupling.implicit_drag"].find("interval_response"), std::string::npos);
   EXPECT_NE(by_key["coupling.implicit_drag"].find("co_relaxed"), std::string::npos);
   EXPECT_TRUE(problems_of(std::string(test::kMinimalScene) + "[coupling]\nimplicit_drag = \"co_relaxed\"\n").empty());
+}
+
+// coupling.implicit_drag's one table (model/implicit_drags.h): the default first, each name once,
+// the co-relaxed one the only that relaxes the plasma and deposits no response, its reading what
+// `hemocosim check` shows, and an unknown name refused with the known ones.
+TEST(Scene, EachImplicitDragIsOneEntryOfItsTable) {
+  EXPECT_EQ(implicit_drags().front().name, Scene{}.implicit_drag);
+  std::set<std::string> names;
+  for (const ImplicitDrag& d : implicit_drags()) {
+    EXPECT_TRUE(names.insert(d.name).second) << d.name;
+    EXPECT_EQ(d.co_relaxes, d.response == ImplicitDrag::Response::none) << d.name;
+    EXPECT_EQ(&implicit_drag(d.name), &d);
+    Scene s;
+    s.implicit_drag = d.name;
+    bool shown = false;
+    for (const auto& r : numerical_readings(s))
+      if (r.key == "coupling.implicit_drag") shown = r.value == d.name && r.reading == d.reading;
+    EXPECT_TRUE(shown) << d.name;
+  }
+  EXPECT_TRUE(implicit_drag("co_relaxed").co_relaxes);
+  EXPECT_EQ(implicit_drag("instantaneous").response, ImplicitDrag::Response::instantaneous);
+  try {
+    implicit_drag("explicit");
+    ADD_FAILURE() << "an unknown name was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("known: interval_response, instantaneous, co_relaxed"), std::string::npos)
+        << e.what();
+  }
 }
 
 // The feeder is the vessel's length and whole layers of the same thickness beyond, the fewest
