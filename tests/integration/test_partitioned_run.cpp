@@ -147,9 +147,10 @@ TEST(PartitionedRun, TheDragOverTheVoidFractionSumsTheSolidVolumeOfEveryRank) {
 // every particle in it, whichever rank holds the particle. Each particle rank sums those per-cell
 // impulses with the ranks sharing its cells only (CellHaloSum, no all-reduce of the whole mesh):
 // on 2 and 3 particle ranks (one fluid rank, so that only the particle ranks' sums differ) and on
-// 2 x 2 the run ends as the one-rank run to round-off. Measured: see the info lines and
-// docs/notes/partitioned-exchange.md; with each rank's sums left its own (no halo sum), 2
-// particle ranks end far off.
+// 2 x 2 the run ends as the one-rank run to round-off. Measured: 1 x 2 and 1 x 3, 1.4e-20 m and
+// 3e-15 and 2e-14 of the fastest (the partials' sums alone); 2 x 2, 7.4e-14 m and 1.3e-7 (the
+// decomposed fluid's sums, as without the co-relaxation). With each rank's sums left its own (the
+// halo sum left out), all three end 1.45e-8 m and 5.4e-3 of the fastest off.
 const std::string kCoRelaxed = "[coupling]\nimplicit_drag = \"co_relaxed\"\n";
 
 const RankedRun& co_relaxed_one_by_two() {
