@@ -359,7 +359,9 @@ TEST(PartitionedRun, LostPartitionsAreAskedAgainAndLeaveTheResultUnchanged) {
 // nodes asks again and is asked again, so resends and copies had again show up in every rank's
 // rank<r>_resent_B and rank<r>_received_again_B, and what is left, sent less resent and received
 // less had again, is what the clean run moved: the same partitions, reports and orders (the
-// clean run's own few resends left out too), within the heartbeats' share of a longer run.
+// clean run's own few resends left out too), within the heartbeats' share of a longer run. Steps
+// after the first: the first step's report may or may not hold the step-0 state, published at
+// start-up, depending on when it arrived.
 TEST(PartitionedRun, ResendsAreCountedApartFromWhatARankMustMove) {
   const RankedRun& clean = two_by_two();
   const RankedRun& lossy = lossy_two_by_two();
@@ -374,7 +376,8 @@ TEST(PartitionedRun, ResendsAreCountedApartFromWhatARankMustMove) {
         EXPECT_EQ(again.size(), received.size()) << run.dir << " " << node << " " << rank;
         for (std::size_t i = 0; i < std::min(sent.size(), resent.size()); ++i) EXPECT_LE(resent[i], sent[i]);
         for (std::size_t i = 0; i < std::min(received.size(), again.size()); ++i) EXPECT_LE(again[i], received[i]);
-        return std::array<double, 4>{sum(sent), sum(resent), sum(received), sum(again)};
+        auto after_first = [](const std::vector<double>& v) { return v.empty() ? 0.0 : sum(v) - v.front(); };
+        return std::array<double, 4>{after_first(sent), after_first(resent), after_first(received), after_first(again)};
       };
       const auto c = totals(clean), l = totals(lossy);
       std::printf("[ info ] %s %s: sent %.0f B (resent %.0f) clean, %.0f B (resent %.0f) lossy; received %.0f B "
