@@ -35,7 +35,7 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
           "the {} closures ({}) need the vessel's centre-line speed at each section, which an imported surface "
           "does not define (it would take the vessel's flow split): choose another lift",
           (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
-  if (implicit_drag_.co_relaxes) {
+  if (scene_.implicit_drag == ImplicitDrag::co_relaxed) {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
   }
@@ -281,12 +281,11 @@ void DemFluidForce::deposit(Deposition& deposition) {
     const int sp = liggghts_.species_of_type(type[i]);
     if (cell < 0) continue;
     const double beta_time = acc[i][3];
-    // Response::none: the impulse already holds the plasma's answer; the fluid takes it explicitly.
-    double drag_response = 0;
-    switch (implicit_drag_.response) {
-      case ImplicitDrag::Response::interval: drag_response = interval_drag_response(species_.mass[sp], beta_time); break;
-      case ImplicitDrag::Response::instantaneous: drag_response = beta_time; break;
-      case ImplicitDrag::Response::none: break;
+    double drag_response = 0;  // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly
+    switch (scene_.implicit_drag) {
+      case ImplicitDrag::interval_response: drag_response = interval_drag_response(species_.mass[sp], beta_time); break;
+      case ImplicitDrag::instantaneous: drag_response = beta_time; break;
+      case ImplicitDrag::co_relaxed: break;
     }
     deposition.add_particle(cell, locator_.wrap(xi), 0.5 * species_.diameter[sp], species_.volume[sp],
                             Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);

@@ -39,7 +39,6 @@
 #include "fluid_sampler.h"
 
 #include <mpi.h>
-#include <implicit_drags.h>
 #include <momentum_forms.h>
 #include <scene.h>
 
@@ -169,9 +168,7 @@ class DemFluidForce {
   template <class SolidVolume>
   void take_solid_volume(const SolidVolume& solid_volume);
   std::unique_ptr<CellHaloSum> halo_;  // the partitioned exchange's (null: deposition summed over all ranks)
-  // coupling.implicit_drag: what the deposited drag response is.
-  const ImplicitDrag& implicit_drag_ = implicit_drag(scene_.implicit_drag);
-  // Each cell's plasma relaxing with its particles (implicit_drag_.co_relaxes; else null).
+  // Each cell's plasma relaxing with its particles (coupling.implicit_drag = "co_relaxed"; else null).
   std::unique_ptr<CellPlasmaRelaxation> cell_plasma_;
 
   // The run in progress.

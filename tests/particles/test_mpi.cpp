@@ -138,7 +138,7 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
 // M_c shift_c equals minus the interval's deposited impulse, to round-off.
 TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum) {
   auto scene = PoiseuilleCase::paper_scene();
-  scene.implicit_drag = "co_relaxed";
+  scene.implicit_drag = hemo::ImplicitDrag::co_relaxed;
   scene.time.mass_scaling = 10;  // the cells' mass near their cells' plasma: a large answer
   PoiseuilleCase pc(scene);
   const CellLocator& locator = pc.locator;
