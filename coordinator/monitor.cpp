@@ -158,7 +158,13 @@ int monitor_command(const MonitorOptions& opt) {
   // of the partitioned exchange are listened to as well (their latency and bytes).
   std::map<std::string, int> ranks_of;
   bool pairs_heard = false;
+  // A monitor started after the nodes' hellos asks for them again (each node keeps its own).
+  double hellos_asked = -1;
   while (!stop_monitor && (opt.duration_s <= 0 || now() - start < opt.duration_s)) {
+    if (ranks_of.size() < 2 && now() - hellos_asked > 2.0) {
+      bus.request_resend(channel::hello, 0);
+      hellos_asked = now();
+    }
     bus.poll(0.05, [&](const Received& msg) {
       const double t = now();
       stats.message(msg.kind, msg.envelope.sender, msg.envelope.step, msg.bytes.size(), msg.envelope.sent_unix_ns,
