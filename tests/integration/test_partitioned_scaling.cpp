@@ -3,9 +3,9 @@
 // whole mesh. A vessel of 10^5 cells (the small scene's cross-section, 48 cells a layer, made
 // 2,084 layers of 10 um long, 20.8 mm: a rank's sub-domain on 4 ranks is 521 layers against a
 // margin and halo of two at each end), 582 red cells, a few steps, on 1 x 1, 2 x 2 and 4 x 4 ranks
-// (oversubscribed on this machine). The largest per-rank volume, sent plus received, must fall
-// about as 1/P: the gather and broadcast it replaces kept a whole state (144 B a cell) on the
-// master or a particle rank whatever P was.
+// (oversubscribed on this machine). The largest per-rank volume, sent plus received less what loss
+// made it send or receive again, must fall about as 1/P: the gather and broadcast it replaces
+// kept a whole state (144 B a cell) on the master or a particle rank whatever P was.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_helpers.h"
 
