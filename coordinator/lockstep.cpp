@@ -84,7 +84,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back("--mpi-hosts");
     argv.push_back(host_list_text(parse_host_list(hosts)));
   }
-  if (scene_.hosts.launcher == "slurm") {
+  if (scene_.hosts.launcher == Launcher::slurm) {
     argv.push_back("--mpi-starter");
     argv.push_back("srun");
   }

@@ -825,8 +825,8 @@ static void read_hosts(Reader& r, Scene& s) {
       r.check(false, key, e.what());
     }
   }
-  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
-  read_name(r, "hosts.transport", h.transport, {"multicast", "tcp"});
+  read_choice(r, "hosts.launcher", h.launcher);
+  read_choice(r, "hosts.transport", h.transport);
   r.read("hosts.relay_address", h.relay_address);
   in_addr ip{};
   r.check(h.relay_address == "auto" || ::inet_pton(AF_INET, h.relay_address.c_str(), &ip) == 1, "hosts.relay_address",

@@ -214,19 +214,19 @@ struct HostPlacement {
   std::string particles;
   // "ssh": started on its first host by launch_command; "local": here; "slurm": a job step of
   // the Slurm allocation the coordinator runs in (docs/slurm.md)
-  std::string launcher = "ssh";
+  Launcher launcher = Launcher::ssh;
   std::string launch_command = kDefaultLaunchCommand;
   // The bus: "multicast" (LCM UDP multicast) or "tcp" (LCM's tcpq provider through a relay the
   // coordinator runs for the run, where multicast is blocked; docs/hosts.md). The relay listens on
   // relay_address ("auto": the address of this host that the nodes' hosts are routed to, or
   // 127.0.0.1 without hosts) and relay_port (0: any free port).
-  std::string transport = "multicast";
+  Transport transport = Transport::multicast;
   std::string relay_address = "auto";
   int relay_port = 0;
   bool any() const { return !fluid.empty() || !particles.empty(); }
-  bool tcp() const { return transport == "tcp"; }
+  bool tcp() const { return transport == Transport::tcp; }
   // Whether the nodes may run on other hosts than the coordinator's (the bus must reach them).
-  bool across_hosts() const { return any() || launcher == "slurm"; }
+  bool across_hosts() const { return any() || launcher == Launcher::slurm; }
 };
 
 // The bus beyond its transport (docs/hosts.md, "What an observer of the network learns"):

@@ -132,4 +132,27 @@ struct ChoiceTable<OrientationMethod> {
   }};
 };
 
+// hosts.launcher: how a node with hosts is started (docs/hosts.md, docs/slurm.md).
+enum class Launcher { ssh, local, slurm };
+template <>
+struct ChoiceTable<Launcher> {
+  static constexpr std::string_view key = "hosts.launcher";
+  static constexpr std::array<Choice<Launcher>, 3> entries = {{
+      {Launcher::ssh, "ssh", "on its first host, by the launch command"},
+      {Launcher::local, "local", "here; Open MPI places its ranks"},
+      {Launcher::slurm, "slurm", "a job step of the Slurm job the coordinator runs in"},
+  }};
+};
+
+// hosts.transport: what carries the bus (docs/hosts.md).
+enum class Transport { multicast, tcp };
+template <>
+struct ChoiceTable<Transport> {
+  static constexpr std::string_view key = "hosts.transport";
+  static constexpr std::array<Choice<Transport>, 2> entries = {{
+      {Transport::multicast, "multicast", "LCM's UDP multicast"},
+      {Transport::tcp, "tcp", "LCM's tcpq through a relay the coordinator runs, where multicast is blocked"},
+  }};
+};
+
 }  // namespace hemo
