@@ -1060,7 +1060,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("coupling.kernel_width_diameters", s.kernel_width_diameters);
   r.check(s.kernel_width_diameters > 0, "coupling.kernel_width_diameters", "must be positive");
   read_choice(r, "coupling.scheme", s.coupling_scheme);
-  read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
+  read_choice(r, "coupling.implicit_drag", s.implicit_drag);
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
   read_choice(r, "coupling.fluid_velocity", s.fluid_velocity);
   read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
@@ -1075,7 +1075,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "above 1 needs coupling.scheme = \"serial\" (the parallel scheme's particles see two states in a block)");
   r.check(f.solve_every == 1 || !s.time.adaptive_interval(), "fluid.solve_every",
           "above 1 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
-  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
+  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != ImplicitDrag::co_relaxed, "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   if (r.problems().empty()) check_geometry_and_work(r, s, narrowest_end);
@@ -1123,10 +1123,7 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
        : s.fluid_force == "held_implicit_drag" ? "CFDEM's couple/cfd/force/implicit: drag implicit on the current "
                                                  "velocity, lift and torque held from the exchange"
                                                : every},
-      {"coupling.implicit_drag", s.implicit_drag,
-       s.implicit_drag == "instantaneous" ? "CFDEM's implicitCouple: the fluid takes K = sum beta / V"
-       : s.implicit_drag == "co_relaxed"  ? "ours: each cell's plasma answers its particles every DEM step"
-                                          : "ours: K from the interval's drag response"},
+      reading_of(s.implicit_drag),
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
   if (shares_over_kernel(s.solid_fraction))  // the others are the paper's unresolved sharing

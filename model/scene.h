@@ -275,7 +275,7 @@ struct Scene {
   // the fluid, ~27 times the plasma's in the calibration case), or "co_relaxed" (K = 0: the
   // particle node lets each cell's plasma answer its particles' drag at every DEM step,
   // particle-node/cell_plasma.h, and the fluid takes the interval's impulse explicitly).
-  std::string implicit_drag = "interval_response";
+  ImplicitDrag implicit_drag = ImplicitDrag::interval_response;
   // The implicit drag keeps back from the plasma K (U - U_seen) V of what the particles
   // exchanged in a step (U_seen the velocity their feedback was computed in); the particles only
   // take it up as they follow the flow in the next interval. true: the fluid hands it back in

@@ -108,6 +108,19 @@ struct ChoiceTable<PlasmaVelocity> {
   }};
 };
 
+// coupling.implicit_drag: the coefficient K with which the fluid treats the particles' drag
+// implicitly (model/scene.h says what each deposits; co_relaxed: particle-node/cell_plasma.h).
+enum class ImplicitDrag { interval_response, instantaneous, co_relaxed };
+template <>
+struct ChoiceTable<ImplicitDrag> {
+  static constexpr std::string_view key = "coupling.implicit_drag";
+  static constexpr std::array<Choice<ImplicitDrag>, 3> entries = {{
+      {ImplicitDrag::interval_response, "interval_response", "ours: K from the interval's drag response"},
+      {ImplicitDrag::instantaneous, "instantaneous", "CFDEM's implicitCouple: the fluid takes K = sum beta / V"},
+      {ImplicitDrag::co_relaxed, "co_relaxed", "ours: each cell's plasma answers its particles every DEM step"},
+  }};
+};
+
 // platelet.orientation_integrator: how a platelet's quaternion is advanced over a DEM step.
 enum class OrientationMethod { splitting, euler };
 template <>
