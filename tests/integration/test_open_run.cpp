@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -248,6 +249,37 @@ TEST(OpenRun, ADevelopedFeederStartsTheRunWithTheDevelopRunsLastCells) {
   for (const char* c : kCounts)
     for (long step = 0; step <= 20; ++step) EXPECT_EQ(count_at(m, c, step), count_at(mb, c, step)) << c << " " << step;
   expect_same_snapshots(a, b);
+}
+
+// Interrupted (SIGINT) while its feeder develops, the run stops with the develop run's checkpoint
+// and before its own nodes start; `hemocosim resume` goes on with the develop run from that
+// checkpoint, then runs the scene from its start.
+TEST(OpenRun, InterruptedWhileItsFeederDevelopsTheRunResumesTheDevelopRunThenStarts) {
+  const std::string dir = fresh_run_dir("open-develop-interrupted");
+  std::ofstream(dir + ".toml") << developed_open_scene("1.2e-3", 20);  // 60 develop steps
+  {
+    Background going(bin("hemocosim") + " run " + dir + ".toml --out " + dir, dir + "-first");
+    wait_for_step(dir + "/feeder-develop", 15);
+    going.signal(SIGINT);
+    const auto stopped = going.done.get();
+    EXPECT_NE(stopped.exit_code, 0);
+    EXPECT_NE(error_line(file_text(going.err)).find("the feeder's develop run " + dir + "/feeder-develop did not "
+                                                    "finish: interrupted after step "),
+              std::string::npos)
+        << file_text(going.err);
+  }
+  ASSERT_FALSE(std::filesystem::exists(dir + "/metrics.csv")) << "the run's own nodes started";
+  const auto resumed = run(bin("hemocosim") + " resume " + dir);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("starts after its feeder's develop run"), std::string::npos) << resumed.output;
+  const long from = step_after(resumed.output, "/feeder-develop resumes from step ");
+  EXPECT_GE(from, 10) << resumed.output;
+  EXPECT_LT(from, 60) << resumed.output;
+  const auto m = read_metrics(dir);
+  ASSERT_EQ(m.at({"particles", "particles"}).size(), 21u);  // step 0 and 20 steps, each once
+  expect_counts_balance(m);
+  const auto developed = read_metrics(dir + "/feeder-develop");
+  EXPECT_EQ(developed.at({"particles", "particles"}).rbegin()->first, 60);
 }
 
 // A develop run that fails (here the fluid's Courant guard, which the derived scene keeps) stops
