@@ -1,13 +1,13 @@
 // hemocosim run: launch both nodes and drive the lockstep to the end.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
+#include "checkpoint.h"
 #include "commands.h"
 #include "feeder_develop.h"
 #include "hosts.h"
 #include "placement.h"
 #include "relay.h"
 #include "run_driver.h"
-#include "checkpoint.h"
 #include "run_files.h"
 #include "scene.h"
 #include "xdmf.h"
@@ -18,10 +18,10 @@
 #include <unistd.h>
 #include <cmath>
 #include <csignal>
-#include <filesystem>
-#include <iterator>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <stdexcept>
