@@ -124,7 +124,7 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   else
     fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.end_time());
-  fmt::print("  coupling    {} scheme{}\n", s.coupling_scheme,
+  fmt::print("  coupling    {} scheme{}\n", name_of(s.coupling_scheme),
              s.fluid.solve_every > 1
                  ? fmt::format("; the fluid solved every {} steps, one step of {:.3g} s on the feedback averaged over "
                                "them (fluid.solve_every)",

@@ -83,7 +83,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back("--mpi-hosts");
     argv.push_back(host_list_text(parse_host_list(hosts)));
   }
-  if (scene_.hosts.launcher == "slurm") {
+  if (scene_.hosts.launcher == Launcher::slurm) {
     argv.push_back("--mpi-starter");
     argv.push_back("srun");
   }
@@ -396,7 +396,7 @@ void Lockstep::await(long step, double timeout_s) {
       const double wall = now() - ordered_at_;
       double computing = 0;
       for (const auto& [name, node] : nodes_)
-        computing = scene_.coupling_scheme == "parallel" ? std::max(computing, node.compute) : computing + node.compute;
+        computing = scene_.coupling_scheme == CouplingScheme::parallel ? std::max(computing, node.compute) : computing + node.compute;
       stepping_wall_s_ += wall;
       overhead_s_ += wall - computing;
       unwritten_.push_back({step, step_time_s_, "lockstep", "step_wall_s", wall});

@@ -173,7 +173,7 @@ void place_nodes(Scene& scene, RunOptions opt) {
   if (!opt.fluid_hostfile.empty()) opt.fluid_hosts = read_host_file(opt.fluid_hostfile);
   if (!opt.particle_hostfile.empty()) opt.particle_hosts = read_host_file(opt.particle_hostfile);
   auto& h = scene.hosts;
-  if (!opt.launcher.empty()) h.launcher = opt.launcher;
+  if (!opt.launcher.empty()) choice_named(opt.launcher, h.launcher);  // main.cpp checked the name
   if (!opt.launch_command.empty()) {
     check_launch_command(opt.launch_command);
     h.launch_command = opt.launch_command;
@@ -191,7 +191,7 @@ void place_nodes(Scene& scene, RunOptions opt) {
     }
   }
   if (opt.bus_ttl >= 0) scene.run.bus_ttl = opt.bus_ttl;
-  if (!opt.transport.empty()) h.transport = opt.transport;
+  if (!opt.transport.empty()) choice_named(opt.transport, h.transport);
   if (!opt.relay_address.empty()) {
     in_addr ip{};
     if (opt.relay_address != "auto" && ::inet_pton(AF_INET, opt.relay_address.c_str(), &ip) != 1)

@@ -21,7 +21,7 @@ namespace {
 
 // The bookkeeping with the scene's neighbour-rebuild policy (dem.neighbour_rebuild).
 DemBookkeeping with_neighbour_policy(DemBookkeeping bookkeeping, const Scene& scene) {
-  bookkeeping.streaming_neighbours = scene.neighbour_rebuild == "streaming";
+  bookkeeping.streaming_neighbours = scene.neighbour_rebuild == NeighbourRebuild::streaming;
   bookkeeping.streaming_wall_shear_rate = wall_shear_rate(scene);
   return bookkeeping;
 }

@@ -72,7 +72,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       comm_(comm),
       locator_(mesh, make_vessel_wall(scene.vessel),
                fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene)) : std::nullopt),
-      fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
+      fluid_(locator_, scene.fluid_velocity),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_, scene.kernel_width_diameters)),
       run_dir_(run_dir) {
   MPI_Comm_rank(comm_, &rank_);
@@ -113,7 +113,7 @@ void ParticleNode::log_particles() const {
       spdlog::info(
           "{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
           engine_->tracks_orientation(sp)
-              ? ", orientation tracked (" + (sp == kRbc ? scene_.rbc : scene_.platelet).orientation_integrator + ")"
+              ? ", orientation tracked (" + name_of((sp == kRbc ? scene_.rbc : scene_.platelet).orientation_integrator) + ")"
               : std::string());
 }
 

@@ -217,7 +217,7 @@ TEST(MonitorStats, WallShearStressIsHeldAgainstTheImposedOne) {
   scene.vessel.length = 600e-6;
   scene.plasma.viscosity = 1.2e-3;
   scene.driving.pressure_drop = 4 * 1.2e-3 * 600e-6 * 799 / 100e-6;
-  scene.mesh.wall_polygon = "inscribed";  // the exact balance reaches cos(pi/16) of the imposed
+  scene.mesh.wall_polygon = WallPolygon::inscribed;  // the exact balance reaches cos(pi/16) of the imposed
   MonitorStats s("run1", 10);
   s.balance_reference(scene);
   s.close_interval(0, 0);

@@ -829,7 +829,7 @@ TEST(DemEngine, RunawayPlateletSpinStopsTheRunNamingIt) {
   Fixture fx(0.02);
   hemo::Scene scene = fx.scene;
   scene.momentum = "cfdem_A";  // the pressure gradient holds the slip
-  scene.platelet.orientation_integrator = "euler";
+  scene.platelet.orientation_integrator = hemo::OrientationMethod::euler;
   DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
   const double slip = 0.5, beta = 3 * hemo::units::pi * scene.plasma.viscosity * scene.platelet.diameter;
   fx.fluid.set_state(uniform_state(fx.mesh, Vec3::Zero(), Vec3(0, 0, slip * beta / scene.platelet.volume)));
