@@ -72,6 +72,10 @@ int main(int argc, char** argv) {
                    "Port of the TCP relay (0: any free one; overrides hosts.relay_port)")
       ->check(CLI::Range(0, 65535));
 
+  run_cmd->add_option("--feeder-cache", run.feeder_cache,
+                      "Folder of developed feeders (vessel.feeder_develop_s): a feeder developed there before for "
+                      "the same scene is used again, a new one is kept there (default: in the run directory)");
+
   hemo::ResumeOptions resume;
   auto* resume_cmd = app.add_subcommand(
       "resume", "Go on with a stopped run (interrupted, failed, --stop-after-step) from its last checkpoint");

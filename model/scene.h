@@ -23,6 +23,9 @@ struct Vessel {
   std::string shape = "straight";
   std::string ends = "periodic";         // vessel_ends.h
   std::string inlet = "feeder";          // vessel_ends.h: what an open vessel's inlet takes in
+  // s: a feeder developed before the run, as a periodic tube of its own for this long
+  // (model/feeder_develop.h); 0: its cells start from the random placement.
+  double feeder_develop = 0;
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   // "bifurcation" (bifurcation.h): the parent is the vessel (diameter, length); its daughters'
