@@ -43,7 +43,7 @@ struct PlacedParticle {
     Vec3 velocity = Vec3::Zero(), angular_velocity = Vec3::Zero(), angular_momentum = Vec3::Zero();
     Eigen::Vector4d orientation{1, 0, 0, 0};
   };
-  std::optional<Motion> motion;
+  std::optional<Motion> motion = std::nullopt;  // a default, so that {species, d, x} still reads as a placement
 };
 
 struct PlacementOptions {
