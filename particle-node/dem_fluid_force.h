@@ -156,6 +156,9 @@ class DemFluidForce {
 
   const int closure_every_ = scene_.time.closure_every_dem_steps;
   const bool two_pass_ = liggghts_.bookkeeping().two_pass_fluid_force;
+  // Each species' orientation integrator where it is the splitting one (else null), for one
+  // pass's orientation step with its drift and kick inlined.
+  std::array<const SplittingIntegrator*, kSpeciesCount> splitting_{};
   // coupling.fluid_force: when the closures are evaluated and what is held until the next.
   enum class Update { per_dem_step, held_implicit_drag, held };
   const Update update_ = scene_.fluid_force == "held"                 ? Update::held
