@@ -21,8 +21,7 @@ constexpr const char* kFluidFix = "hemo_fluid";
 // carried between ranks with every atom, and added it to the forces in a second pass over the
 // atoms: one more array read and written per atom and DEM step, the same sums.)
 constexpr const char* kFluidForceStyle = "hemo/fluid_force";
-using FluidForceCallback = void (*)(void* target, std::int64_t ntimestep, int nlocal, int* tag, double** x,
-                                    double** f);
+using FluidForceCallback = void (*)(void* target, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
 LAMMPS_NS::Fix* create_fluid_force_fix(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
 void set_fluid_force_callback(LAMMPS_NS::Fix* fix, FluidForceCallback callback, void* target);
 constexpr const char* kImpulseFix = "hemo_impulse";

@@ -41,7 +41,8 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
           "the {} closures ({}) need the vessel's centre-line speed at each section, which an imported surface "
           "does not define (it would take the vessel's flow split): choose another lift",
           (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
-  for (int sp = 0; sp < kSpeciesCount; ++sp) splitting_[sp] = dynamic_cast<const SplittingIntegrator*>(species_.rotation[sp].get());
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    splitting_[sp] = dynamic_cast<const SplittingIntegrator*>(species_.rotation[sp].get());
   if (scene_.implicit_drag == "co_relaxed") {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
@@ -191,9 +192,9 @@ void DemFluidForce::one_pass(const ForceStep& step, int nlocal, const int* tag, 
         const double lift = h[kLift + d];
         stress[d] = h[kStress + d];
         // exponential_drag_force(ratio, beta, u - v, other + lift + stress)
-        const double drag = constant_drag ? h[kDrag + d]
-                                          : rb * (h[kVelocity + d] - vi[d]) +
-                                                rm1 * (((fi[d] + weight[d]) + lift) + stress[d]);
+        const double drag = constant_drag
+                                ? h[kDrag + d]
+                                : rb * (h[kVelocity + d] - vi[d]) + rm1 * (((fi[d] + weight[d]) + lift) + stress[d]);
         total[d] = drag + lift;
       }
       if (rotation) torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);

@@ -1,11 +1,14 @@
-// The fluid's force on the particles, evaluated in LIGGGHTS's `fix external pf/callback` every
-// DEM step, and the impulse it gave them, deposited into the fluid's cells after each run.
+// The fluid's force on the particles, evaluated every DEM step in the callback of our fix
+// `hemo/fluid_force` (dem_fixes.h) and added to LIGGGHTS's forces, and the impulse it gave them,
+// deposited into the fluid's cells after each run.
 //
 // Every DEM step the callback locates each particle's fluid cell, samples the plasma there,
 // evaluates the species' closures (SpeciesForces), applies the drag with the exponential update
 // (the contact forces LIGGGHTS computed for the step count as the step's other forces), and
 // accumulates each particle's impulse for the feedback. Platelets' orientations take their step
-// in the same pass (OrientationTracker).
+// in the same pass (OrientationTracker). One pass over the atoms, unless the co-relaxed plasma
+// answers the step's forces before they are applied (particle-node/README.md, "The force
+// callback, one pass").
 //
 // Each particle's interval impulse (integral of F dt and of beta dt, and its last force for the
 // next interval's first half kick) lives in a `fix property/atom`, so that it moves with its atom

@@ -91,12 +91,10 @@ void OrientationTracker::kick_and_store(const Step& step, int i, int tag, const 
 
 template OrientationTracker::Spin OrientationTracker::at_step(const Step&, int, int,
                                                               const OrientationIntegrator&) const;
-template OrientationTracker::Spin OrientationTracker::at_step(const Step&, int, int,
-                                                              const SplittingIntegrator&) const;
+template OrientationTracker::Spin OrientationTracker::at_step(const Step&, int, int, const SplittingIntegrator&) const;
 template void OrientationTracker::kick_and_store(const Step&, int, int, const OrientationIntegrator&, Spin&,
                                                  const Vec3&);
-template void OrientationTracker::kick_and_store(const Step&, int, int, const SplittingIntegrator&, Spin&,
-                                                 const Vec3&);
+template void OrientationTracker::kick_and_store(const Step&, int, int, const SplittingIntegrator&, Spin&, const Vec3&);
 
 void OrientationTracker::finish_step(const Step& step) {
   if (step.advance) {

@@ -116,9 +116,7 @@ class FixFluidForce : public LAMMPS_NS::Fix {
     if (callback_ == nullptr) error->all(FLERR, "fix hemo/fluid_force: no callback set");
   }
   void setup(int vflag) override { post_force(vflag); }
-  void post_force(int) override {
-    callback_(target_, update->ntimestep, atom->nlocal, atom->tag, atom->x, atom->f);
-  }
+  void post_force(int) override { callback_(target_, update->ntimestep, atom->nlocal, atom->tag, atom->x, atom->f); }
 
   FluidForceCallback callback_ = nullptr;
   void* target_ = nullptr;

@@ -9,9 +9,9 @@
 // for a straight tube; for any other shape a triangle mesh of the same VesselGeometry as the
 // fluid mesh, `fix mesh/surface` from an STL the session writes), the box periodic along z with
 // the mesh's period. The fluid acts through our fix `hemo/fluid_force` (dem_fixes.h), defined
-// after the wall so that its callback sees each step's contact forces and torques (DemFluidForce). Values that must move between ranks with their atom live in
-// `fix property/atom`s (dem_fixes.h).
-// SPDX-License-Identifier: GPL-3.0-or-later
+// after the wall so that its callback sees each step's contact forces and torques (DemFluidForce). Values that must
+// move between ranks with their atom live in `fix property/atom`s (dem_fixes.h). SPDX-License-Identifier:
+// GPL-3.0-or-later
 #pragma once
 
 #include "cell_locator.h"

@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The LIGGGHTS engine on a synthetic fluid: a few hundred cells in a 50 um x 100 um vessel.
-#include "synthetic_case.h"
 #include "cell_fields.h"
 #include "dem_engine.h"
 #include "dem_timing.h"
@@ -8,6 +7,7 @@
 #include "liggghts_errors.h"
 #include "overlap.h"
 #include "single_particle.h"
+#include "synthetic_case.h"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -612,9 +612,9 @@ TEST(DemEngine, OnePassCallbackIsTheTwoPassOneBitForBit) {
     scene.gravity = {3, -2, 5};  // a weight in every component, as contacts, lift and stress have
     // Poiseuille flow with a cross-flow, a pressure gradient and viscous force in every component:
     // no term of a sum is zero, so a sum taken in another order would show.
-    const FieldAt poiseuille_across = [poiseuille_along = poiseuille(R, 799 * R / 2)](
-                                          const std::array<double, 3>& x, std::array<double, 3>& u,
-                                          std::array<double, 9>& g) {
+    const FieldAt poiseuille_across = [poiseuille_along = poiseuille(R, 799 * R / 2)](const std::array<double, 3>& x,
+                                                                                      std::array<double, 3>& u,
+                                                                                      std::array<double, 9>& g) {
       poiseuille_along(x, u, g);
       u[0] += 4e-4;
       u[1] -= 3e-4;
@@ -641,11 +641,12 @@ TEST(DemEngine, OnePassCallbackIsTheTwoPassOneBitForBit) {
       fx.engine.create_particles(placed);
       for (std::size_t id = 1; id <= placed.size(); ++id)
         if (placed[id - 1].species == kPlatelet && variant.oblate_platelets)
-          fx.engine.set_orientation(static_cast<long>(id), Quat(Eigen::AngleAxisd(0.1 * id, Vec3(1, 2, 0.5).normalized())));
+          fx.engine.set_orientation(static_cast<long>(id),
+                                    Quat(Eigen::AngleAxisd(0.1 * id, Vec3(1, 2, 0.5).normalized())));
       std::vector<double> deposited;
       for (int k = 1; k <= 8; ++k) {
-        ASSERT_EQ(fx.engine.run(k, variant.substeps > 0 ? variant.substeps : fx.timing.substeps, fx.timing.dt, fx.fluid),
-                  "");
+        ASSERT_EQ(
+            fx.engine.run(k, variant.substeps > 0 ? variant.substeps : fx.timing.substeps, fx.timing.dt, fx.fluid), "");
         fx.engine.deposit(fx.deposition);
         deposited.insert(deposited.end(), fx.deposition.data(), fx.deposition.data() + fx.deposition.size());
       }
@@ -664,8 +665,8 @@ TEST(DemEngine, OnePassCallbackIsTheTwoPassOneBitForBit) {
     }
     for (const auto& [name, values] : one) EXPECT_TRUE(same_bits(values, two.at(name))) << name;
     EXPECT_TRUE(same_bits(depositions[0], depositions[1])) << "the depositions of the 8 intervals";
-    std::printf("[ info ] %s: %zu particles, %.0f pair contacts with history, %zu values compared\n",
-                variant.what, one.at("tag").size(), contacts, [&] {
+    std::printf("[ info ] %s: %zu particles, %.0f pair contacts with history, %zu values compared\n", variant.what,
+                one.at("tag").size(), contacts, [&] {
                   std::size_t n = depositions[0].size();
                   for (const auto& [name, values] : one) n += values.size();
                   return n;
