@@ -226,6 +226,7 @@ class Reader {
         {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
         {"vessel.daughter_2_diameter_um", {ninf, 1e4}},
         {"vessel.daughter_length_um", {ninf, 1e5}},  // as the vessel's length
+        {"vessel.feeder_develop_s", {0, 1e3}},
         {"mesh.surface_cell_size_um", {ninf, 1e4}},
         {"mesh.core_cells", {ninf, 200}},
         {"mesh.ring_cells", {ninf, 200}},
@@ -370,6 +371,7 @@ void read_species(Reader& r, Species& s, bool rbc) {
 static void read_vessel_ends(Reader& r, Vessel& v) {
   read_name(r, "vessel.ends", v.ends, vessel_end_names());
   read_name(r, "vessel.inlet", v.inlet, vessel_inlet_names());
+  r.read("vessel.feeder_develop_s", v.feeder_develop);
 }
 
 // Whether vessel.ends and vessel.inlet are names the scene knows (unknown ones are refused as read).
@@ -560,12 +562,18 @@ void check_geometry_and_work(Reader& r, const Scene& s, double narrowest_end) {
                        s.vessel.length / units::um, sp->name, 2 * d / units::um));
       continue;
     }
-    if (!(d / cell < 1)) {
+    // A kernel at least a cell wide at half maximum and at most the vessel's radius shares a particle
+    // over cells narrower than it, as in a surface vessel (above): the feeder of such a vessel is
+    // this O-grid, developed on its own (model/feeder_develop.h).
+    const double fwhm = s.kernel_width_diameters * d;
+    const bool kernel_spans_cells = shares_over_kernel(s.solid_fraction) && fwhm >= cell && fwhm <= d_vessel / 2;
+    if (!(d / cell < 1) && !kernel_spans_cells) {
       const std::string key = blame(dkey, "mesh.axial_cells");
       fail(key, key == dkey ? dtext : r.value_text(key),
            fmt::format("a {} of {:g} um is larger than the fluid cells ({:.3g} um, the cube root of the mean cell "
                        "volume): unresolved CFD-DEM needs particle diameter / cell size < 1 (here {:.2f}); use fewer "
-                       "cells (mesh.*) or smaller particles",
+                       "cells (mesh.*) or smaller particles, or share them over a kernel at least a cell wide "
+                       "(coupling.solid_fraction = \"gaussian_kernel\")",
                        sp->name, d / units::um, cell / units::um, d / cell));
     }
   }
@@ -825,8 +833,8 @@ static void read_hosts(Reader& r, Scene& s) {
       r.check(false, key, e.what());
     }
   }
-  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
-  read_name(r, "hosts.transport", h.transport, {"multicast", "tcp"});
+  read_choice(r, "hosts.launcher", h.launcher);
+  read_choice(r, "hosts.transport", h.transport);
   r.read("hosts.relay_address", h.relay_address);
   in_addr ip{};
   r.check(h.relay_address == "auto" || ::inet_pton(AF_INET, h.relay_address.c_str(), &ip) == 1, "hosts.relay_address",
@@ -1060,7 +1068,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("coupling.kernel_width_diameters", s.kernel_width_diameters);
   r.check(s.kernel_width_diameters > 0, "coupling.kernel_width_diameters", "must be positive");
   read_choice(r, "coupling.scheme", s.coupling_scheme);
-  read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
+  read_choice(r, "coupling.implicit_drag", s.implicit_drag);
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
   read_choice(r, "coupling.fluid_velocity", s.fluid_velocity);
   read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
@@ -1075,7 +1083,13 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "above 1 needs coupling.scheme = \"serial\" (the parallel scheme's particles see two states in a block)");
   r.check(f.solve_every == 1 || !s.time.adaptive_interval(), "fluid.solve_every",
           "above 1 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
-  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
+  // A developed feeder (model/feeder_develop.h) is an open vessel's, from a run whose last step,
+  // known in advance, writes the checkpoint its cells are taken from.
+  r.check(!(s.vessel.feeder_develop > 0) || !known_ends(s.vessel) || fed_by_feeder(s.vessel),
+          "vessel.feeder_develop_s", "above 0 needs a feeder (vessel.ends = \"open\", vessel.inlet = \"feeder\")");
+  r.check(!(s.vessel.feeder_develop > 0) || !s.time.adaptive_interval(), "vessel.feeder_develop_s",
+          "above 0 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
+  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != ImplicitDrag::co_relaxed, "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   if (r.problems().empty()) check_geometry_and_work(r, s, narrowest_end);
@@ -1123,10 +1137,7 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
        : s.fluid_force == "held_implicit_drag" ? "CFDEM's couple/cfd/force/implicit: drag implicit on the current "
                                                  "velocity, lift and torque held from the exchange"
                                                : every},
-      {"coupling.implicit_drag", s.implicit_drag,
-       s.implicit_drag == "instantaneous" ? "CFDEM's implicitCouple: the fluid takes K = sum beta / V"
-       : s.implicit_drag == "co_relaxed"  ? "ours: each cell's plasma answers its particles every DEM step"
-                                          : "ours: K from the interval's drag response"},
+      reading_of(s.implicit_drag),
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
   if (shares_over_kernel(s.solid_fraction))  // the others are the paper's unresolved sharing

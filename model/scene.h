@@ -23,6 +23,9 @@ struct Vessel {
   std::string shape = "straight";
   std::string ends = "periodic";         // vessel_ends.h
   std::string inlet = "feeder";          // vessel_ends.h: what an open vessel's inlet takes in
+  // s: a feeder developed before the run, as a periodic tube of its own for this long
+  // (model/feeder_develop.h); 0: its cells start from the random placement.
+  double feeder_develop = 0;
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   // "bifurcation" (bifurcation.h): the parent is the vessel (diameter, length); its daughters'
@@ -214,19 +217,19 @@ struct HostPlacement {
   std::string particles;
   // "ssh": started on its first host by launch_command; "local": here; "slurm": a job step of
   // the Slurm allocation the coordinator runs in (docs/slurm.md)
-  std::string launcher = "ssh";
+  Launcher launcher = Launcher::ssh;
   std::string launch_command = kDefaultLaunchCommand;
   // The bus: "multicast" (LCM UDP multicast) or "tcp" (LCM's tcpq provider through a relay the
   // coordinator runs for the run, where multicast is blocked; docs/hosts.md). The relay listens on
   // relay_address ("auto": the address of this host that the nodes' hosts are routed to, or
   // 127.0.0.1 without hosts) and relay_port (0: any free port).
-  std::string transport = "multicast";
+  Transport transport = Transport::multicast;
   std::string relay_address = "auto";
   int relay_port = 0;
   bool any() const { return !fluid.empty() || !particles.empty(); }
-  bool tcp() const { return transport == "tcp"; }
+  bool tcp() const { return transport == Transport::tcp; }
   // Whether the nodes may run on other hosts than the coordinator's (the bus must reach them).
-  bool across_hosts() const { return any() || launcher == "slurm"; }
+  bool across_hosts() const { return any() || launcher == Launcher::slurm; }
 };
 
 // The bus beyond its transport (docs/hosts.md, "What an observer of the network learns"):
@@ -275,7 +278,7 @@ struct Scene {
   // the fluid, ~27 times the plasma's in the calibration case), or "co_relaxed" (K = 0: the
   // particle node lets each cell's plasma answer its particles' drag at every DEM step,
   // particle-node/cell_plasma.h, and the fluid takes the interval's impulse explicitly).
-  std::string implicit_drag = "interval_response";
+  ImplicitDrag implicit_drag = ImplicitDrag::interval_response;
   // The implicit drag keeps back from the plasma K (U - U_seen) V of what the particles
   // exchanged in a step (U_seen the velocity their feedback was computed in); the particles only
   // take it up as they follow the flow in the next interval. true: the fluid hands it back in

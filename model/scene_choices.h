@@ -108,6 +108,19 @@ struct ChoiceTable<PlasmaVelocity> {
   }};
 };
 
+// coupling.implicit_drag: the coefficient K with which the fluid treats the particles' drag
+// implicitly (model/scene.h says what each deposits; co_relaxed: particle-node/cell_plasma.h).
+enum class ImplicitDrag { interval_response, instantaneous, co_relaxed };
+template <>
+struct ChoiceTable<ImplicitDrag> {
+  static constexpr std::string_view key = "coupling.implicit_drag";
+  static constexpr std::array<Choice<ImplicitDrag>, 3> entries = {{
+      {ImplicitDrag::interval_response, "interval_response", "ours: K from the interval's drag response"},
+      {ImplicitDrag::instantaneous, "instantaneous", "CFDEM's implicitCouple: the fluid takes K = sum beta / V"},
+      {ImplicitDrag::co_relaxed, "co_relaxed", "ours: each cell's plasma answers its particles every DEM step"},
+  }};
+};
+
 // platelet.orientation_integrator: how a platelet's quaternion is advanced over a DEM step.
 enum class OrientationMethod { splitting, euler };
 template <>
@@ -116,6 +129,29 @@ struct ChoiceTable<OrientationMethod> {
   static constexpr std::array<Choice<OrientationMethod>, 2> entries = {{
       {OrientationMethod::splitting, "splitting", "ours: second order, exact torque-free rotation"},
       {OrientationMethod::euler, "euler", "the paper's Algorithm 1 as printed (explicit, first order)"},
+  }};
+};
+
+// hosts.launcher: how a node with hosts is started (docs/hosts.md, docs/slurm.md).
+enum class Launcher { ssh, local, slurm };
+template <>
+struct ChoiceTable<Launcher> {
+  static constexpr std::string_view key = "hosts.launcher";
+  static constexpr std::array<Choice<Launcher>, 3> entries = {{
+      {Launcher::ssh, "ssh", "on its first host, by the launch command"},
+      {Launcher::local, "local", "here; Open MPI places its ranks"},
+      {Launcher::slurm, "slurm", "a job step of the Slurm job the coordinator runs in"},
+  }};
+};
+
+// hosts.transport: what carries the bus (docs/hosts.md).
+enum class Transport { multicast, tcp };
+template <>
+struct ChoiceTable<Transport> {
+  static constexpr std::string_view key = "hosts.transport";
+  static constexpr std::array<Choice<Transport>, 2> entries = {{
+      {Transport::multicast, "multicast", "LCM's UDP multicast"},
+      {Transport::tcp, "tcp", "LCM's tcpq through a relay the coordinator runs, where multicast is blocked"},
   }};
 };
 

@@ -43,7 +43,7 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
           (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     splitting_[sp] = dynamic_cast<const SplittingIntegrator*>(species_.rotation[sp].get());
-  if (scene_.implicit_drag == "co_relaxed") {
+  if (scene_.implicit_drag == ImplicitDrag::co_relaxed) {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
   }
@@ -259,9 +259,9 @@ void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double
   const std::array<Vec3, kSpeciesCount>& weight = species_.weight;
   const int* type = liggghts.atom().type;
   double** impulse = per_atom(liggghts.fixes().impulse);
-  // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' fluid force at this
+  // coupling.implicit_drag's co-relaxation: each cell's plasma answers its particles' fluid force at this
   // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
-  if (cell_plasma_) cell_plasma_->relax(comm_);
+  if (cell_plasma_) cell_plasma_->relax(halo_.get(), comm_);
   for (int i = 0; i < nlocal; ++i) {
     const int cell = step_cells_[i];
     if (cell < 0) continue;
@@ -391,10 +391,12 @@ void DemFluidForce::deposit(Deposition& deposition) {
     const int sp = liggghts_.species_of_type(type[i]);
     if (cell < 0) continue;
     const double beta_time = acc[i][3];
-    // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly.
-    const double drag_response = cell_plasma_          ? 0.0
-                                 : held_velocity_drag_ ? beta_time
-                                                       : interval_drag_response(species_.mass[sp], beta_time);
+    double drag_response = 0;  // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly
+    switch (scene_.implicit_drag) {
+      case ImplicitDrag::interval_response: drag_response = interval_drag_response(species_.mass[sp], beta_time); break;
+      case ImplicitDrag::instantaneous: drag_response = beta_time; break;
+      case ImplicitDrag::co_relaxed: break;
+    }
     deposition.add_particle(cell, locator_.wrap(xi), 0.5 * species_.diameter[sp], species_.volume[sp],
                             Vec3(acc[i][0], acc[i][1], acc[i][2]), drag_response);
   }

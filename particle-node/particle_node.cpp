@@ -4,11 +4,13 @@
 #include "agree.h"
 #include "cell_fields.h"
 #include "checkpoint_file.h"
+#include "developed_feeder.h"
 #include "engine_state.h"
 #include "engine_state_merge.h"
 
 #include <checkpoint.h>
 #include <clock.h>
+#include <feeder_develop.h>
 #include <traffic.h>
 #include <fmt/format.h>
 #include <momentum_forms.h>
@@ -116,7 +118,12 @@ void ParticleNode::log_particles() const {
 }
 
 void ParticleNode::start() {
-  const auto placed = place_scene_particles(scene_, locator_.wall(), locator_.z0());
+  // A developed feeder's cells as its own run left them (model/feeder_develop.h); else placed.
+  const auto placed =
+      develops_feeder(scene_)
+          ? fill_open_vessel(developed_feeder_cells(scene_, run_dir_ + "/" + kFeederDevelopFolder, locator_.z0()),
+                             locator_.wall(), feeder_layout(scene_), locator_.z0())
+          : place_scene_particles(scene_, locator_.wall(), locator_.z0());
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);

@@ -125,7 +125,7 @@ TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
   EXPECT_NEAR(s.platelet.semi_axis_c, 0.52e-6, 1e-18);
   EXPECT_EQ(s.platelet.orientation_integrator, OrientationMethod::splitting);
   EXPECT_EQ(s.solid_fraction, "sphere_overlap");
-  EXPECT_EQ(s.implicit_drag, "interval_response");
+  EXPECT_EQ(s.implicit_drag, ImplicitDrag::interval_response);
   EXPECT_TRUE(s.return_held_back_momentum);
   EXPECT_EQ(s.time.steps_per_contact, 10);
   EXPECT_EQ(s.time.relaxation_factor, 0);
@@ -163,7 +163,7 @@ mass_scaling = 10
   EXPECT_EQ(t.solid_fraction, "centre_cell");
   EXPECT_EQ(s.coupling_scheme, CouplingScheme::serial);
   EXPECT_EQ(t.coupling_scheme, CouplingScheme::parallel);
-  EXPECT_EQ(t.implicit_drag, "instantaneous");
+  EXPECT_EQ(t.implicit_drag, ImplicitDrag::instantaneous);
   EXPECT_FALSE(t.return_held_back_momentum);
   EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
   EXPECT_EQ(t.time.steps_per_contact, 20);
@@ -600,6 +600,7 @@ TEST(Scene, EveryNamedOptionReadsBackAsItsValue) {
   expect_choices_round_trip<FluidVelocity>(2);
   expect_choices_round_trip<PlasmaVelocity>(2);
   expect_choices_round_trip<OrientationMethod>(2);
+  expect_choices_round_trip<ImplicitDrag>(3);
   // and a scene spells them as the tables do
   const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) +
                                               "[coupling]\nscheme = \"parallel\"\nplasma_velocity = \"cell_centre\"\n"));
