@@ -4,7 +4,7 @@
 //
 //   DemSpecies          dem_species.h      each species' closures, orientation integrator, size, mass, weight
 //   LiggghtsSession     dem_session.h      the LAMMPS instance: box, contacts, wall, fixes, atoms, runs
-//   DemFluidForce       dem_fluid_force.h  the fix external callback: closures, drag, impulses; their deposition
+//   DemFluidForce       dem_fluid_force.h  the fluid-force fix's callback: closures, drag, impulses; their deposition
 //   OrientationTracker  dem_orientation.h  platelet orientations, advanced in that callback
 //   ParticleTracking    dem_tracking.h     per tag: z unwrapped over periodic crossings, the locate cache
 //   LiggghtsCheckpoint  dem_checkpoint.h   LIGGGHTS's state between runs, saved and recreated

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "dem_fix_styles.h"
 
+#include "dem_fixes.h"
 #include "dem_open_ends.h"
 #include "dem_streaming_neighbours.h"
 #include "dem_tracking.h"
@@ -37,6 +38,7 @@ void register_fix_styles(LAMMPS_NS::LAMMPS& lmp) {
       {kStreamingNeighbourStyle, &create_streaming_neighbours},
       {kOpenEndsStyle, &create_open_ends},
       {kTrackingStyle, &create_tracking_fix},
+      {kFluidForceStyle, &create_fluid_force_fix},
   };
   for (const auto& [style, create] : ours) (*(lmp.modify->*fix_style_map()))[style] = create;
 }

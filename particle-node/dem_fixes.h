@@ -8,12 +8,22 @@
 #include <fix.h>
 #include <mpi.h>
 
+#include <cstdint>
 #include <type_traits>
 #include <vector>
 
 namespace hemo::particles::dem {
 
 constexpr const char* kFluidFix = "hemo_fluid";
+// Its style, ours (registered by register_fix_styles): at each post_force, and at a run's set-up,
+// it calls the callback set on it with LIGGGHTS's own per-atom force array, to which the callback
+// adds the fluid force. (`fix external pf/callback` had the callback fill an array of the fix's,
+// carried between ranks with every atom, and added it to the forces in a second pass over the
+// atoms: one more array read and written per atom and DEM step, the same sums.)
+constexpr const char* kFluidForceStyle = "hemo/fluid_force";
+using FluidForceCallback = void (*)(void* target, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
+LAMMPS_NS::Fix* create_fluid_force_fix(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
+void set_fluid_force_callback(LAMMPS_NS::Fix* fix, FluidForceCallback callback, void* target);
 constexpr const char* kImpulseFix = "hemo_impulse";
 constexpr const char* kRotationFix = "hemo_rotation";
 constexpr const char* kClosureFix = "hemo_closures";

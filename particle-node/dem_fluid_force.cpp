@@ -18,6 +18,12 @@ namespace hemo::particles {
 
 using namespace dem;
 
+namespace {
+
+constexpr int kPrefetchAhead = 8;  // atoms
+
+}  // namespace
+
 DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, const DemSpecies& species,
                              LiggghtsSession& liggghts, ParticleTracking& tracking, OrientationTracker& orientation,
                              FirstProblem& problems, MPI_Comm comm)
@@ -35,6 +41,8 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
           "the {} closures ({}) need the vessel's centre-line speed at each section, which an imported surface "
           "does not define (it would take the vessel's flow split): choose another lift",
           (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
+  for (int sp = 0; sp < kSpeciesCount; ++sp)
+    splitting_[sp] = dynamic_cast<const SplittingIntegrator*>(species_.rotation[sp].get());
   if (scene_.implicit_drag == ImplicitDrag::co_relaxed) {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
@@ -101,24 +109,126 @@ void DemFluidForce::on_force(std::int64_t ntimestep, int nlocal, const int* tag,
   // a held fluid force only at the first (CFDEM: once per exchange).
   step.evaluate = step.held == nullptr ||
                   (update_ == Update::per_dem_step ? (evaluations_ - 1) % closure_every_ == 0 : evaluations_ == 1);
-  step_forces_.resize(nlocal);
-  step_cells_.assign(nlocal, -1);  // -1: no fluid force this step (problem noted)
-  for (int i = 0; i < nlocal; ++i) step_fluid_force(step, i, tag[i], x[i], f[i]);
+  if (cell_plasma_ || two_pass_) {
+    step_forces_.resize(nlocal);
+    step_cells_.assign(nlocal, -1);  // -1: no fluid force this step (problem noted)
+    for (int i = 0; i < nlocal; ++i) step_fluid_force(step, i, tag[i], x[i]);
+    orientation_.finish_step(step.spin);
+    apply_fluid_forces(step, nlocal, f);
+    return;
+  }
+  one_pass(step, nlocal, tag, x, f);
   orientation_.finish_step(step.spin);
-  apply_fluid_forces(step, nlocal, f);
 }
 
-void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const double* x, double* f) {
+void DemFluidForce::one_pass(const ForceStep& step, int nlocal, const int* tag, double** x, double** f) {
+  // Locals, so that the loop does not reload them through this object for every particle. The
+  // held step is written out per component: the same operations in the same order as
+  // held_fluid_force's and apply_fluid_forces's vectors, without the copies between them.
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  const int* type = atom.type;
+  double** v = atom.v;
+  double** impulse = per_atom(liggghts_.fixes().impulse);
+  double** held = step.held;
+  const bool constant_drag = update_ == Update::held;
+  const bool stress_exchanged = form_.stress_exchanged;
+  const double duration = step.duration;
+  const bool last = step.last;
+  double** spins = step.spin.spins;
+  for (int i = 0; i < nlocal; ++i) {
+    // Each atom's rows lie in arrays of their own, read once per step and too large together
+    // for the core's cache: an atom's rows are asked for a few atoms ahead (a platelet's spin
+    // rows, one atom in seven, are beyond the hardware's own prefetching).
+    if (const int ahead = i + kPrefetchAhead; ahead < nlocal) {
+      if (held) {
+        __builtin_prefetch(held[ahead]);
+        __builtin_prefetch(held[ahead] + kClosureSlots / 2);
+        __builtin_prefetch(held[ahead] + kClosureSlots - 1);
+      }
+      __builtin_prefetch(impulse[ahead], 1);
+      if (spins) __builtin_prefetch(spins[ahead], 1);
+    }
+    double* fi = f[i];  // the contacts' force of this step so far; the fluid's is added to it
+    const int t = tag[i];
+    const int sp = liggghts_.species_of_type(type[i]);
+    const double* xi = x[i];
+    const double* vi = v[i];
+    if (!(std::isfinite(xi[0]) && std::isfinite(xi[1]) && std::isfinite(xi[2]) && std::isfinite(vi[0]) &&
+          std::isfinite(vi[1]) && std::isfinite(vi[2]))) {
+      note_not_finite(t, step.ntimestep);
+      continue;
+    }
+    const OrientationIntegrator* rotation = species_.rotation[sp].get();
+    const SplittingIntegrator* splitting = splitting_[sp];
+    OrientationTracker::Spin spin;
+    if (splitting)
+      spin = orientation_.at_step(step.spin, i, t, *splitting);
+    else if (rotation)
+      spin = orientation_.at_step(step.spin, i, t, *rotation);
+    const Vec3& weight = species_.weight[sp];
+    double beta, total[3], stress[3];
+    Vec3 torque;
+    if (step.evaluate) {
+      const Vec3 velocity(vi[0], vi[1], vi[2]);
+      const Vec3 other = Vec3(fi[0], fi[1], fi[2]) + weight;
+      const Particle particle{t, sp, Vec3(xi[0], xi[1], xi[2]), velocity,
+                              rotation ? symmetry_axis(spin.q) : Vec3::UnitZ()};
+      FluidForce ff;
+      Vec3 plasma_velocity;
+      const int cell = evaluate_fluid_force(particle, other, step.ntimestep, ff, plasma_velocity);
+      if (cell < 0) continue;
+      if (held) hold(ff, plasma_velocity, cell, held[i]);
+      beta = ff.beta;
+      for (int d = 0; d < 3; ++d) {
+        total[d] = ff.drag[d] + ff.lift[d];
+        stress[d] = ff.stress[d];
+      }
+      torque = ff.torque;
+    } else {
+      const double* h = held[i];
+      beta = h[kBeta];
+      const double ratio = h[kRatio], rb = ratio * beta, rm1 = ratio - 1;
+      for (int d = 0; d < 3; ++d) {
+        const double lift = h[kLift + d];
+        stress[d] = h[kStress + d];
+        // exponential_drag_force(ratio, beta, u - v, other + lift + stress)
+        const double drag = constant_drag
+                                ? h[kDrag + d]
+                                : rb * (h[kVelocity + d] - vi[d]) + rm1 * (((fi[d] + weight[d]) + lift) + stress[d]);
+        total[d] = drag + lift;
+      }
+      if (rotation) torque = Vec3(h[kTorque], h[kTorque + 1], h[kTorque + 2]);
+    }
+    if (splitting)
+      orientation_.kick_and_store(step.spin, i, t, *splitting, spin, torque);
+    else if (rotation)
+      orientation_.kick_and_store(step.spin, i, t, *rotation, spin, torque);
+    double* acc = impulse[i];
+    for (int d = 0; d < 3; ++d) {
+      fi[d] += ((total[d] + stress[d]) + weight[d]);
+      const double exchanged = stress_exchanged ? total[d] + stress[d] : total[d];
+      acc[d] += duration * exchanged;
+      if (last) acc[4 + d] = exchanged;  // kept for the next run's first half kick
+    }
+    acc[3] += duration * beta;
+    if (last) acc[7] = beta;
+  }
+}
+
+void DemFluidForce::note_not_finite(int tag, std::int64_t ntimestep) {
+  problems_.note(tag, fmt::format("particle {} has a non-finite position or velocity at coupling step {} (DEM step {})",
+                                  tag, run_.coupling_step, ntimestep));
+}
+
+void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const double* x) {
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
   const int sp = liggghts_.species_of_type(atom.type[i]);
   const double* v = atom.v[i];
   const double* contact = atom.f[i];  // pair and wall forces of this step so far
   const Vec3 xi(x[0], x[1], x[2]);
   const Vec3 vi(v[0], v[1], v[2]);
-  f[0] = f[1] = f[2] = 0.0;
   if (!xi.allFinite() || !vi.allFinite()) {
-    problems_.note(t, fmt::format("particle {} has a non-finite position or velocity at coupling step {} (DEM step {})",
-                                  t, run_.coupling_step, step.ntimestep));
+    note_not_finite(t, step.ntimestep);
     return;
   }
   const OrientationIntegrator* rotation = species_.rotation[sp].get();
@@ -158,9 +268,9 @@ void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double
     FluidForce& ff = step_forces_[i];
     if (cell_plasma_) ff.drag += (ff.ratio * ff.beta) * cell_plasma_->shift(cell);
     const Vec3 applied = ff.total() + ff.stress + weight[liggghts.species_of_type(type[i])];
-    f[i][0] = applied.x();
-    f[i][1] = applied.y();
-    f[i][2] = applied.z();
+    f[i][0] += applied.x();
+    f[i][1] += applied.y();
+    f[i][2] += applied.z();
     accumulate_impulse(impulse[i], exchanged(ff), ff.beta, step.duration, step.last);
   }
 }

@@ -1,11 +1,14 @@
-// The fluid's force on the particles, evaluated in LIGGGHTS's `fix external pf/callback` every
-// DEM step, and the impulse it gave them, deposited into the fluid's cells after each run.
+// The fluid's force on the particles, evaluated every DEM step in the callback of our fix
+// `hemo/fluid_force` (dem_fixes.h) and added to LIGGGHTS's forces, and the impulse it gave them,
+// deposited into the fluid's cells after each run.
 //
 // Every DEM step the callback locates each particle's fluid cell, samples the plasma there,
 // evaluates the species' closures (SpeciesForces), applies the drag with the exponential update
 // (the contact forces LIGGGHTS computed for the step count as the step's other forces), and
 // accumulates each particle's impulse for the feedback. Platelets' orientations take their step
-// in the same pass (OrientationTracker).
+// in the same pass (OrientationTracker). One pass over the atoms, unless the co-relaxed plasma
+// answers the step's forces before they are applied (particle-node/README.md, "The force
+// callback, one pass").
 //
 // Each particle's interval impulse (integral of F dt and of beta dt, and its last force for the
 // next interval's first half kick) lives in a `fix property/atom`, so that it moves with its atom
@@ -60,7 +63,8 @@ class DemFluidForce {
   DemFluidForce(const DemFluidForce&) = delete;
   DemFluidForce& operator=(const DemFluidForce&) = delete;
 
-  // What LIGGGHTS's fix external calls, with this object as the target.
+  // What our fluid-force fix calls (dem_fixes.h), with this object as the target: adds the
+  // fluid force to `f`, LIGGGHTS's force on each atom.
   static void callback(void* self, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
   // Closure values kept per atom between evaluations (the fix for them is needed).
   bool holds_closures() const { return closure_every_ > 1 || update_ != Update::per_dem_step; }
@@ -115,12 +119,17 @@ class DemFluidForce {
     double** held = nullptr;        // the closures held per atom (null: none)
     OrientationTracker::Step spin;  // what the orientations take from it
   };
-  // Atom i's fluid force (into step_forces_, its cell into step_cells_) and its orientation's
-  // kick; `f` zeroed for now.
-  void step_fluid_force(const ForceStep& step, int i, int tag, const double* x, double* f);
-  // The step's fluid forces, after the co-relaxed plasma answered them, onto LIGGGHTS's `f` and
-  // into the impulses.
+  // Every atom's fluid force and orientation kick, added to LIGGGHTS's force `f` and into the
+  // impulses as it is found: what a step does unless a co-relaxed plasma answers in between.
+  void one_pass(const ForceStep& step, int nlocal, const int* tag, double** x, double** f);
+  // The two passes of a step with the co-relaxed plasma (or DemBookkeeping::two_pass_fluid_force):
+  // atom i's fluid force (into step_forces_, its cell into step_cells_) and its orientation's
+  // kick;
+  void step_fluid_force(const ForceStep& step, int i, int tag, const double* x);
+  // then the step's fluid forces, after the co-relaxed plasma answered them, added to LIGGGHTS's
+  // force `f` and into the impulses.
   void apply_fluid_forces(const ForceStep& step, int nlocal, double** f);
+  void note_not_finite(int tag, std::int64_t ntimestep);
   // One particle as the force callback sees it.
   struct Particle {
     int tag, species;
@@ -149,6 +158,10 @@ class DemFluidForce {
   MPI_Comm comm_;
 
   const int closure_every_ = scene_.time.closure_every_dem_steps;
+  const bool two_pass_ = liggghts_.bookkeeping().two_pass_fluid_force;
+  // Each species' orientation integrator where it is the splitting one (else null), for one
+  // pass's orientation step with its drift and kick inlined.
+  std::array<const SplittingIntegrator*, kSpeciesCount> splitting_{};
   // coupling.fluid_force: when the closures are evaluated and what is held until the next.
   enum class Update { per_dem_step, held_implicit_drag, held };
   const Update update_ = scene_.fluid_force == "held"                 ? Update::held

@@ -29,8 +29,9 @@ OrientationTracker::Step OrientationTracker::step(std::int64_t ntimestep, double
   return step;
 }
 
+template <class Integrator>
 OrientationTracker::Spin OrientationTracker::at_step(const Step& step, int i, int tag,
-                                                     const OrientationIntegrator& rotation) const {
+                                                     const Integrator& rotation) const {
   const double* rot = step.spins[i];
   Spin s;
   s.q = Quat(rot[0], rot[1], rot[2], rot[3]);
@@ -43,8 +44,9 @@ OrientationTracker::Spin OrientationTracker::at_step(const Step& step, int i, in
   return s;
 }
 
-void OrientationTracker::kick_and_store(const Step& step, int i, int tag, const OrientationIntegrator& rotation,
-                                        Spin& s, const Vec3& fluid_torque) {
+template <class Integrator>
+void OrientationTracker::kick_and_store(const Step& step, int i, int tag, const Integrator& rotation, Spin& s,
+                                        const Vec3& fluid_torque) {
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
   double* contact_torque = atom.torque[i];
   double* omega = atom.omega[i];
@@ -86,6 +88,13 @@ void OrientationTracker::kick_and_store(const Step& step, int i, int tag, const 
     contact_torque[d] = 0;  // and nve/sphere leaves omega alone
   }
 }
+
+template OrientationTracker::Spin OrientationTracker::at_step(const Step&, int, int,
+                                                              const OrientationIntegrator&) const;
+template OrientationTracker::Spin OrientationTracker::at_step(const Step&, int, int, const SplittingIntegrator&) const;
+template void OrientationTracker::kick_and_store(const Step&, int, int, const OrientationIntegrator&, Spin&,
+                                                 const Vec3&);
+template void OrientationTracker::kick_and_store(const Step&, int, int, const SplittingIntegrator&, Spin&, const Vec3&);
 
 void OrientationTracker::finish_step(const Step& step) {
   if (step.advance) {

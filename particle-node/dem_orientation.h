@@ -44,10 +44,13 @@ class OrientationTracker {
   };
   // Atom i's orientation at this step: as stored (or as set() asked), drifted from the step
   // whose kick it took last.
-  Spin at_step(const Step& step, int i, int tag, const OrientationIntegrator& rotation) const;
+  // `Integrator`: OrientationIntegrator, or SplittingIntegrator, whose calls are inlined.
+  template <class Integrator>
+  Spin at_step(const Step& step, int i, int tag, const Integrator& rotation) const;
   // Kicked by the fluid and contact torques (once per step), checked, stored, and its angular
   // velocity handed to LIGGGHTS.
-  void kick_and_store(const Step& step, int i, int tag, const OrientationIntegrator& rotation, Spin& spin,
+  template <class Integrator>
+  void kick_and_store(const Step& step, int i, int tag, const Integrator& rotation, Spin& spin,
                       const Vec3& fluid_torque);
   void finish_step(const Step& step);
 

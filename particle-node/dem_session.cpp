@@ -2,8 +2,8 @@
 #include "dem_session.h"
 
 #include <atom.h>
+#include <error.h>
 #include <fix.h>
-#include <fix_external.h>
 #include <fix_property_atom.h>
 #include <fmt/format.h>
 #include <input.h>
@@ -105,7 +105,39 @@ std::string wall_file_for(const std::string& log_path, MPI_Comm comm) {
 // The fluid force while the neighbour lists are rebuilt: none (the forces are thrown away).
 void no_force(void*, std::int64_t, int, int*, double**, double**) {}
 
+// fix ID all hemo/fluid_force (dem_fixes.h): no array of its own, nothing to carry between ranks.
+class FixFluidForce : public LAMMPS_NS::Fix {
+ public:
+  FixFluidForce(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp, narg, arg) {
+    if (narg != 3) error->all(FLERR, "fix hemo/fluid_force takes no arguments");
+  }
+  int setmask() override { return LAMMPS_NS::FixConst::POST_FORCE; }
+  void init() override {
+    if (callback_ == nullptr) error->all(FLERR, "fix hemo/fluid_force: no callback set");
+  }
+  void setup(int vflag) override { post_force(vflag); }
+  void post_force(int) override { callback_(target_, update->ntimestep, atom->nlocal, atom->tag, atom->x, atom->f); }
+
+  FluidForceCallback callback_ = nullptr;
+  void* target_ = nullptr;
+};
+
 }  // namespace
+
+namespace dem {
+
+LAMMPS_NS::Fix* create_fluid_force_fix(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) {
+  return new FixFluidForce(lmp, narg, arg);
+}
+
+void set_fluid_force_callback(LAMMPS_NS::Fix* fix, FluidForceCallback callback, void* target) {
+  auto* ours = dynamic_cast<FixFluidForce*>(fix);
+  if (ours == nullptr) throw std::logic_error("the fluid-force fix is not hemo/fluid_force");
+  ours->callback_ = callback;
+  ours->target_ = target;
+}
+
+}  // namespace dem
 
 LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
                                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping,
@@ -246,7 +278,7 @@ void LiggghtsSession::define_box_and_contacts(int n_types) {
   command(fmt::format("fix {} all property/atom hemoImpulse vector no no no{}", kImpulseFix, zeros(kImpulseValues)));
   command(fmt::format("fix {} all {}", kTrackingFix, kTrackingStyle));
   // Defined after the wall: its post_force sees the contact forces and torques of the step.
-  command(fmt::format("fix {} all external pf/callback 1 1", kFluidFix));
+  command(fmt::format("fix {} all {}", kFluidFix, kFluidForceStyle));
 }
 
 std::vector<std::string> LiggghtsSession::contact_model(int n_types, bool streaming_neighbours) const {
@@ -341,8 +373,8 @@ std::vector<std::string> LiggghtsSession::bare_input(const std::string& data_fil
 void LiggghtsSession::find_fixes(bool rotation, bool held_closures) {
   auto find = [&](const char* id) { return find_fix(id); };
   find_feeder_wall_history();
-  fluid_fix_ = static_cast<LAMMPS_NS::FixExternal*>(find(kFluidFix));
-  fluid_fix_->set_callback(callback_, callback_target_);
+  fluid_fix_ = find(kFluidFix);
+  set_fluid_force_callback(fluid_fix_, callback_, callback_target_);
   fixes_.impulse = find(kImpulseFix);
   fixes_.tracking = find(kTrackingFix);
   if (rotation) fixes_.rotation = find(kRotationFix);
@@ -449,9 +481,9 @@ void LiggghtsSession::rotate_log(long coupling_step) {
 void LiggghtsSession::rebuild_neighbours() {
   if (!box_set_up()) throw std::logic_error("no particles to rebuild the neighbour lists of");
   const auto builds = lmp_->neighbor->ncalls;  // a set-up zeroes it; the overlap diagnostic reads it
-  fluid_fix_->set_callback(&no_force, nullptr);
+  set_fluid_force_callback(fluid_fix_, &no_force, nullptr);
   command("run 0 pre yes post no");
-  fluid_fix_->set_callback(callback_, callback_target_);
+  set_fluid_force_callback(fluid_fix_, callback_, callback_target_);
   lmp_->neighbor->ncalls = builds;
 }
 

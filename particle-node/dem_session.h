@@ -8,11 +8,10 @@
 // between all cells and with the wall (`pair gran` and `fix wall/gran`: the zcylinder primitive
 // for a straight tube; for any other shape a triangle mesh of the same VesselGeometry as the
 // fluid mesh, `fix mesh/surface` from an STL the session writes), the box periodic along z with
-// the mesh's period. The fluid acts through `fix external
-// pf/callback`, defined after the wall so that the callback sees each step's contact forces and
-// torques (DemFluidForce). Values that must move between ranks with their atom live in
-// `fix property/atom`s (dem_fixes.h).
-// SPDX-License-Identifier: GPL-3.0-or-later
+// the mesh's period. The fluid acts through our fix `hemo/fluid_force` (dem_fixes.h), defined
+// after the wall so that its callback sees each step's contact forces and torques (DemFluidForce). Values that must
+// move between ranks with their atom live in `fix property/atom`s (dem_fixes.h). SPDX-License-Identifier:
+// GPL-3.0-or-later
 #pragma once
 
 #include "cell_locator.h"
@@ -36,7 +35,6 @@ namespace LAMMPS_NS {
 class LAMMPS;
 class Atom;
 class Fix;
-class FixExternal;
 class FixPropertyAtom;
 }  // namespace LAMMPS_NS
 
@@ -68,12 +66,17 @@ struct DemBookkeeping {
   // The vessel's wall as a triangle mesh even where the shape has LIGGGHTS's cylinder primitive
   // (the straight tube): for hemocosim-dem-bench to measure what a mesh wall costs.
   bool mesh_wall = false;
+  // The fluid-force callback in its two passes (every particle's force, then all applied) where
+  // one pass does (no co-relaxed plasma answers between them): the same arithmetic in the order
+  // the co-relaxed plasma needs, the reference the one pass is pinned to bit for bit
+  // (DemEngine.OnePassCallbackIsTheTwoPassOneBitForBit) and measured against.
+  bool two_pass_fluid_force = false;
 };
 
 class LiggghtsSession {
  public:
-  // What `fix external pf/callback` calls every DEM step: (target, DEM step, this rank's atoms,
-  // their tags and positions, the force to fill for each).
+  // What the fluid-force fix calls every DEM step: (target, DEM step, this rank's atoms, their
+  // tags and positions, LIGGGHTS's force on each, the contacts' so far, to add the fluid's to).
   using ForceCallback = void (*)(void* target, std::int64_t ntimestep, int nlocal, int* tag, double** x, double** f);
 
   // Our per-atom fixes (values in dem_fixes.h); null when the scene needs none.
@@ -148,6 +151,7 @@ class LiggghtsSession {
   LAMMPS_NS::LAMMPS& lammps() const { return *lmp_; }
   LAMMPS_NS::Atom& atom() const { return *atom_; }
   const Fixes& fixes() const { return fixes_; }
+  const DemBookkeeping& bookkeeping() const { return bookkeeping_; }
   int type_of(int species) const { return type_of_[species]; }  // 0: none
   int species_of_type(int type) const { return species_of_type_[type]; }
   // The particles present: created, and with open ends inserted - left (the open ends' counts).
@@ -195,7 +199,7 @@ class LiggghtsSession {
   const std::optional<FeederLayout> feeder_;
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
   LAMMPS_NS::Atom* atom_ = nullptr;  // LAMMPS keeps one for its lifetime
-  LAMMPS_NS::FixExternal* fluid_fix_ = nullptr;
+  LAMMPS_NS::Fix* fluid_fix_ = nullptr;
   ForceCallback callback_ = nullptr;
   void* callback_target_ = nullptr;
   Fixes fixes_;

@@ -6,35 +6,9 @@
 
 namespace hemo::particles {
 
-namespace {
-
-// The rotation by the vector theta (axis theta/|theta|, angle |theta|) as a unit quaternion.
-Quat rotation(const Vec3& theta) {
-  const double angle = theta.norm();
-  if (!(angle > 0)) return Quat::Identity();
-  return Quat(Eigen::AngleAxisd(angle, theta / angle));
-}
-
-}  // namespace
-
 Vec3 SymmetricTop::angular_momentum(const Quat& q, const Vec3& omega) const {
   const Vec3 wb = q.conjugate() * omega;
   return q * Vec3(i_equatorial * wb.x(), i_equatorial * wb.y(), i_axial * wb.z());
-}
-
-Vec3 SymmetricTop::angular_velocity(const Quat& q, const Vec3& l) const {
-  const Vec3 lb = q.conjugate() * l;
-  return q * Vec3(lb.x() / i_equatorial, lb.y() / i_equatorial, lb.z() / i_axial);
-}
-
-void SplittingIntegrator::kick(const Quat&, Vec3& l, const Vec3& torque, double dt) const { l += dt * torque; }
-
-void SplittingIntegrator::drift(Quat& q, Vec3& l, double dt) const {
-  const double l3 = symmetry_axis(q).dot(l);
-  // Precession of the whole body about L, then the spin about its own axis (they commute).
-  const Quat precession = rotation(dt / top_.i_equatorial * l);
-  const Quat spin = rotation(Vec3(0, 0, dt * (1 / top_.i_axial - 1 / top_.i_equatorial) * l3));
-  q = (precession * q * spin).normalized();
 }
 
 void EulerIntegrator::kick(const Quat& q, Vec3& l, const Vec3& torque, double dt) const {

@@ -40,12 +40,22 @@ struct SymmetricTop {
   }
   // World-frame quantities at orientation q.
   Vec3 angular_momentum(const Quat& q, const Vec3& omega) const;
-  Vec3 angular_velocity(const Quat& q, const Vec3& angular_momentum) const;
+  Vec3 angular_velocity(const Quat& q, const Vec3& l) const {
+    const Vec3 lb = q.conjugate() * l;
+    return q * Vec3(lb.x() / i_equatorial, lb.y() / i_equatorial, lb.z() / i_axial);
+  }
   double kinetic_energy(const Quat& q, const Vec3& omega) const { return 0.5 * omega.dot(angular_momentum(q, omega)); }
 };
 
 // The symmetry axis n = R(q) e_z.
 inline Vec3 symmetry_axis(const Quat& q) { return q * Vec3::UnitZ(); }
+
+// The rotation by the vector theta (axis theta/|theta|, angle |theta|) as a unit quaternion.
+inline Quat rotation_by(const Vec3& theta) {
+  const double angle = theta.norm();
+  if (!(angle > 0)) return Quat::Identity();
+  return Quat(Eigen::AngleAxisd(angle, theta / angle));
+}
 
 class OrientationIntegrator {
  public:
@@ -66,8 +76,16 @@ class SplittingIntegrator final : public OrientationIntegrator {
  public:
   using OrientationIntegrator::OrientationIntegrator;
   OrientationMethod method() const override { return OrientationMethod::splitting; }
-  void kick(const Quat& q, Vec3& l, const Vec3& torque, double dt) const override;
-  void drift(Quat& q, Vec3& l, double dt) const override;
+  // Here, not in orientation.cpp: the engine calls them for every platelet and DEM step, through
+  // this final class, so that they are inlined there.
+  void kick(const Quat&, Vec3& l, const Vec3& torque, double dt) const override { l += dt * torque; }
+  void drift(Quat& q, Vec3& l, double dt) const override {
+    const double l3 = symmetry_axis(q).dot(l);
+    // Precession of the whole body about L, then the spin about its own axis (they commute).
+    const Quat precession = rotation_by(dt / top_.i_equatorial * l);
+    const Quat spin = rotation_by(Vec3(0, 0, dt * (1 / top_.i_axial - 1 / top_.i_equatorial) * l3));
+    q = (precession * q * spin).normalized();
+  }
 };
 
 class EulerIntegrator final : public OrientationIntegrator {
