@@ -52,9 +52,8 @@ FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp
   if (!(layout_.shift_x > 0) || !(layout_.split_x < layout_.shift_x))
     error->all(FLERR, "fix hemo/open_ends: SPLIT_X must lie between the vessel and the feeder's axis");
   if (!(layout_.reach >= 0)) error->all(FLERR, "fix hemo/open_ends: REACH must not be negative");
-  if (layout_.top == 0) layout_.top = highest;
-  if (!(layout_.top >= highest && layout_.top < domain->boxhi[2]))
-    error->all(FLERR, "fix hemo/open_ends: TOP must lie above every outlet and below the box's upper z bound");
+  layout_.top = std::max(layout_.top, highest);  // a surface's top is its outlet's centre, to rounding
+  if (!(layout_.top < domain->boxhi[2])) error->all(FLERR, "fix hemo/open_ends: TOP must lie below the box's upper z bound");
   // Midway through the gap: the cells leaving past the outlets below, those entering above.
   before_inlet_from_ = 0.5 * (layout_.top + domain->boxhi[2]);
   force_reneighbor = 1;
@@ -353,10 +352,10 @@ void FixOpenEnds::find_links() {
   // Vessel atoms in the buffer or before the inlet, and feeder atoms at the same heights, over all
   // ranks: a pair at the same position but for the shift is a copy and its source (a copy has
   // its source's z as LIGGGHTS has it, wrapped or not, since it replays it).
+  // In the vessel's frame (place()): LIGGGHTS wraps a copy and its source at the next build, not
+  // at the step they cross the feeder's end.
   const double end = domain->boxlo[2] + layout_.buffer;
-  auto replaying = [&](const double* x) {
-    return (x[2] < end && x[2] >= domain->boxlo[2]) || place(x).centre[2] < domain->boxlo[2];
-  };
+  auto replaying = [&](const double* x) { return place(x).centre[2] < end; };
   std::vector<double> mine;  // (tag, x, y, z) of either kind
   double** x = atom->x;
   for (int i = 0; i < atom->nlocal; ++i) {

@@ -103,7 +103,7 @@ struct OpenEndsLayout {
   double shift_x = 0;           // m, the feeder's axis from the vessel's inlet centre, along x
   double buffer = 0;            // m, the inlet buffer's length (0: none)
   double reach = 0;             // per radius: how far past an end's plane a centre leaves the DEM (above)
-  double top = 0;               // m, the vessel's highest z (0: its outlets' highest centre)
+  double top = 0;               // m, the vessel's highest z (at least its outlets' highest centre)
 };
 
 class FixOpenEnds : public LAMMPS_NS::Fix {
