@@ -124,13 +124,19 @@ FixOpenEnds::Place FixOpenEnds::place(const double* x) const {
   p.end = kInlet;
   p.beyond = lo - p.centre[2];
   p.normal[2] = -1;
+  p.inside[0] = p.centre[0];
+  p.inside[1] = p.centre[1];
+  p.inside[2] = lo;
   for (std::size_t o = 0; o < layout_.outlets.size(); ++o) {
     const auto& [c, n] = layout_.outlets[o];
     const double s = n[0] * (p.centre[0] - c[0]) + n[1] * (p.centre[1] - c[1]) + n[2] * (p.centre[2] - c[2]);
     if (s > p.beyond) {
       p.end = kOutlet + static_cast<int>(o);
       p.beyond = s;
-      for (int d = 0; d < 3; ++d) p.normal[d] = n[d];
+      for (int d = 0; d < 3; ++d) {
+        p.normal[d] = n[d];
+        p.inside[d] = c[d];
+      }
     }
   }
   return p;
@@ -364,12 +370,14 @@ void FixOpenEnds::find_links() {
       mine.insert(mine.end(), {static_cast<double>(atom->tag[i]), x[i][0], x[i][1], x[i][2]});
   }
   const std::vector<double> all = gather_all(mine, world);
-  const double tolerance = 1e-9 * (domain->boxhi[2] - domain->boxlo[2]);
+  const double period = domain->boxhi[2] - domain->boxlo[2], tolerance = 1e-9 * period;
+  // Along z to the period: a copy made since the last build is a period below its source.
+  auto same_z = [&](double a, double b) { return std::abs(a - b - period * std::round((a - b) / period)) <= tolerance; };
   for (int i = 0; i < atom->nlocal; ++i) {
     if (x[i][0] >= layout_.split_x || !replaying(x[i])) continue;
     for (std::size_t k = 0; k < all.size(); k += 4)
       if (all[k + 1] >= layout_.split_x && std::abs(all[k + 1] - layout_.shift_x - x[i][0]) <= tolerance &&
-          std::abs(all[k + 2] - x[i][1]) <= tolerance && std::abs(all[k + 3] - x[i][2]) <= tolerance) {
+          std::abs(all[k + 2] - x[i][1]) <= tolerance && same_z(all[k + 3], x[i][2])) {
         source_[i] = static_cast<int>(all[k]);
         break;
       }

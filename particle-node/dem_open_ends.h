@@ -123,6 +123,15 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
     hand_over();
   }
   void pre_exchange() override { hand_over(); }
+  // A new run's first hand-over, before its first step: the feeder's cells in reach of its end at
+  // the start get their copies now, so that the first deposition has their shares (a restored
+  // run's copies are in its checkpoint). Made at the first step instead, their shares all came at
+  // once and pushed the plasma aside (Courant 1.23 at step 2 of scenes/bifurcation-30.toml, 80:20).
+  void start() {
+    find_free_tags();
+    find_links();
+    hand_over();
+  }
   // A step's last word on the buffer's copies: their velocities are their sources' (the final
   // half kick gave each its own).
   void end_of_step() override { replay_sources(); }
@@ -143,6 +152,9 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
     double beyond = -1e300;
     double normal[3] = {0, 0, 0};
     double centre[3] = {0, 0, 0};
+    // A point of the end's plane inside the vessel: an outlet's centre; for the inlet, the point
+    // of its plane beside the centre (a copy straddling it replays a source inside the feeder).
+    double inside[3] = {0, 0, 0};
   };
   Place place(const double* x) const;
   // Whether a vessel atom's centre is past that end (on the inlet's plane counts as inside).

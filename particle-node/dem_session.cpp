@@ -397,7 +397,10 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (fixes_.rotation != nullptr) replayed.push_back(fixes_.rotation);
   fixes_.open_ends->copy_values_of(copied, replayed);
   fixes_.open_ends->on_events(std::move(listener));
-  if (restored) fixes_.open_ends->restore(*restored);
+  if (restored)
+    fixes_.open_ends->restore(*restored);
+  else
+    fixes_.open_ends->start();
 }
 
 long LiggghtsSession::particles() const {
