@@ -294,3 +294,36 @@ TEST(OpenVessel, ASingleCellsVolumeCrossesEachEndOverManyStepsAndItsCentreIsCoun
     EXPECT_GT(partial, 2 * 0.8 * c.diameter / c.step_length);
   }
 }
+
+// The box's gap past the vessel holds the cells straddling the outlet and the inlet and a pair's
+// reach between them: the thin tube's 25-um gap holds a kernel one diameter wide (2 x 7.1 um of
+// straddling and 7.1 um of pair and skin) and refuses one 1.5 diameters wide (2 x 10.6 um and
+// 7.1 um), in one line naming both.
+TEST(OpenVessel, AFeederTooShortForTheCellsStraddlingItsEndsIsRefused) {
+  for (const double width : {1.0, 1.5}) {
+    auto scene = synthetic::blood_scene(kThinD, kThinL, 0.15);
+    scene.vessel.ends = "open";
+    scene.mesh.core_cells = 4;
+    scene.mesh.ring_cells = 2;
+    scene.mesh.axial_cells = 16;
+    scene.solid_fraction = "gaussian_kernel";
+    scene.kernel_width_diameters = width;
+    const auto feeder = hemo::feeder_layout(scene);
+    const auto mesh = mesh_of(scene);
+    const CellLocator locator(mesh, hemo::make_vessel_wall(scene.vessel), feeder);
+    DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+    const std::vector<PlacedParticle> cell = {PlacedParticle{kRbc, scene.rbc.diameter, Vec3(0, 0, kThinL / 2)}};
+    if (width == 1.0) {
+      EXPECT_NO_THROW(engine.create_particles(cell));
+      continue;
+    }
+    try {
+      engine.create_particles(cell);
+      ADD_FAILURE() << "a 25-um gap taken for cells straddling 10.6 um past each end";
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("straddling the outlet and the inlet"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
+}
