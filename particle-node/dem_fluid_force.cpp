@@ -332,15 +332,18 @@ int DemFluidForce::locate(int tag, const Vec3& x, double radius, AtEnds& at) {
     if (cell >= 0) return cell;
   }
   // Past an outlet no wall holds a cell, and one pushed out beyond the rim's line reads the plasma
-  // where the line from it to the outlet's centre enters the vessel (measured: 14.3 um off the
-  // axis of a 13.6-um daughter, 1.6 um past its outlet, in scenes/bifurcation-30.toml at 80:20).
+  // where the line from it to the outlet's centre enters the vessel (measured: 14.3 and 16.5 um off
+  // the axis of a 13.6-um daughter, 1.6 and 9.6 um past its outlet, in scenes/bifurcation-30.toml
+  // at 80:20).
+  // Its centre a radius inside, where the snapped end's cells are whole.
   const Vec3 beside = at.centre - place.beyond * normal;
-  const Vec3 centre = Vec3(place.inside[0], place.inside[1], place.inside[2]) - 0.1 * radius * normal;
-  for (int k = 1; k <= 16; ++k) {
-    at.probe = beside + (k / 16.0) * (centre - beside);
-    const int cell = tracking_.cell_of(tag, at.probe);
-    if (cell >= 0) return cell;
-  }
+  const Vec3 centre = Vec3(place.inside[0], place.inside[1], place.inside[2]);
+  for (const double inset : {0.1 * radius, radius})
+    for (int k = 1; k <= 16; ++k) {
+      at.probe = beside + (k / 16.0) * (centre - beside) - inset * normal;
+      const int cell = tracking_.cell_of(tag, at.probe);
+      if (cell >= 0) return cell;
+    }
   return -1;
 }
 
