@@ -322,11 +322,17 @@ int DemFluidForce::locate(int tag, const Vec3& x, double radius, AtEnds& at) {
   const dem::FixOpenEnds::Place place = ends->place(raw);
   if (place.end == dem::FixOpenEnds::kNone) return tracking_.cell_of(tag, x);
   at.beyond = place.beyond;
-  if (!dem::FixOpenEnds::outside(place)) return tracking_.cell_of(tag, x);
-  at.centre = Vec3(place.centre[0], place.centre[1], place.centre[2]);
   const Vec3 normal(place.normal[0], place.normal[1], place.normal[2]);
+  if (!dem::FixOpenEnds::outside(place)) {
+    const int cell = tracking_.cell_of(tag, x);
+    // A cell that was pushed out beyond an outlet's rim while past it, and came back inside its
+    // plane outside the vessel (no wall holds it there), reads the plasma as one past it does.
+    if (cell >= 0 || place.beyond <= -ends->reach() * radius) return cell;
+  } else {
+    at.centre = Vec3(place.centre[0], place.centre[1], place.centre[2]);
+  }
   // Just inside the end's plane; deeper when a snapped end's faces are not quite on it.
-  for (double inset = 1e-3 * radius; inset <= radius; inset *= 4) {
+  for (double inset = 1e-3 * radius; inset <= radius && place.beyond >= 0; inset *= 4) {
     at.probe = at.centre - (place.beyond + inset) * normal;
     const int cell = tracking_.cell_of(tag, at.probe);
     if (cell >= 0) return cell;

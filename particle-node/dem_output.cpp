@@ -73,6 +73,13 @@ bool DemOutput::straddles_outside(const double* x) const {
   return ends != nullptr && dem::FixOpenEnds::outside(ends->place(x));
 }
 
+bool DemOutput::crosses_an_end(const double* x, double radius) const {
+  const dem::FixOpenEnds* ends = liggghts_.fixes().open_ends;
+  if (ends == nullptr) return false;
+  const dem::FixOpenEnds::Place p = ends->place(x);
+  return p.end != dem::FixOpenEnds::kNone && p.beyond > -radius;
+}
+
 bool DemOutput::in_core(const Vec3& x, int cell) const {
   if (!core_cell_.empty()) return core_cell_[static_cast<std::size_t>(cell)];
   const VesselWall::Section section = locator_.section(x);  // a feeder cell's core is the feeder's
@@ -92,7 +99,7 @@ double DemOutput::local_max_overlap() const {
   const auto& feeder = locator_.feeder();
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
-    if (straddles_outside(x[i])) continue;  // past an end: no wall there
+    if (crosses_an_end(x[i], r[i])) continue;  // the wall ends at an end's plane
     if (facets_ && !(feeder && feeder->in_feeder(xi.x()))) {
       const double d = facets_->distance(xi);
       if (d < r[i]) worst = std::max(worst, (r[i] - d) / (2 * r[i]));

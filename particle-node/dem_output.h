@@ -50,8 +50,10 @@ class DemOutput {
  private:
   // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
   double local_max_overlap() const;
-  // An open vessel's atom whose centre is past an end (dem_open_ends.h).
+  // An open vessel's atom whose centre is past an end (dem_open_ends.h), and one whose sphere
+  // reaches past an end's plane, where the wall ends.
   bool straddles_outside(const double* x) const;
+  bool crosses_an_end(const double* x, double radius) const;
 
   const LiggghtsSession& liggghts_;
   ParticleTracking& tracking_;
