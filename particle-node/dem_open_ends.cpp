@@ -26,8 +26,8 @@ namespace hemo::particles::dem {
 
 FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp, narg, arg) {
   const int outlets = narg >= 9 ? std::atoi(arg[8]) : 0;
-  if (outlets < 1 || narg != 9 + 6 * outlets)
-    error->all(FLERR, "fix hemo/open_ends needs SPLIT_X SHIFT_X BUFFER REACH TOP N and N outlets (CX CY CZ NX NY NZ)");
+  if (outlets < 1 || narg != 9 + 7 * outlets)
+    error->all(FLERR, "fix hemo/open_ends needs SPLIT_X SHIFT_X BUFFER REACH TOP N and N outlets (CX CY CZ NX NY NZ R)");
   layout_.split_x = std::atof(arg[3]);
   layout_.shift_x = std::atof(arg[4]);
   layout_.buffer = std::atof(arg[5]);
@@ -37,9 +37,10 @@ FixOpenEnds::FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg) : Fix(lmp
   for (int o = 0; o < outlets; ++o) {
     OpenEndsLayout::Outlet outlet;
     for (int d = 0; d < 3; ++d) {
-      outlet.centre[d] = std::atof(arg[9 + 6 * o + d]);
-      outlet.normal[d] = std::atof(arg[12 + 6 * o + d]);
+      outlet.centre[d] = std::atof(arg[9 + 7 * o + d]);
+      outlet.normal[d] = std::atof(arg[12 + 7 * o + d]);
     }
+    outlet.radius = std::atof(arg[15 + 7 * o]);
     const double* c = outlet.centre.data();
     if (!(c[0] > domain->boxlo[0] && c[0] < domain->boxhi[0] && c[1] > domain->boxlo[1] && c[1] < domain->boxhi[1] &&
           c[2] > domain->boxlo[2] && c[2] < domain->boxhi[2]))
@@ -128,7 +129,7 @@ FixOpenEnds::Place FixOpenEnds::place(const double* x) const {
   p.inside[1] = p.centre[1];
   p.inside[2] = lo;
   for (std::size_t o = 0; o < layout_.outlets.size(); ++o) {
-    const auto& [c, n] = layout_.outlets[o];
+    const auto& [c, n, radius] = layout_.outlets[o];
     const double s = n[0] * (p.centre[0] - c[0]) + n[1] * (p.centre[1] - c[1]) + n[2] * (p.centre[2] - c[2]);
     if (s > p.beyond) {
       p.end = kOutlet + static_cast<int>(o);
@@ -198,6 +199,7 @@ void FixOpenEnds::find_places(bool count) {
 
 void FixOpenEnds::post_integrate() {
   replay_sources();
+  hold_past_outlets();
   // The step's crossings of centres, counted; and whether an atom is to leave the DEM or a copy
   // to be made (the last slot).
   std::vector<std::int64_t> delta(1 + 2 * counts_.types() + counts_.left_outlet.size() + 1, 0);
@@ -344,6 +346,27 @@ void FixOpenEnds::replay_sources() {
   }
 }
 
+void FixOpenEnds::hold_past_outlets() {
+  double** x = atom->x;
+  double** v = atom->v;
+  for (int i = 0; i < atom->nlocal; ++i) {
+    const Place p = place(x[i]);
+    if (p.end < kOutlet || p.beyond < 0) continue;
+    const auto& [c, n, radius] = layout_.outlets[static_cast<std::size_t>(p.end - kOutlet)];
+    const double room = radius - atom->radius[i];
+    if (!(radius > 0 && room > 0)) continue;
+    double off[3];  // from the outlet's axis
+    for (int d = 0; d < 3; ++d) off[d] = p.centre[d] - c[d] - p.beyond * n[d];
+    const double r = std::sqrt(off[0] * off[0] + off[1] * off[1] + off[2] * off[2]);
+    if (r <= room) continue;
+    const double out = (v[i][0] * off[0] + v[i][1] * off[1] + v[i][2] * off[2]) / r;
+    for (int d = 0; d < 3; ++d) {
+      x[i][d] -= (1 - room / r) * off[d];
+      if (out > 0) v[i][d] -= out * off[d] / r;
+    }
+  }
+}
+
 void FixOpenEnds::copy_values(const std::vector<LAMMPS_NS::Fix*>& fixes, int from, int to) {
   for (LAMMPS_NS::Fix* fix : fixes) {
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix);
@@ -430,8 +453,9 @@ std::string open_ends_command(const OpenEndsLayout& layout) {
   std::string line =
       fmt::format("fix {} all {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {}", kOpenEndsFix, kOpenEndsStyle,
                   layout.split_x, layout.shift_x, layout.buffer, layout.reach, layout.top, layout.outlets.size());
-  for (const auto& [c, n] : layout.outlets)
-    line += fmt::format(" {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", c[0], c[1], c[2], n[0], n[1], n[2]);
+  for (const auto& [c, n, radius] : layout.outlets)
+    line += fmt::format(" {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}", c[0], c[1], c[2], n[0], n[1], n[2],
+                        radius);
   return line;
 }
 

@@ -97,6 +97,9 @@ constexpr const char* kOpenEndsStyle = "hemo/open_ends";
 struct OpenEndsLayout {
   struct Outlet {
     std::array<double, 3> centre{}, normal{};  // m; unit, out of the vessel
+    // m: past the outlet the vessel goes on as a tube of this radius about the normal through the
+    // centre, which holds the cells straddling it (0: nothing holds them)
+    double radius = 0;
   };
   std::vector<Outlet> outlets;  // the vessel's (its inlet is the box's lower z bound)
   double split_x = 0;           // m, atoms at x >= split_x are the feeder's
@@ -108,7 +111,7 @@ struct OpenEndsLayout {
 
 class FixOpenEnds : public LAMMPS_NS::Fix {
  public:
-  // fix ID all hemo/open_ends SPLIT_X SHIFT_X BUFFER REACH TOP N (CX CY CZ NX NY NZ) x N
+  // fix ID all hemo/open_ends SPLIT_X SHIFT_X BUFFER REACH TOP N (CX CY CZ NX NY NZ R) x N
   FixOpenEnds(LAMMPS_NS::LAMMPS* lmp, int narg, char** arg);
   ~FixOpenEnds() override;
 
@@ -212,6 +215,10 @@ class FixOpenEnds : public LAMMPS_NS::Fix {
   // Appends the copy of feeder atom `source` with this tag; returns its z.
   double insert_copy(int source, int tag);
   void find_links();
+  // Past an outlet no wall of the vessel's holds a straddling cell: the tube of the outlet's radius
+  // does, its centre kept a radius inside it and its velocity out of it taken away (a wall without
+  // friction or rebound; the vessel goes on past its outlet, as the outlet's zero gradient says).
+  void hold_past_outlets();
   // The inlet buffer: each linked copy takes its source's position and velocity, or is let go
   // (after the positions moved, and at the step's end).
   void replay_sources();

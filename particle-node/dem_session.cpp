@@ -383,7 +383,8 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
                              locator_.z0() + feeder_->vessel_length};
   for (const VesselWall::Opening& end : locator_.wall().outlets())
     layout.outlets.push_back({{end.centre.x(), end.centre.y(), locator_.z0() + end.centre.z()},
-                              {end.normal.x(), end.normal.y(), end.normal.z()}});
+                              {end.normal.x(), end.normal.y(), end.normal.z()},
+                              end.radius});
   command(open_ends_command(layout));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the

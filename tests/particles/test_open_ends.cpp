@@ -388,3 +388,36 @@ TEST(OpenEnds, WithAReachACellStraddlesEachEndAndIsCountedAsItsCentreCrosses) {
   EXPECT_LT(last_z, kOutlet + r) << "it was kept a step longer than its reach";
   EXPECT_GT(copy_seen, static_cast<int>(2 * r / step));  // present before and after it entered
 }
+
+// Past an outlet the vessel goes on as a tube of the outlet's radius: a straddling cell moving
+// out sideways is held a radius inside it (its centre at most R - r off the outlet's axis, its
+// velocity out of the tube taken away), where no wall of the vessel's is; inside the vessel it
+// moves freely.
+TEST(OpenEnds, PastAnOutletTheOutletsTubeHoldsAStraddlingCell) {
+  OpenEndsBox box;
+  const double R = 10e-6, r = kDiameter / 2;
+  box.create(1, 0, 0, 79e-6);  // past the outlet from step 20, moving 200 nm a step sideways
+  box.start(0, {{{0, 0, kOutlet}, {0, 0, 1}, R}}, 1.0);
+  box.command(fmt::format("velocity all set {} 0 {} units box", 4 * kSpeed, kSpeed));
+  double widest_inside = 0, widest_past = 0;
+  int past = 0;
+  for (int s = 0; s < 110; ++s) {
+    box.step(s == 0);
+    const auto atoms = box.atoms();
+    if (!atoms.count(1)) break;
+    const Atom& a = atoms.at(1);
+    if (a.x[2] < kOutlet) {
+      widest_inside = std::max(widest_inside, a.x[0]);
+      continue;
+    }
+    ++past;
+    widest_past = std::max(widest_past, a.x[0]);
+    ASSERT_LE(a.x[0], R - r + 1e-15) << "step " << s;
+    if (a.x[0] > R - r - 1e-12) {
+      ASSERT_EQ(a.v[0], 0.0) << "its velocity out of the tube, at step " << s;
+    }
+  }
+  EXPECT_GT(past, 50);
+  EXPECT_NEAR(widest_inside, 80 * kSpeed * kDt, 8 * kSpeed * kDt);  // free inside: 4 um in 20 steps
+  EXPECT_NEAR(widest_past, R - r, 1e-12);                            // held past it
+}
