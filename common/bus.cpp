@@ -369,7 +369,7 @@ std::optional<double> Bus::prestart_lag_s(const std::string& sender) const {
   return it->second;
 }
 
-void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
+std::size_t Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep) {
   const auto sealed = wire_bytes(buf, ctx_.secret, ctx_.encrypt ? &seal_key_ : nullptr);
   const auto& out = ctx_.encrypt ? sealed : buf;
   {
@@ -380,18 +380,20 @@ void Bus::publish_encoded(const std::string& kind, std::int64_t step, std::vecto
     std::lock_guard<std::mutex> lock(counters_mutex_);
     traffic_.sent[kind] += out.size();
   }
-  RankTraffic::sent(out.size());
+  const std::size_t bytes = out.size();
+  RankTraffic::sent(bytes);
   if (keep) {
     std::lock_guard<std::mutex> lock(kept_mutex_);
     kept_[kind][step] = {std::move(buf), wall_clock_us()};
   }
+  return bytes;
 }
 
 void Bus::request_resend(const std::string& kind, std::int64_t step) {
   resend_request_t req;
   req.channel = kind;
   req.wanted_step = step;
-  publish(channel::resend, req, step);
+  RankTraffic::resent(publish(channel::resend, req, step));
   count(&BusCounters::resend_requests);
 }
 
@@ -402,6 +404,17 @@ void Bus::forget_before(std::int64_t step) {
       continue;  // wanted by late joiners
     by_step.erase(by_step.begin(), by_step.lower_bound(step));
   }
+}
+
+bool Bus::received_again(const std::string& chan, const envelope_t& env) {
+  if (chan.compare(chan.rfind('/') + 1, std::string::npos, channel::resend) == 0) return true;
+  // Steps come in order, a resend at most a few behind: the last 16 steps of a channel suffice.
+  constexpr std::int64_t kStepsRemembered = 16;
+  auto& [latest, steps] = had_[chan + ' ' + env.sender];
+  if (steps.empty() || env.step > latest) latest = env.step;
+  if (!steps.insert(env.step).second) return true;
+  while (!steps.empty() && *steps.begin() < latest - kStepsRemembered) steps.erase(steps.begin());
+  return false;
 }
 
 bool Bus::accept_seq(const std::string& sender, std::int64_t seq) {
@@ -439,6 +452,7 @@ void Bus::handle_raw(const std::uint8_t* data, std::size_t len, const std::strin
   // Nothing of the envelope is believed before its tag verifies: a datagram in our own name is
   // our echo only when it is authentic.
   if (!tag_verifies(data, len, raw->tag_offset, ctx_.secret)) return count(&BusCounters::rejected_auth);
+  if (received_again(chan, env)) RankTraffic::received_again(len);
   if (env.sender == sender_) return count(&BusCounters::own);  // multicast loops our own messages back to us
   if (env.seq < opened_us_ - kClockSkewAllowanceUs) {
     std::lock_guard<std::mutex> lock(counters_mutex_);
@@ -512,7 +526,7 @@ int Bus::poll(double timeout_s, const std::function<void(const Received&)>& on_m
         // Publish the same content again with a fresh sequence number and tag.
         auto buf = std::move(*kept);
         write_be64(buf.data() + tag_offset(buf.data(), buf.size()) - 16, next_seq());
-        publish_encoded(req.channel, req.wanted_step, std::move(buf), true);
+        RankTraffic::resent(publish_encoded(req.channel, req.wanted_step, std::move(buf), true));
         count(&BusCounters::resent);
         continue;
       }

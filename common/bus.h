@@ -187,8 +187,9 @@ class Bus {
 
   // Stamps the envelope (run id, sender, step, fresh seq, tag) and publishes on <run>/<kind>.
   // With `keep`, the encoded message is cached so a RESEND for (kind, step) publishes it again.
+  // Returns the bytes published.
   template <class Msg>
-  void publish(const std::string& kind, Msg& msg, std::int64_t step, bool keep = false) {
+  std::size_t publish(const std::string& kind, Msg& msg, std::int64_t step, bool keep = false) {
     msg.envelope.run_id = ctx_.run_id;
     msg.envelope.sender = sender_;
     msg.envelope.step = step;
@@ -198,7 +199,7 @@ class Bus {
     std::fill(std::begin(msg.envelope.tag), std::end(msg.envelope.tag), 0);
     buf.resize(static_cast<std::size_t>(msg.getEncodedSize()));
     msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    publish_encoded(kind, step, std::move(buf), keep);
+    return publish_encoded(kind, step, std::move(buf), keep);
   }
 
   // Listens to the run's channel of `kind` from now on as well (nothing if it already does). Not
@@ -232,7 +233,10 @@ class Bus {
 
  private:
   void count(std::uint64_t BusCounters::*field);
-  void publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep);
+  std::size_t publish_encoded(const std::string& kind, std::int64_t step, std::vector<std::uint8_t> buf, bool keep);
+  // A copy of a message this bus was handed already (its channel, sender and step), or a resend
+  // request: what loss cost it (RankTraffic::received_again).
+  bool received_again(const std::string& channel, const envelope_t& envelope);
   void on_raw(const std::uint8_t* data, std::size_t len, const std::string& channel,
               std::int64_t recv_utime);  // never throws
   void handle_raw(const std::uint8_t* data, std::size_t len, const std::string& channel, std::int64_t recv_utime);
@@ -259,6 +263,8 @@ class Bus {
   };
   std::map<std::string, std::map<std::int64_t, Kept>> kept_;  // kind -> step -> message
   std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> seen_;    // sender -> (max, recent)
+  // "<channel> <sender>" -> (the latest step, the recent steps) of the messages handed to it
+  std::map<std::string, std::pair<std::int64_t, std::set<std::int64_t>>> had_;
   std::vector<Received> inbox_;
   std::uint64_t received_for_drop_ = 0;
 };

@@ -16,7 +16,9 @@ namespace hemo {
 
 Diagnostics rank_bytes(int rank, const TrafficBytes& bytes) {
   return {{fmt::format("rank{}_sent_B", rank), static_cast<double>(bytes.sent)},
-          {fmt::format("rank{}_received_B", rank), static_cast<double>(bytes.received)}};
+          {fmt::format("rank{}_resent_B", rank), static_cast<double>(bytes.resent)},
+          {fmt::format("rank{}_received_B", rank), static_cast<double>(bytes.received)},
+          {fmt::format("rank{}_received_again_B", rank), static_cast<double>(bytes.received_again)}};
 }
 
 double RankReporter::now() {

@@ -26,7 +26,8 @@
 namespace hemo {
 
 // The bytes one rank moved for the coupling since its last report, named as profile.csv's
-// per-rank columns have them: rank<r>_sent_B and rank<r>_received_B.
+// per-rank columns have them: rank<r>_sent_B and rank<r>_received_B, and of them what loss cost,
+// rank<r>_resent_B and rank<r>_received_again_B (traffic.h).
 Diagnostics rank_bytes(int rank, const TrafficBytes& bytes);
 
 class RankReporter {

@@ -2,6 +2,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "commands.h"
 #include "driving.h"
+#include "feeder_develop.h"
 #include "geometry.h"
 #include "placement.h"
 #include "resource_estimate.h"
@@ -101,6 +102,14 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
     fmt::print(
         "  feeder      the same blood: the vessel starts with copies of its cells over its length, and each "
         "cell that crosses its end enters at the inlet (counts below: the vessel's nominal)\n");
+  if (develops_feeder(s)) {
+    const FeederLayout f = feeder_layout(s);
+    fmt::print(
+        "  developed   first the feeder alone, a periodic tube of {:.4g} x {:.4g} um, for {:g} s ({} steps, "
+        "`hemocosim run` into RUN_DIR/{}); the run starts from its cells (vessel.feeder_develop_s)\n",
+        2 * f.radius / units::um, f.period / units::um, s.vessel.feeder_develop, feeder_develop_steps(s),
+        kFeederDevelopFolder);
+  }
   fmt::print("  particles   {} RBCs, {} platelets{}\n", rbcs, platelets,
              rbcs + platelets == 0 ? std::string()
              : placement_checked(s)
@@ -115,7 +124,7 @@ int check_command(const std::string& scene_path, const std::string& out_dir) {
   else
     fmt::print("  time        {} coupling steps of {:.3g} s = {:.4g} s physical\n", s.time.coupling_steps,
                s.time.coupling_interval, s.time.end_time());
-  fmt::print("  coupling    {} scheme{}\n", s.coupling_scheme,
+  fmt::print("  coupling    {} scheme{}\n", name_of(s.coupling_scheme),
              s.fluid.solve_every > 1
                  ? fmt::format("; the fluid solved every {} steps, one step of {:.3g} s on the feedback averaged over "
                                "them (fluid.solve_every)",

@@ -20,6 +20,10 @@ struct RunOptions {
   // The bus's transport and the TCP relay's address (docs/hosts.md); empty / -1: as the scene says.
   std::string transport, relay_address;
   int relay_port = -1;
+  // Where a developed feeder's run goes (vessel.feeder_develop_s, model/feeder_develop.h): empty,
+  // into RUN_DIR/feeder-develop; else into this folder's subfolder named by the SHA-256 of its
+  // scene, kept for the next run with the same feeder (a study's runs) and linked from RUN_DIR.
+  std::string feeder_cache;
 };
 int run_command(const RunOptions& opt);
 

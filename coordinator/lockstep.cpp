@@ -6,6 +6,7 @@
 #include "liveness.h"
 #include "node_port.h"
 #include "rank_exchange.h"
+#include "rank_report.h"
 #include "stability_guard.h"
 #include "traffic.h"
 
@@ -83,7 +84,7 @@ void Lockstep::launch(const std::string& node, const std::string& command, const
     argv.push_back("--mpi-hosts");
     argv.push_back(host_list_text(parse_host_list(hosts)));
   }
-  if (scene_.hosts.launcher == "slurm") {
+  if (scene_.hosts.launcher == Launcher::slurm) {
     argv.push_back("--mpi-starter");
     argv.push_back("srun");
   }
@@ -386,17 +387,16 @@ void Lockstep::await(long step, double timeout_s) {
     // The coordinator's own bytes, one window a step like the nodes' (the start-up's dropped).
     if (all_done() && step == first_step_) RankTraffic::take();
     if (all_done() && step > first_step_) {
-      const TrafficBytes mine = RankTraffic::take();
-      own_bytes_["rank0_sent_B"] += static_cast<double>(mine.sent);
-      own_bytes_["rank0_received_B"] += static_cast<double>(mine.received);
-      unwritten_.push_back({step, step_time_s_, "coordinator", "rank0_sent_B", static_cast<double>(mine.sent)});
-      unwritten_.push_back({step, step_time_s_, "coordinator", "rank0_received_B", static_cast<double>(mine.received)});
+      for (const auto& [what, bytes] : rank_bytes(0, RankTraffic::take())) {
+        own_bytes_[what] += bytes;
+        unwritten_.push_back({step, step_time_s_, "coordinator", what, bytes});
+      }
       // Serial: the nodes compute one after the other; parallel: at once. What the step took
       // beyond that is the coupling: messages, waking up, the coordinator's bookkeeping.
       const double wall = now() - ordered_at_;
       double computing = 0;
       for (const auto& [name, node] : nodes_)
-        computing = scene_.coupling_scheme == "parallel" ? std::max(computing, node.compute) : computing + node.compute;
+        computing = scene_.coupling_scheme == CouplingScheme::parallel ? std::max(computing, node.compute) : computing + node.compute;
       stepping_wall_s_ += wall;
       overhead_s_ += wall - computing;
       unwritten_.push_back({step, step_time_s_, "lockstep", "step_wall_s", wall});
@@ -470,12 +470,14 @@ std::string Lockstep::profile_report(double wall_s, long steps) const {
   auto bytes_rows = [&](const std::string& name, const std::map<std::string, double>& bytes) {
     for (const auto& [what, total] : bytes)
       csv += fmt::format("{},{}_per_step,{:.10g},\n", name, what, total * per_step);
+    auto of_rank = [&](int r, const char* what) {
+      const auto it = bytes.find(fmt::format("rank{}_{}_B", r, what));
+      return it == bytes.end() ? 0.0 : it->second * per_step;
+    };
     for (int r = 0; bytes.count(fmt::format("rank{}_sent_B", r)); ++r)
-      text += fmt::format("  {:<10} {:<30} {:10.0f} B/step sent, {:.0f} B/step received\n", name,
-                          fmt::format("rank {} bytes", r), bytes.at(fmt::format("rank{}_sent_B", r)) * per_step,
-                          bytes.count(fmt::format("rank{}_received_B", r))
-                              ? bytes.at(fmt::format("rank{}_received_B", r)) * per_step
-                              : 0.0);
+      text += fmt::format("  {:<10} {:<30} {:10.0f} B/step sent ({:.0f} resent), {:.0f} B/step received ({:.0f} again)\n",
+                          name, fmt::format("rank {} bytes", r), of_rank(r, "sent"), of_rank(r, "resent"),
+                          of_rank(r, "received"), of_rank(r, "received_again"));
   };
   for (const auto& [name, node] : nodes_) bytes_rows(name, node.bytes);
   bytes_rows("coordinator", own_bytes_);

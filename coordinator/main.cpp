@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
                    "How a node with hosts starts: ssh (on its first host, by the launch command), local (here; "
                    "Open MPI places its ranks) or slurm (a job step of the Slurm job this runs in, on its share of "
                    "the job's nodes; docs/slurm.md) (overrides hosts.launcher)")
-      ->check(CLI::IsMember({"ssh", "local", "slurm"}));
+      ->check(CLI::IsMember(hemo::choice_names<hemo::Launcher>()));
   run_cmd->add_option(
       "--launch-command", run.launch_command,
       "The command that starts a node on a host, with {host} {command} {node} {run_dir} (default \"ssh -o "
@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
       ->add_option("--transport", run.transport,
                    "The bus: multicast (LCM UDP multicast) or tcp (through a relay the coordinator runs, for "
                    "networks without multicast) (overrides hosts.transport; docs/hosts.md)")
-      ->check(CLI::IsMember({"multicast", "tcp"}));
+      ->check(CLI::IsMember(hemo::choice_names<hemo::Transport>()));
   run_cmd->add_option("--relay-address", run.relay_address,
                       "IPv4 address of this host the TCP relay listens on, reachable from the nodes' hosts (default "
                       "auto; overrides hosts.relay_address)");
@@ -71,6 +71,10 @@ int main(int argc, char** argv) {
       ->add_option("--relay-port", run.relay_port,
                    "Port of the TCP relay (0: any free one; overrides hosts.relay_port)")
       ->check(CLI::Range(0, 65535));
+
+  run_cmd->add_option("--feeder-cache", run.feeder_cache,
+                      "Folder of developed feeders (vessel.feeder_develop_s): a feeder developed there before for "
+                      "the same scene is used again, a new one is kept there (default: in the run directory)");
 
   hemo::ResumeOptions resume;
   auto* resume_cmd = app.add_subcommand(

@@ -22,6 +22,7 @@
 #include "monitor_page.h"
 #include "monitor_stats.h"
 #include "page_server.h"
+#include "partition_exchange.h"
 #include "run_directory.h"
 #include "scene.h"
 
@@ -153,7 +154,17 @@ int monitor_command(const MonitorOptions& opt) {
   // The reports of a node's ranks >= 1, on channels of their own: listened to once its hello
   // says how many it has. Channel -> node and rank.
   std::map<std::string, std::pair<std::string, int>> rank_reports;
+  // Each node's ranks from its hello; with both known and either above one, the pairs' channels
+  // of the partitioned exchange are listened to as well (their latency and bytes).
+  std::map<std::string, int> ranks_of;
+  bool pairs_heard = false;
+  // A monitor started after the nodes' hellos asks for them again (each node keeps its own).
+  double hellos_asked = -1;
   while (!stop_monitor && (opt.duration_s <= 0 || now() - start < opt.duration_s)) {
+    if (ranks_of.size() < 2 && now() - hellos_asked > 2.0) {
+      bus.request_resend(channel::hello, 0);
+      hellos_asked = now();
+    }
     bus.poll(0.05, [&](const Received& msg) {
       const double t = now();
       stats.message(msg.kind, msg.envelope.sender, msg.envelope.step, msg.bytes.size(), msg.envelope.sent_unix_ns,
@@ -169,12 +180,23 @@ int monitor_command(const MonitorOptions& opt) {
           stats.step_done(d.node, msg.envelope.step, d.ok, d.error, d.compute_s, d.wait_s, d.names, d.values);
       } else if (msg.kind == channel::hello) {
         const auto h = msg.as<hello_t>();
-        if (h.role == msg.envelope.sender && (h.role == "fluid" || h.role == "particles"))
+        if (h.role == msg.envelope.sender && (h.role == "fluid" || h.role == "particles")) {
           for (int r = 1; r < h.ranks; ++r) {
             const std::string kind = channel::of_node_rank(channel::step_done, h.role, r);
             rank_reports[kind] = {h.role, r};
             bus.listen(kind);
           }
+          ranks_of[h.role] = h.ranks;
+          if (!pairs_heard && ranks_of.count("fluid") && ranks_of.count("particles") &&
+              partitioned(ranks_of["fluid"], ranks_of["particles"])) {
+            pairs_heard = true;
+            const int nf = ranks_of["fluid"], np = ranks_of["particles"];
+            for (int f = 0; f < nf; ++f)
+              for (int p = 0; p < np; ++p)
+                for (const char* kind : {channel::fluid_state, channel::particle_feedback})
+                  bus.listen(channel::of_pair(kind, f, nf, p, np));
+          }
+        }
       } else if (const auto rank = rank_reports.find(msg.kind); rank != rank_reports.end()) {
         const auto d = msg.as<step_done_t>();
         if (d.ok && d.node == rank->second.first)

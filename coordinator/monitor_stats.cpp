@@ -16,6 +16,10 @@ namespace {
 // Silent this long and a process is shown as such: heartbeats come twice a second.
 constexpr double kAliveWithin_s = 2.0;
 
+// "FLUID_STATE" of "FLUID_STATE.1.0", a pair's channel in the partitioned exchange (bus.h,
+// channel::of_pair): its latency is its direction's, as the whole-mesh message's is.
+std::string kind_of(const std::string& channel) { return channel.substr(0, channel.find('.')); }
+
 // The kinds a publisher keeps and publishes again on request: seen twice, a message was resent.
 bool resendable(const std::string& kind) {
   return kind == "STEP" || kind == "FLUID_STATE" || kind == "PARTICLE_FEEDBACK" || kind == "STEP_DONE" ||
@@ -60,9 +64,9 @@ void MonitorStats::message(const std::string& kind, const std::string& sender, s
   auto& p = processes_[sender];
   p.last_heard_s = now_s;
   if (kind == "RESEND") ++resend_requests_, ++window_resend_requests_;
-  if (resendable(kind) && !seen_.insert({kind, sender, step}).second) ++repeats_;
+  if (resendable(kind_of(kind)) && !seen_.insert({kind, sender, step}).second) ++repeats_;
   if (sent_unix_ns > 0 && received_unix_us > 0) {
-    auto& l = latency_[kind];
+    auto& l = latency_[kind_of(kind)];
     // In integers first: as doubles, nanoseconds since 1970 keep only about 256 ns.
     const double ms = double(received_unix_us * 1000 - sent_unix_ns) * 1e-6;
     l.max_ms = l.n ? std::max(l.max_ms, ms) : ms;

@@ -45,7 +45,8 @@ class MonitorStats {
   explicit MonitorStats(std::string run_id, long total_steps = 0, double rate_window_s = 10);
 
   // Every accepted message: its size, and its latency from sent (sender's clock, ns) to
-  // received (this host's, µs); sent_unix_ns 0 (no stamp) or received 0 leave latency out.
+  // received (this host's, µs); sent_unix_ns 0 (no stamp) or received 0 leave latency out. A
+  // pair's channel of the partitioned exchange (FLUID_STATE.<f>.<p>) counts in its kind's latency.
   void message(const std::string& kind, const std::string& sender, std::int64_t step, std::size_t bytes,
                std::int64_t sent_unix_ns, std::int64_t received_unix_us, double now_s);
   void step_order(std::int64_t step, double time_s);

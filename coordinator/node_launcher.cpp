@@ -109,7 +109,7 @@ HostLauncher::HostLauncher(HostPlacement placement, std::string run_dir)
 
 // How the check reaches `host`: the ssh launcher's command, or a one-task job step there.
 std::vector<std::string> HostLauncher::check_command(const std::string& host) const {
-  if (placement_.launcher == "slurm")
+  if (placement_.launcher == Launcher::slurm)
     return {starter_program(MpiStarter::srun, std::getenv),
             "--overlap",
             "--nodes=1",
@@ -124,7 +124,7 @@ std::vector<std::string> HostLauncher::check_command(const std::string& host) co
 }
 
 void HostLauncher::check_hosts() const {
-  if (placement_.launcher != "ssh" && placement_.launcher != "slurm") return;
+  if (placement_.launcher == Launcher::local) return;
   std::vector<std::string> hosts;
   for (const auto& list : {placement_.fluid, placement_.particles})
     for (const auto& h : parse_host_list(list))
@@ -140,7 +140,7 @@ void HostLauncher::check_hosts() const {
     opt.merge_stderr = true;
     const auto result = run_child(argv, opt);
     const std::string last = lines.empty() ? "no output" : lines.back();
-    if (placement_.launcher == "slurm" && !result.ok() && (lines.empty() || last.rfind("srun", 0) == 0))
+    if (placement_.launcher == Launcher::slurm && !result.ok() && (lines.empty() || last.rfind("srun", 0) == 0))
       throw std::runtime_error(fmt::format("cannot start a job step on node {} with `{}` ({}): {}", host, argv.front(),
                                            result.describe(), last));
     if (result.exit_code == 255 || result.exit_code == 127)  // ssh's own failure; no such program
@@ -158,12 +158,12 @@ void HostLauncher::check_hosts() const {
 std::unique_ptr<NodeHandle> HostLauncher::launch(const std::string& node, const std::vector<std::string>& argv,
                                                  const std::string& log_path) {
   const auto hosts = parse_host_list(node == "fluid" ? placement_.fluid : placement_.particles);
-  if (placement_.launcher == "slurm") {
+  if (placement_.launcher == Launcher::slurm) {
     std::ofstream(log_path, std::ios::app)
         << "hemocosim: starting the " << node << " node as a Slurm job step on " << host_list_text(hosts) << "\n";
     return std::make_unique<StepHandle>(node, argv, log_path);
   }
-  if (hosts.empty() || placement_.launcher == "local") return ProcessLauncher().launch(node, argv, log_path);
+  if (hosts.empty() || placement_.launcher == Launcher::local) return ProcessLauncher().launch(node, argv, log_path);
   const auto command =
       expand_launch_command(placement_.launch_command, {{"host", hosts.front().host},
                                                         {"command", remote_node_command(run_dir_, argv)},
@@ -175,7 +175,7 @@ std::unique_ptr<NodeHandle> HostLauncher::launch(const std::string& node, const 
 }
 
 Scene placed_in_allocation(const Scene& scene) {
-  if (scene.hosts.launcher != "slurm" || (!scene.hosts.fluid.empty() && !scene.hosts.particles.empty())) return scene;
+  if (scene.hosts.launcher != Launcher::slurm || (!scene.hosts.fluid.empty() && !scene.hosts.particles.empty())) return scene;
   const char* job = std::getenv("SLURM_JOB_ID");
   const char* nodelist = std::getenv("SLURM_JOB_NODELIST");
   if (job == nullptr || nodelist == nullptr)

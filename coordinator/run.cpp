@@ -1,7 +1,9 @@
 // hemocosim run: launch both nodes and drive the lockstep to the end.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "analyze.h"
+#include "checkpoint.h"
 #include "commands.h"
+#include "feeder_develop.h"
 #include "hosts.h"
 #include "placement.h"
 #include "relay.h"
@@ -17,7 +19,9 @@
 #include <cmath>
 #include <csignal>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -169,7 +173,7 @@ void place_nodes(Scene& scene, RunOptions opt) {
   if (!opt.fluid_hostfile.empty()) opt.fluid_hosts = read_host_file(opt.fluid_hostfile);
   if (!opt.particle_hostfile.empty()) opt.particle_hosts = read_host_file(opt.particle_hostfile);
   auto& h = scene.hosts;
-  if (!opt.launcher.empty()) h.launcher = opt.launcher;
+  if (!opt.launcher.empty()) choice_named(opt.launcher, h.launcher);  // main.cpp checked the name
   if (!opt.launch_command.empty()) {
     check_launch_command(opt.launch_command);
     h.launch_command = opt.launch_command;
@@ -187,7 +191,7 @@ void place_nodes(Scene& scene, RunOptions opt) {
     }
   }
   if (opt.bus_ttl >= 0) scene.run.bus_ttl = opt.bus_ttl;
-  if (!opt.transport.empty()) h.transport = opt.transport;
+  if (!opt.transport.empty()) choice_named(opt.transport, h.transport);
   if (!opt.relay_address.empty()) {
     in_addr ip{};
     if (opt.relay_address != "auto" && ::inet_pton(AF_INET, opt.relay_address.c_str(), &ip) != 1)
@@ -205,6 +209,51 @@ void refuse_fluid_ranks(const Scene& scene, const std::string& what) {
   if (!scene.run.fluid_command.empty()) return;  // another program decides for itself
   if (const auto problem = fluid_ranks_problem(scene.mesh, scene.run.fluid_ranks))
     throw std::runtime_error(fmt::format("{}: {}", what, *problem));
+}
+
+// An open vessel's feeder developed on its own first (vessel.feeder_develop_s,
+// model/feeder_develop.h): the derived periodic scene, written beside the run
+// (RUN_DIR/feeder-develop.toml), run as any scene is into RUN_DIR/feeder-develop, or with
+// --feeder-cache into the cache's folder named by that scene's SHA-256 and linked there. A develop
+// run found at its last step is used as it is (a study's next run with the same feeder, a resume);
+// one stopped before is resumed; the particle node reads its last checkpoint. `placement`: the
+// open run's command line (its ranks and hosts); the develop run is the coordinator's own.
+void develop_feeder(const Scene& scene, const RunDirectory& dir, const RunOptions& placement) {
+  namespace fs = std::filesystem;
+  const std::string scene_file = dir.path + "/" + kFeederDevelopFolder + ".toml";
+  {
+    std::ifstream in(dir.scene_copy());
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(scene_file) << feeder_develop_scene_text(scene, text);
+  }
+  const long steps = feeder_develop_steps(scene);
+  const fs::path link = fs::path(dir.path) / kFeederDevelopFolder;
+  fs::path develop = link;
+  if (fs::is_symlink(link))
+    develop = fs::read_symlink(link);
+  else if (!fs::exists(link) && !placement.feeder_cache.empty())
+    develop = fs::absolute(fs::path(placement.feeder_cache) / sha256_file(scene_file));
+  fmt::print(stderr, "hemocosim: the feeder develops on its own for {:g} s ({} steps) in {}\n",
+             scene.vessel.feeder_develop, steps, develop.string());
+  try {
+    if (last_complete_checkpoint(develop.string()) == steps) {
+      fmt::print(stderr, "hemocosim: developed earlier: its checkpoint of step {} is there\n", steps);
+    } else if (last_complete_checkpoint(develop.string())) {
+      resume_command(ResumeOptions{develop.string()});
+    } else {
+      if (fs::exists(develop / "scene.toml")) fs::remove_all(develop);  // a start that never reached a checkpoint
+      RunOptions opt = placement;
+      opt.scene = scene_file;
+      opt.out = develop.string();
+      opt.stop_after_step = 0;
+      opt.feeder_cache.clear();
+      fs::create_directories(develop.parent_path());
+      run_command(opt);
+    }
+  } catch (const std::exception& e) {
+    throw std::runtime_error(fmt::format("the feeder's develop run {} did not finish: {}", develop.string(), e.what()));
+  }
+  if (develop != link && !fs::exists(link)) fs::create_directory_symlink(develop, link);
 }
 
 }  // namespace
@@ -237,6 +286,7 @@ int run_command(const RunOptions& opt) {
   ctx.drop_every = scene.run.drop_every;
   std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
   fmt::print(stderr, "hemocosim: run {} in {}\n", ctx.run_id, dir.path);
+  if (develops_feeder(scene)) develop_feeder(scene, dir, opt);
   return drive_and_finish(scene, dir, ctx, {0, last_step(scene, opt.stop_after_step)});
 }
 
@@ -267,6 +317,18 @@ int resume_command(const ResumeOptions& opt) {
   refuse_unsigned_commands(dir, ctx, scene, opt.allow_commands);
   refuse_fluid_ranks(scene, dir.path);
   const auto from = dir.last_checkpoint();
+  // Stopped while its feeder developed, before the nodes of the run itself started: that is
+  // finished, then the run starts.
+  if (!from && develops_feeder(scene) && !std::filesystem::exists(dir.metrics_file())) {
+    RunOptions placement;
+    placement.fluid_ranks = scene.run.fluid_ranks;
+    placement.particle_ranks = scene.run.particle_ranks;
+    dir.record_ranks(scene.run.fluid_ranks, scene.run.particle_ranks);
+    std::ofstream(dir.path + "/coordinator.pid") << getpid() << "\n";
+    fmt::print(stderr, "hemocosim: run {} in {} starts after its feeder's develop run\n", ctx.run_id, dir.path);
+    develop_feeder(scene, dir, placement);
+    return drive_and_finish(scene, dir, ctx, {0, last_step(scene, opt.stop_after_step)});
+  }
   if (!from) throw std::runtime_error(fmt::format("{} has no complete checkpoint to resume from", dir.path));
   dir.verify_checkpoint(*from);
   need_free_space(dir, *from);

@@ -9,6 +9,7 @@
 #include "scene.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <toml++/toml.h>
 
 #include <fcntl.h>
@@ -44,6 +45,16 @@ toml::table read_info(const std::string& file) {
   } catch (const toml::parse_error& e) {
     throw std::runtime_error(fmt::format("{} is not a hemocosim run.toml ({})", file, e.description()));
   }
+}
+
+// A choice run.toml recorded by name (hosts.launcher, hosts.transport): kept as it was when
+// absent, refused in one line when the file names no such choice (a tampered or foreign file).
+template <class E>
+void read_recorded_choice(const toml::table& table, const char* key, E& out, const std::string& file) {
+  const std::string name = table[key].value_or(name_of(out));
+  if (!choice_named(name, out))
+    throw std::runtime_error(fmt::format("{}: {} '{}' is none of {}", file, ChoiceTable<E>::key, name,
+                                         fmt::join(choice_names<E>(), ", ")));
 }
 
 // What a run's signature of its commands covers: the run and the command of each node ("" for
@@ -143,12 +154,12 @@ std::pair<RunDirectory, RunContext> RunDirectory::open(const std::string& path) 
     auto& p = dir.placement;
     p.fluid = (*hosts)["fluid"].value_or(std::string());
     p.particles = (*hosts)["particles"].value_or(std::string());
-    p.launcher = (*hosts)["launcher"].value_or(p.launcher);
+    read_recorded_choice(*hosts, "launcher", p.launcher, dir.info_file());
     p.launch_command = (*hosts)["launch_command"].value_or(p.launch_command);
   }
   if (const auto* bus = info["bus"].as_table()) {
     auto& p = dir.placement;
-    p.transport = (*bus)["transport"].value_or(p.transport);
+    read_recorded_choice(*bus, "transport", p.transport, dir.info_file());
     p.relay_address = (*bus)["relay_address"].value_or(p.relay_address);
     p.relay_port = (*bus)["relay_port"].value_or(p.relay_port);
     dir.transport_recorded = true;
@@ -171,7 +182,7 @@ void RunDirectory::record_placement(const HostPlacement& hosts) {
   toml::table info = read_info(info_file());
   info.insert_or_assign("hosts", toml::table{{"fluid", hosts.fluid},
                                              {"particles", hosts.particles},
-                                             {"launcher", hosts.launcher},
+                                             {"launcher", name_of(hosts.launcher)},
                                              {"launch_command", hosts.launch_command}});
   write_info(info_file(), info);
 }
@@ -182,7 +193,7 @@ void RunDirectory::record_transport(const HostPlacement& hosts) {
   placement.relay_port = hosts.relay_port;
   transport_recorded = true;
   toml::table info = read_info(info_file());
-  info.insert_or_assign("bus", toml::table{{"transport", hosts.transport},
+  info.insert_or_assign("bus", toml::table{{"transport", name_of(hosts.transport)},
                                            {"relay_address", hosts.relay_address},
                                            {"relay_port", hosts.relay_port}});
   write_info(info_file(), info);

@@ -220,7 +220,7 @@ FluidSettings fluid_settings(const Scene& scene) {
   f.suspension = suspension_viscosity(scene.plasma.suspension_viscosity);
   f.publish_pressure_gradient = f.momentum.needs_pressure_gradient();
   f.publish_viscous_force = f.momentum.needs_viscous_force();
-  f.publish_face_flux_velocity = scene.plasma_velocity == "face_flux";
+  f.publish_face_flux_velocity = scene.plasma_velocity == PlasmaVelocity::face_flux;
   f.open_ends = open_ends(scene.vessel);
   if (f.open_ends) {
     f.inlet_flow_rate = nominal_flow_rate(scene);

@@ -175,8 +175,12 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
   tube.vessel = Vessel{};
   tube.vessel.diameter = 2 * feeder.radius;
   tube.vessel.length = feeder.period;
-  std::vector<PlacedParticle> placed =
-      place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed, options);
+  return fill_open_vessel(place_particles(feeder.radius, feeder.period, z0, placement_requests(tube), seed, options),
+                          vessel, feeder, z0, options);
+}
+
+std::vector<PlacedParticle> fill_open_vessel(std::vector<PlacedParticle> placed, const VesselWall& vessel,
+                                             const FeederLayout& feeder, double z0, const PlacementOptions& options) {
   const std::size_t fed = placed.size();
   for (std::size_t k = 0; k < fed; ++k) {
     // Placed about the z axis: the feeder's cell on the feeder's axis, its copy on the inlet's.

@@ -18,6 +18,7 @@
 #include <scene.h>
 #include <vessel_ends.h>
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,6 +35,15 @@ struct PlacedParticle {
   int species = 0;
   double diameter = 0;
   Vec3 position;
+  // A placed particle starts at rest and unturned; one taken from a developed feeder
+  // (model/feeder_develop.h) carries its motion: velocity (m/s), angular velocity (rad/s),
+  // orientation (quaternion w, x, y, z; platelets whose closures track it) and angular momentum
+  // (kg m^2/s, at the DEM's mass).
+  struct Motion {
+    Vec3 velocity = Vec3::Zero(), angular_velocity = Vec3::Zero(), angular_momentum = Vec3::Zero();
+    Eigen::Vector4d orientation{1, 0, 0, 0};
+  };
+  std::optional<Motion> motion;
 };
 
 struct PlacementOptions {
@@ -84,6 +94,12 @@ std::vector<PlacedParticle> place_open_vessel_particles(const Scene& scene, cons
                                                         const PlacementOptions& options = {});
 
 // The particles a scene starts with, in its vessel of this shape from z0: place_particles, or in
+// The same from the feeder's cells as they are, about the z axis over [z0, z0 + period) (placed
+// there, or taken from a developed feeder, model/feeder_develop.h): moved onto the feeder's axis,
+// then their copies in the vessel, each with its source's motion.
+std::vector<PlacedParticle> fill_open_vessel(std::vector<PlacedParticle> feeder_cells, const VesselWall& vessel,
+                                             const FeederLayout& feeder, double z0, const PlacementOptions& options = {});
+
 // a vessel fed by a feeder place_open_vessel_particles (the particle node's placement, and
 // `hemocosim check`'s).
 std::vector<PlacedParticle> place_scene_particles(const Scene& scene, const VesselWall& vessel, double z0);

@@ -226,6 +226,7 @@ class Reader {
         {"vessel.daughter_1_diameter_um", {ninf, 1e4}},  // as the vessel's diameter (0: Murray's law)
         {"vessel.daughter_2_diameter_um", {ninf, 1e4}},
         {"vessel.daughter_length_um", {ninf, 1e5}},  // as the vessel's length
+        {"vessel.feeder_develop_s", {0, 1e3}},
         {"mesh.surface_cell_size_um", {ninf, 1e4}},
         {"mesh.core_cells", {ninf, 200}},
         {"mesh.ring_cells", {ninf, 200}},
@@ -303,6 +304,15 @@ void read_name(Reader& r, const std::string& key, std::string& out, const std::v
   r.refuse_once(ok, key, "unknown name '" + out + "' (known: " + list + ")");
 }
 
+// A scene option with a few named values (model/scene_choices.h): the name in the file, refused
+// with the known ones when unknown, the enum in the scene.
+template <class E>
+void read_choice(Reader& r, const std::string& key, E& out) {
+  std::string name = name_of(out);
+  read_name(r, key, name, choice_names<E>());
+  choice_named(name, out);
+}
+
 void read_species(Reader& r, Species& s, bool rbc) {
   const std::string p = s.name + ".";
   s.present = false;
@@ -344,7 +354,7 @@ void read_species(Reader& r, Species& s, bool rbc) {
     r.check(s.semi_axis_a > 0, p + "semi_axis_a_um", "must be positive");
     r.check(s.semi_axis_c > 0 && s.semi_axis_c < s.semi_axis_a, p + "semi_axis_c_um",
             "must be positive and below semi_axis_a_um (an oblate spheroid)");
-    read_name(r, p + "orientation_integrator", s.orientation_integrator, {"splitting", "euler"});
+    read_choice(r, p + "orientation_integrator", s.orientation_integrator);
   }
   r.read(p + "mass_scaling", s.mass_scaling);
   r.check(s.mass_scaling == 0 || (s.mass_scaling >= 1 && std::isfinite(s.mass_scaling)), p + "mass_scaling",
@@ -361,6 +371,7 @@ void read_species(Reader& r, Species& s, bool rbc) {
 static void read_vessel_ends(Reader& r, Vessel& v) {
   read_name(r, "vessel.ends", v.ends, vessel_end_names());
   read_name(r, "vessel.inlet", v.inlet, vessel_inlet_names());
+  r.read("vessel.feeder_develop_s", v.feeder_develop);
 }
 
 // Whether vessel.ends and vessel.inlet are names the scene knows (unknown ones are refused as read).
@@ -551,12 +562,18 @@ void check_geometry_and_work(Reader& r, const Scene& s, double narrowest_end) {
                        s.vessel.length / units::um, sp->name, 2 * d / units::um));
       continue;
     }
-    if (!(d / cell < 1)) {
+    // A kernel at least a cell wide at half maximum and at most the vessel's radius shares a particle
+    // over cells narrower than it, as in a surface vessel (above): the feeder of such a vessel is
+    // this O-grid, developed on its own (model/feeder_develop.h).
+    const double fwhm = s.kernel_width_diameters * d;
+    const bool kernel_spans_cells = shares_over_kernel(s.solid_fraction) && fwhm >= cell && fwhm <= d_vessel / 2;
+    if (!(d / cell < 1) && !kernel_spans_cells) {
       const std::string key = blame(dkey, "mesh.axial_cells");
       fail(key, key == dkey ? dtext : r.value_text(key),
            fmt::format("a {} of {:g} um is larger than the fluid cells ({:.3g} um, the cube root of the mean cell "
                        "volume): unresolved CFD-DEM needs particle diameter / cell size < 1 (here {:.2f}); use fewer "
-                       "cells (mesh.*) or smaller particles",
+                       "cells (mesh.*) or smaller particles, or share them over a kernel at least a cell wide "
+                       "(coupling.solid_fraction = \"gaussian_kernel\")",
                        sp->name, d / units::um, cell / units::um, d / cell));
     }
   }
@@ -816,8 +833,8 @@ static void read_hosts(Reader& r, Scene& s) {
       r.check(false, key, e.what());
     }
   }
-  read_name(r, "hosts.launcher", h.launcher, {"ssh", "local", "slurm"});
-  read_name(r, "hosts.transport", h.transport, {"multicast", "tcp"});
+  read_choice(r, "hosts.launcher", h.launcher);
+  read_choice(r, "hosts.transport", h.transport);
   r.read("hosts.relay_address", h.relay_address);
   in_addr ip{};
   r.check(h.relay_address == "auto" || ::inet_pton(AF_INET, h.relay_address.c_str(), &ip) == 1, "hosts.relay_address",
@@ -939,7 +956,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.mesh.core_cells >= 1, "mesh.core_cells", "must be at least 1");
   r.check(s.mesh.ring_cells >= 1, "mesh.ring_cells", "must be at least 1");
   r.check(s.mesh.axial_cells >= 1, "mesh.axial_cells", "must be at least 1");
-  read_name(r, "mesh.wall_polygon", s.mesh.wall_polygon, {"circumscribed", "inscribed"});
+  read_choice(r, "mesh.wall_polygon", s.mesh.wall_polygon);
   r.read("mesh.surface_cell_size_um", s.mesh.surface_cell_size, units::um);
   r.check(s.mesh.surface_cell_size >= 0, "mesh.surface_cell_size_um",
           "must not be negative (0: the vessel's diameter / 12)");
@@ -1010,10 +1027,10 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(s.time.coupling_relaxation_times >= 0 && std::isfinite(s.time.coupling_relaxation_times),
           "time.coupling_relaxation_times", "must not be negative (0: fixed coupling intervals)");
 
-  read_name(r, "dem.neighbour_rebuild", s.neighbour_rebuild, {"engine", "streaming"});
-  r.check(s.neighbour_rebuild == "engine" || uniform_vessel(s.vessel), "dem.neighbour_rebuild",
+  read_choice(r, "dem.neighbour_rebuild", s.neighbour_rebuild);
+  r.check(s.neighbour_rebuild == NeighbourRebuild::engine || uniform_vessel(s.vessel), "dem.neighbour_rebuild",
           "\"streaming\" predicts the straight tube's Poiseuille flow: use \"engine\" in a vessel.shape that narrows");
-  r.check(s.neighbour_rebuild == "engine" || !known_ends(s.vessel) || !open_ends(s.vessel), "dem.neighbour_rebuild",
+  r.check(s.neighbour_rebuild == NeighbourRebuild::engine || !known_ends(s.vessel) || !open_ends(s.vessel), "dem.neighbour_rebuild",
           "\"streaming\" predicts a periodic vessel's flow: use \"engine\" in an open vessel");
 
   r.read("output.every_steps", s.output.every_steps);
@@ -1050,23 +1067,29 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_name(r, "coupling.solid_fraction", s.solid_fraction, known_solid_fractions());
   r.read("coupling.kernel_width_diameters", s.kernel_width_diameters);
   r.check(s.kernel_width_diameters > 0, "coupling.kernel_width_diameters", "must be positive");
-  read_name(r, "coupling.scheme", s.coupling_scheme, {"serial", "parallel"});
-  read_name(r, "coupling.implicit_drag", s.implicit_drag, {"interval_response", "instantaneous", "co_relaxed"});
+  read_choice(r, "coupling.scheme", s.coupling_scheme);
+  read_choice(r, "coupling.implicit_drag", s.implicit_drag);
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
-  read_name(r, "coupling.fluid_velocity", s.fluid_velocity, {"reconstructed", "cell"});
+  read_choice(r, "coupling.fluid_velocity", s.fluid_velocity);
   read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
   read_name(r, "coupling.momentum", s.momentum, momentum_form_names());
   r.retired("coupling.pressure_gradient_force",
             "replaced by coupling.momentum (\"cfdem_A\": -V_p grad P and the viscous force on the particles; "
             "docs/scenes.md)");
-  read_name(r, "coupling.plasma_velocity", s.plasma_velocity, {"cell_centre", "face_flux"});
+  read_choice(r, "coupling.plasma_velocity", s.plasma_velocity);
   // A fluid step of several intervals averages feedback computed in one published state (serial
   // scheme: the state of the block's start) over intervals of one length.
-  r.check(f.solve_every == 1 || s.coupling_scheme == "serial", "fluid.solve_every",
+  r.check(f.solve_every == 1 || s.coupling_scheme == CouplingScheme::serial, "fluid.solve_every",
           "above 1 needs coupling.scheme = \"serial\" (the parallel scheme's particles see two states in a block)");
   r.check(f.solve_every == 1 || !s.time.adaptive_interval(), "fluid.solve_every",
           "above 1 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
-  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != "co_relaxed", "coupling.fluid_force",
+  // A developed feeder (model/feeder_develop.h) is an open vessel's, from a run whose last step,
+  // known in advance, writes the checkpoint its cells are taken from.
+  r.check(!(s.vessel.feeder_develop > 0) || !known_ends(s.vessel) || fed_by_feeder(s.vessel),
+          "vessel.feeder_develop_s", "above 0 needs a feeder (vessel.ends = \"open\", vessel.inlet = \"feeder\")");
+  r.check(!(s.vessel.feeder_develop > 0) || !s.time.adaptive_interval(), "vessel.feeder_develop_s",
+          "above 0 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
+  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != ImplicitDrag::co_relaxed, "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   if (r.problems().empty()) check_geometry_and_work(r, s, narrowest_end);
@@ -1088,30 +1111,33 @@ std::optional<std::string> fluid_ranks_problem(const MeshSpec& mesh, int ranks) 
 }
 
 double MeshSpec::wall_corner_radius() const {
-  return wall_polygon == "inscribed" ? 1.0 : 1.0 / std::cos(units::pi / wall_sides());
+  return wall_polygon == WallPolygon::inscribed ? 1.0 : 1.0 / std::cos(units::pi / wall_sides());
 }
 
 double MeshSpec::hydraulic_diameter_ratio() const {
-  return wall_polygon == "inscribed" ? std::cos(units::pi / wall_sides()) : 1.0;
+  return wall_polygon == WallPolygon::inscribed ? std::cos(units::pi / wall_sides()) : 1.0;
 }
+
+namespace {
+template <class E>
+NumericalReading reading_of(E value, const std::string& prefix = "") {
+  const Choice<E>& c = choice_of(value);
+  return {prefix + std::string(ChoiceTable<E>::key), std::string(c.name), std::string(c.reading)};
+}
+}  // namespace
 
 std::vector<NumericalReading> numerical_readings(const Scene& s) {
   const std::string every =
       fmt::format("ours: closures every {} DEM step(s), drag on the current velocity every step (exponential)",
                   s.time.closure_every_dem_steps);
   std::vector<NumericalReading> r = {
-      {"coupling.fluid_velocity", s.fluid_velocity,
-       s.fluid_velocity == "cell" ? "CFDEM's default: the value of the particle's cell"
-                                  : "ours: u_c + G^T (x - x_c), exact for a linear field"},
+      reading_of(s.fluid_velocity),
       {"coupling.fluid_force", s.fluid_force,
        s.fluid_force == "held"                 ? "CFDEM's couple/cfd/force: drag, lift, torque held from the exchange"
        : s.fluid_force == "held_implicit_drag" ? "CFDEM's couple/cfd/force/implicit: drag implicit on the current "
                                                  "velocity, lift and torque held from the exchange"
                                                : every},
-      {"coupling.implicit_drag", s.implicit_drag,
-       s.implicit_drag == "instantaneous" ? "CFDEM's implicitCouple: the fluid takes K = sum beta / V"
-       : s.implicit_drag == "co_relaxed"  ? "ours: each cell's plasma answers its particles every DEM step"
-                                          : "ours: K from the interval's drag response"},
+      reading_of(s.implicit_drag),
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };
   if (shares_over_kernel(s.solid_fraction))  // the others are the paper's unresolved sharing
@@ -1120,21 +1146,13 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                              "maximum, cut at 3 sigma, read over the same cells",
                              s.kernel_width_diameters)});
   if (!surface_vessel(s.vessel))  // the O-grid's wall; a surface vessel's is snappyHexMesh's
-    r.push_back({"mesh.wall_polygon", s.mesh.wall_polygon,
-                 s.mesh.wall_polygon == "inscribed"
-                     ? "blockMesh's arcs: corners on the circle, hydraulic diameter d cos(pi/n)"
-                     : "ours: sides tangent to the circle, hydraulic diameter d, so d dP/(4l) is the wall's"});
+    r.push_back(reading_of(s.mesh.wall_polygon));
   if (suspension_viscosity(s.plasma.suspension_viscosity).adds_stress())  // beyond the paper: named when chosen
     r.push_back({"plasma.suspension_viscosity", s.plasma.suspension_viscosity,
                  suspension_viscosity(s.plasma.suspension_viscosity).reading});
-  r.push_back({"coupling.plasma_velocity", s.plasma_velocity,
-               s.plasma_velocity == "face_flux" ? "ours: U rebuilt from the conservative face fluxes"
-                                                : "CFDEM's: OpenFOAM's cell-centre U"});
+  r.push_back(reading_of(s.plasma_velocity));
   if (s.platelet.present)
-    r.push_back({"platelet.orientation_integrator", s.platelet.orientation_integrator,
-                 s.platelet.orientation_integrator == "euler"
-                     ? "the paper's Algorithm 1 as printed (explicit, first order)"
-                     : "ours: second order, exact torque-free rotation"});
+    r.push_back(reading_of(s.platelet.orientation_integrator, "platelet."));
   return r;
 }
 

@@ -5,6 +5,7 @@
 
 #include "closure_names.h"  // the names a scene accepts per closure slot
 #include "hosts.h"
+#include "scene_choices.h"  // the options that pick one named behaviour
 
 #include <optional>
 #include <stdexcept>
@@ -22,6 +23,9 @@ struct Vessel {
   std::string shape = "straight";
   std::string ends = "periodic";         // vessel_ends.h
   std::string inlet = "feeder";          // vessel_ends.h: what an open vessel's inlet takes in
+  // s: a feeder developed before the run, as a periodic tube of its own for this long
+  // (model/feeder_develop.h); 0: its cells start from the random placement.
+  double feeder_develop = 0;
   double stenosis_area_reduction = 0.5;  // "stenosis": 1 - (R_throat / R0)^2
   double stenosis_length = 0;            // m, "stenosis": the constriction's axial length
   // "bifurcation" (bifurcation.h): the parent is the vessel (diameter, length); its daughters'
@@ -52,7 +56,7 @@ struct MeshSpec {
   int core_cells = 4;
   int ring_cells = 3;
   int axial_cells = 24;
-  std::string wall_polygon = "circumscribed";
+  WallPolygon wall_polygon = WallPolygon::circumscribed;
   // A surface vessel's mesh (snappyHexMesh, fluid-node/surface_mesh.h): the edge of its cubes, m
   // (0: the vessel's diameter / 12).
   double surface_cell_size = 0;
@@ -107,7 +111,7 @@ struct Species {
   // closure needs it.
   double semi_axis_a = 0;  // m
   double semi_axis_c = 0;  // m
-  std::string orientation_integrator = "splitting";
+  OrientationMethod orientation_integrator = OrientationMethod::splitting;
 };
 
 struct Contact {
@@ -213,19 +217,19 @@ struct HostPlacement {
   std::string particles;
   // "ssh": started on its first host by launch_command; "local": here; "slurm": a job step of
   // the Slurm allocation the coordinator runs in (docs/slurm.md)
-  std::string launcher = "ssh";
+  Launcher launcher = Launcher::ssh;
   std::string launch_command = kDefaultLaunchCommand;
   // The bus: "multicast" (LCM UDP multicast) or "tcp" (LCM's tcpq provider through a relay the
   // coordinator runs for the run, where multicast is blocked; docs/hosts.md). The relay listens on
   // relay_address ("auto": the address of this host that the nodes' hosts are routed to, or
   // 127.0.0.1 without hosts) and relay_port (0: any free port).
-  std::string transport = "multicast";
+  Transport transport = Transport::multicast;
   std::string relay_address = "auto";
   int relay_port = 0;
   bool any() const { return !fluid.empty() || !particles.empty(); }
-  bool tcp() const { return transport == "tcp"; }
+  bool tcp() const { return transport == Transport::tcp; }
   // Whether the nodes may run on other hosts than the coordinator's (the bus must reach them).
-  bool across_hosts() const { return any() || launcher == "slurm"; }
+  bool across_hosts() const { return any() || launcher == Launcher::slurm; }
 };
 
 // The bus beyond its transport (docs/hosts.md, "What an observer of the network learns"):
@@ -263,7 +267,7 @@ struct Scene {
   // How a coupling step is shared between the nodes (docs/design.md "Lockstep coupling"): "serial"
   // (Gauss-Seidel: the fluid solves step k, then the particles move in it) or "parallel"
   // (Jacobi: both compute step k at once, the particles in the fluid of step k - 1).
-  std::string coupling_scheme = "serial";
+  CouplingScheme coupling_scheme = CouplingScheme::serial;
   // The coefficient K with which the fluid treats the particles' drag implicitly (-K U, its
   // explicit part adjusted so that at the velocity the particles saw the fluid gets back exactly
   // their forces): "interval_response" (the derivative of the interval's drag on the cell's
@@ -274,7 +278,7 @@ struct Scene {
   // the fluid, ~27 times the plasma's in the calibration case), or "co_relaxed" (K = 0: the
   // particle node lets each cell's plasma answer its particles' drag at every DEM step,
   // particle-node/cell_plasma.h, and the fluid takes the interval's impulse explicitly).
-  std::string implicit_drag = "interval_response";
+  ImplicitDrag implicit_drag = ImplicitDrag::interval_response;
   // The implicit drag keeps back from the plasma K (U - U_seen) V of what the particles
   // exchanged in a step (U_seen the velocity their feedback was computed in); the particles only
   // take it up as they follow the flow in the next interval. true: the fluid hands it back in
@@ -289,7 +293,7 @@ struct Scene {
   // The plasma velocity a particle sees: "reconstructed" (u_c + G^T (x - x_c), exact for a
   // linear field) or "cell" (the value of the cell holding its centre: CFDEM's default, no
   // interpolation).
-  std::string fluid_velocity = "reconstructed";
+  FluidVelocity fluid_velocity = FluidVelocity::reconstructed;
   // When the fluid force and torque on a particle are evaluated:
   //   "per_dem_step"        the closures every time.closure_every_dem_steps DEM steps, the drag
   //                         on the particle's current velocity every step (exponential update);
@@ -315,12 +319,12 @@ struct Scene {
   // Where the particles' momentum sources vary from cell to cell the two differ: in the
   // calibration scene the cell-centre U converges on the axis while the fluxes diverge
   // (docs/validation.md, "what carries platelets to the axis").
-  std::string plasma_velocity = "face_flux";
+  PlasmaVelocity plasma_velocity = PlasmaVelocity::face_flux;
   // When LIGGGHTS rebuilds the DEM's neighbour lists: "engine" (its own check: a particle moved
   // half the skin) or "streaming" (ours: the particles' motion relative to the Poiseuille flow of
   // the scene's driving, particle-node/dem_streaming_neighbours.h; one particle rank). The lists
   // are complete either way; docs/performance.md §1 measures the builds and the cost.
-  std::string neighbour_rebuild = "engine";
+  NeighbourRebuild neighbour_rebuild = NeighbourRebuild::engine;
 };
 
 // A numerical choice the paper leaves open, as a scene makes it, and whose reading it is

@@ -1,32 +1,54 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "cell_plasma.h"
 
+#include "cell_halo_sum.h"
+
+#include <traffic.h>
+
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
 
 namespace hemo::particles {
 
 CellPlasmaRelaxation::CellPlasmaRelaxation(int n_cells)
-    : mass_(n_cells, 0.0), shift_(3 * mass_.size(), 0.0), sums_(4 * mass_.size(), 0.0) {}
+    : mass_(n_cells, 0.0),
+      shift_(3 * mass_.size(), 0.0),
+      sums_(4 * mass_.size(), 0.0),
+      touched_mark_(mass_.size(), 0) {}
 
 void CellPlasmaRelaxation::start_interval() { std::fill(shift_.begin(), shift_.end(), 0.0); }
 
-void CellPlasmaRelaxation::relax(MPI_Comm comm) {
+void CellPlasmaRelaxation::relax(const CellHaloSum* halo, MPI_Comm comm) {
   int ranks = 1;
   if (comm != MPI_COMM_NULL) MPI_Comm_size(comm, &ranks);
-  if (ranks > 1)  // every rank takes part, whether or not it has particles
+  if (halo) {
+    halo->sum(sums_, 4);
+    // A shared cell another rank's particles reached moves here too: this rank may have
+    // particles there later in the interval.
+    for (int c : halo->shared()) relax_cell(c);
+  } else if (ranks > 1) {  // every rank takes part, whether or not it has particles
     MPI_Allreduce(MPI_IN_PLACE, sums_.data(), static_cast<int>(sums_.size()), MPI_DOUBLE, MPI_SUM, comm);
-  for (std::size_t c = 0; c < mass_.size(); ++c) {
-    double* s = &sums_[4 * c];
-    if (s[3] == 0 && s[0] == 0 && s[1] == 0 && s[2] == 0) continue;
-    double* d = &shift_[3 * c];
-    const double m = mass_[c];
-    // m (d' - d) = -(P + A d')  =>  d' = (m d - P) / (m + A)
-    const double denominator = m + s[3];
-    if (!(denominator > 0)) throw std::runtime_error("a fluid cell with particles has no plasma and no drag");
-    for (int k = 0; k < 3; ++k) d[k] = (m * d[k] - s[k]) / denominator;
-    std::fill(s, s + 4, 0.0);
+    RankTraffic::all_reduce(sizeof(double) * static_cast<std::uint64_t>(sums_.size()), ranks);
+    for (int c = 0; c < n_cells(); ++c) relax_cell(c);
   }
+  for (int c : touched_) {
+    relax_cell(c);
+    touched_mark_[static_cast<std::size_t>(c)] = 0;
+  }
+  touched_.clear();
+}
+
+void CellPlasmaRelaxation::relax_cell(int cell) {
+  double* s = &sums_[4 * static_cast<std::size_t>(cell)];
+  if (s[3] == 0 && s[0] == 0 && s[1] == 0 && s[2] == 0) return;  // no particles, or already moved
+  double* d = &shift_[3 * static_cast<std::size_t>(cell)];
+  const double m = mass_[static_cast<std::size_t>(cell)];
+  // m (d' - d) = -(P + A d')  =>  d' = (m d - P) / (m + A)
+  const double denominator = m + s[3];
+  if (!(denominator > 0)) throw std::runtime_error("a fluid cell with particles has no plasma and no drag");
+  for (int k = 0; k < 3; ++k) d[k] = (m * d[k] - s[k]) / denominator;
+  std::fill(s, s + 4, 0.0);
 }
 
 }  // namespace hemo::particles

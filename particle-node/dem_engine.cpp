@@ -23,7 +23,7 @@ namespace {
 
 // The bookkeeping with the scene's neighbour-rebuild policy (dem.neighbour_rebuild).
 DemBookkeeping with_neighbour_policy(DemBookkeeping bookkeeping, const Scene& scene) {
-  bookkeeping.streaming_neighbours = scene.neighbour_rebuild == "streaming";
+  bookkeeping.streaming_neighbours = scene.neighbour_rebuild == NeighbourRebuild::streaming;
   bookkeeping.streaming_wall_shear_rate = wall_shear_rate(scene);
   return bookkeeping;
 }
@@ -65,9 +65,27 @@ void DemEngine::create_particles(const std::vector<PlacedParticle>& particles) {
     used[p.species] = true;
   }
   set_up_box(used);
-  tracking_.start(liggghts_.create_particles(particles));
+  const auto order = liggghts_.create_particles(particles);
+  tracking_.start(order);
+  set_motion(order);
   // A periodic vessel's first set-up is its first run's, as it has always been.
   if (liggghts_.open()) liggghts_.first_init(open_ends_listener());
+}
+
+void DemEngine::set_motion(const std::vector<const PlacedParticle*>& order) {
+  const LAMMPS_NS::Atom& atom = liggghts_.atom();
+  double** spins = dem::per_atom(liggghts_.fixes().rotation);
+  for (int i = 0; i < atom.nlocal; ++i) {
+    const PlacedParticle& p = *order[static_cast<std::size_t>(atom.tag[i] - 1)];
+    if (!p.motion) continue;
+    for (int d = 0; d < 3; ++d) {
+      atom.v[i][d] = p.motion->velocity[d];
+      atom.omega[i][d] = p.motion->angular_velocity[d];
+    }
+    if (spins == nullptr) continue;
+    for (int k = 0; k < 4; ++k) spins[i][k] = p.motion->orientation[k];
+    for (int d = 0; d < 3; ++d) spins[i][4 + d] = p.motion->angular_momentum[d];
+  }
 }
 
 LiggghtsSession::OpenEndsListener DemEngine::open_ends_listener() {

@@ -62,7 +62,9 @@ class DemEngine {
   DemEngine(const DemEngine&) = delete;
   DemEngine& operator=(const DemEngine&) = delete;
 
-  // Creates the particles (the same list on every rank); tags are 1..N in list order.
+  // Creates the particles (the same list on every rank); tags are 1..N in the spatial order
+  // LiggghtsSession::create_particles gives them. A particle with a motion (a developed feeder's,
+  // model/feeder_develop.h) starts with it; the others at rest, unturned.
   void create_particles(const std::vector<PlacedParticle>& particles);
   long particle_count() const { return liggghts_.particles(); }
   // An open vessel's counts since the run started, per species: inserted at the inlet, left
@@ -156,6 +158,8 @@ class DemEngine {
   LAMMPS_NS::LAMMPS& lammps() const { return liggghts_.lammps(); }
 
  private:
+  // The placed particles' motions onto this rank's atoms (tag k: order[k - 1]).
+  void set_motion(const std::vector<const PlacedParticle*>& order);
   // The box and our fixes for the species `used`, the fluid force as LIGGGHTS's callback.
   void set_up_box(const std::array<bool, kSpeciesCount>& used);
   // Checks of a state to restore that need no box yet.

@@ -36,7 +36,7 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
           "the {} closures ({}) need the vessel's centre-line speed at each section, which an imported surface "
           "does not define (it would take the vessel's flow split): choose another lift",
           (sp == kRbc ? scene.rbc : scene.platelet).name, species_.forces[sp]->describe()));
-  if (scene_.implicit_drag == "co_relaxed") {
+  if (scene_.implicit_drag == ImplicitDrag::co_relaxed) {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
   }
@@ -150,9 +150,9 @@ void DemFluidForce::apply_fluid_forces(const ForceStep& step, int nlocal, double
   const std::array<Vec3, kSpeciesCount>& weight = species_.weight;
   const int* type = liggghts.atom().type;
   double** impulse = per_atom(liggghts.fixes().impulse);
-  // coupling.implicit_drag = "co_relaxed": each cell's plasma answers its particles' fluid force at this
+  // coupling.implicit_drag's co-relaxation: each cell's plasma answers its particles' fluid force at this
   // step (cell_plasma.h), and the drag, linear in the plasma velocity, follows the answer.
-  if (cell_plasma_) cell_plasma_->relax(comm_);
+  if (cell_plasma_) cell_plasma_->relax(halo_.get(), comm_);
   for (int i = 0; i < nlocal; ++i) {
     const int cell = step_cells_[i];
     if (cell < 0) continue;
@@ -285,10 +285,12 @@ void DemFluidForce::deposit(Deposition& deposition) {
     const int cell = locate(tag[i], Vec3(x[i][0], x[i][1], x[i][2]), radius, at);
     if (cell < 0) continue;
     const double beta_time = acc[i][3];
-    // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly.
-    const double drag_response = cell_plasma_          ? 0.0
-                                 : held_velocity_drag_ ? beta_time
-                                                       : interval_drag_response(species_.mass[sp], beta_time);
+    double drag_response = 0;  // co_relaxed: the impulse already holds the plasma's answer; the fluid takes it explicitly
+    switch (scene_.implicit_drag) {
+      case ImplicitDrag::interval_response: drag_response = interval_drag_response(species_.mass[sp], beta_time); break;
+      case ImplicitDrag::instantaneous: drag_response = beta_time; break;
+      case ImplicitDrag::co_relaxed: break;
+    }
     // Straddling an open end, its volume and its exchange with the plasma are the inside share's.
     const double inside = deposition.model().inside_share(at.beyond, radius);
     inside_volume_ += inside * species_.volume[sp];

@@ -184,9 +184,7 @@ class DemFluidForce {
   template <class SolidVolume>
   void take_solid_volume(const SolidVolume& solid_volume);
   std::unique_ptr<CellHaloSum> halo_;  // the partitioned exchange's (null: deposition summed over all ranks)
-  // coupling.implicit_drag = "instantaneous": the deposited drag response is beta dt.
-  const bool held_velocity_drag_ = scene_.implicit_drag == "instantaneous";
-  // coupling.implicit_drag = "co_relaxed": each cell's plasma relaxing with its particles (else null).
+  // Each cell's plasma relaxing with its particles (coupling.implicit_drag = "co_relaxed"; else null).
   std::unique_ptr<CellPlasmaRelaxation> cell_plasma_;
 
   // The run in progress.

@@ -62,16 +62,16 @@ void OrientationTracker::kick_and_store(const Step& step, int i, int tag, const 
   if (!(w.norm() * dt < kMaxTurnPerStep) || !q.coeffs().allFinite()) {
     // The explicit update's cure is the stable one; the stable one's, a torque that its DEM step
     // can follow: the message names both torques so that the reader sees which.
-    const std::string cure = rotation.name() == "splitting"
+    const std::string cure = rotation.method() == OrientationMethod::splitting
                                  ? "the torque is too large for the DEM step; raise time.dem_steps_per_contact"
-                                 : "try \"splitting\"";
+                                 : "try \"" + name_of(OrientationMethod::splitting) + "\"";
     problems_.note(tag, fmt::format("platelet {} spins at {:.3g} rad/s ({:.2g} rad per DEM step of {:.3g} s) at "
                                     "coupling step {} (DEM step {}), x = ({:.4g}, {:.4g}, {:.4g}) m, torque from the "
                                     "fluid {:.3g} N m and from contacts {:.3g} N m: the orientation update '{}' is "
                                     "unstable here ({})",
                                     tag, w.norm(), w.norm() * dt, dt, step.coupling_step, step.ntimestep,
                                     atom.x[i][0], atom.x[i][1], atom.x[i][2], fluid_torque.norm(),
-                                    (torque - fluid_torque).norm(), rotation.name(), cure));
+                                    (torque - fluid_torque).norm(), name_of(rotation.method()), cure));
     if (!q.coeffs().allFinite()) q = Quat::Identity();
     l = Vec3::Zero();
     w = Vec3::Zero();

@@ -10,6 +10,7 @@
 #include "cell_locator.h"
 #include "solid_fraction.h"
 
+#include <scene_choices.h>
 #include <vec.h>
 #include <hemo/fluid_state_t.hpp>
 
@@ -22,12 +23,9 @@ namespace hemo::particles {
 class FluidSampler {
  public:
   // How velocity(cell, x) reads the plasma at x (scene key coupling.fluid_velocity).
-  enum class Sampling { reconstructed, cell };
+  using Sampling = FluidVelocity;
   explicit FluidSampler(const CellLocator& locator, Sampling sampling = Sampling::reconstructed)
       : locator_(&locator), sampling_(sampling) {}
-  static Sampling sampling_named(const std::string& name) {
-    return name == "cell" ? Sampling::cell : Sampling::reconstructed;
-  }
 
   // Takes a copy of the fluid state's per-cell fields. Throws std::invalid_argument when the
   // state does not fit the mesh or holds a non-finite value (the message names the cause).

@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
     ctx.load_secret();
     port = std::make_unique<hemo::particles::RankedPort>(MPI_COMM_WORLD, ctx, [&] {
       return std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, mpi.size(),
-                                                  scene.coupling_scheme == "parallel");
+                                                  scene.coupling_scheme == hemo::CouplingScheme::parallel);
     });
   } catch (const std::exception& e) {
     if (mpi.rank() == 0) std::cerr << "hemocosim-particles: error: " << one_line(e.what()) << "\n";

@@ -55,11 +55,13 @@ void EulerIntegrator::drift(Quat& q, Vec3& l, double dt) const {
   l = top_.angular_momentum(q, omega);
 }
 
-std::unique_ptr<OrientationIntegrator> make_orientation_integrator(const std::string& name, const SymmetricTop& top) {
+std::unique_ptr<OrientationIntegrator> make_orientation_integrator(OrientationMethod method, const SymmetricTop& top) {
   if (!(top.i_equatorial > 0) || !(top.i_axial > 0)) throw std::invalid_argument("a rigid body needs positive inertia");
-  if (name == "splitting") return std::make_unique<SplittingIntegrator>(top);
-  if (name == "euler") return std::make_unique<EulerIntegrator>(top);
-  throw std::invalid_argument("unknown orientation integrator '" + name + "' (known: splitting, euler)");
+  switch (method) {
+    case OrientationMethod::splitting: return std::make_unique<SplittingIntegrator>(top);
+    case OrientationMethod::euler: return std::make_unique<EulerIntegrator>(top);
+  }
+  throw std::invalid_argument("unknown orientation integrator");
 }
 
 }  // namespace hemo::particles

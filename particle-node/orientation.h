@@ -19,6 +19,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
+#include <scene_choices.h>
 #include <vec.h>
 
 #include <Eigen/Geometry>
@@ -50,7 +51,7 @@ class OrientationIntegrator {
  public:
   explicit OrientationIntegrator(const SymmetricTop& top) : top_(top) {}
   virtual ~OrientationIntegrator() = default;
-  virtual std::string name() const = 0;
+  virtual OrientationMethod method() const = 0;
   // L changed by a torque (world frame, N m) acting for dt, at orientation q.
   virtual void kick(const Quat& q, Vec3& angular_momentum, const Vec3& torque, double dt) const = 0;
   // q (and L where the scheme says so) advanced over dt without torque.
@@ -64,7 +65,7 @@ class OrientationIntegrator {
 class SplittingIntegrator final : public OrientationIntegrator {
  public:
   using OrientationIntegrator::OrientationIntegrator;
-  std::string name() const override { return "splitting"; }
+  OrientationMethod method() const override { return OrientationMethod::splitting; }
   void kick(const Quat& q, Vec3& l, const Vec3& torque, double dt) const override;
   void drift(Quat& q, Vec3& l, double dt) const override;
 };
@@ -72,12 +73,12 @@ class SplittingIntegrator final : public OrientationIntegrator {
 class EulerIntegrator final : public OrientationIntegrator {
  public:
   using OrientationIntegrator::OrientationIntegrator;
-  std::string name() const override { return "euler"; }
+  OrientationMethod method() const override { return OrientationMethod::euler; }
   void kick(const Quat& q, Vec3& l, const Vec3& torque, double dt) const override;
   void drift(Quat& q, Vec3& l, double dt) const override;
 };
 
 // "splitting" or "euler"; throws std::invalid_argument otherwise.
-std::unique_ptr<OrientationIntegrator> make_orientation_integrator(const std::string& name, const SymmetricTop& top);
+std::unique_ptr<OrientationIntegrator> make_orientation_integrator(OrientationMethod method, const SymmetricTop& top);
 
 }  // namespace hemo::particles

@@ -4,11 +4,13 @@
 #include "agree.h"
 #include "cell_fields.h"
 #include "checkpoint_file.h"
+#include "developed_feeder.h"
 #include "engine_state.h"
 #include "engine_state_merge.h"
 
 #include <checkpoint.h>
 #include <clock.h>
+#include <feeder_develop.h>
 #include <traffic.h>
 #include <fmt/format.h>
 #include <momentum_forms.h>
@@ -70,7 +72,7 @@ ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::st
       comm_(comm),
       locator_(mesh, make_vessel_wall(scene.vessel),
                fed_by_feeder(scene.vessel) ? std::optional(feeder_layout(scene)) : std::nullopt),
-      fluid_(locator_, FluidSampler::sampling_named(scene.fluid_velocity)),
+      fluid_(locator_, scene.fluid_velocity),
       deposition_(locator_, make_solid_fraction_model(scene.solid_fraction, locator_, scene.kernel_width_diameters)),
       run_dir_(run_dir) {
   MPI_Comm_rank(comm_, &rank_);
@@ -111,12 +113,17 @@ void ParticleNode::log_particles() const {
       spdlog::info(
           "{}: {}{}", sp == kRbc ? "rbc" : "platelet", engine_->forces(sp).describe(),
           engine_->tracks_orientation(sp)
-              ? ", orientation tracked (" + (sp == kRbc ? scene_.rbc : scene_.platelet).orientation_integrator + ")"
+              ? ", orientation tracked (" + name_of((sp == kRbc ? scene_.rbc : scene_.platelet).orientation_integrator) + ")"
               : std::string());
 }
 
 void ParticleNode::start() {
-  const auto placed = place_scene_particles(scene_, locator_.wall(), locator_.z0());
+  // A developed feeder's cells as its own run left them (model/feeder_develop.h); else placed.
+  const auto placed =
+      develops_feeder(scene_)
+          ? fill_open_vessel(developed_feeder_cells(scene_, run_dir_ + "/" + kFeederDevelopFolder, locator_.z0()),
+                             locator_.wall(), feeder_layout(scene_), locator_.z0())
+          : place_scene_particles(scene_, locator_.wall(), locator_.z0());
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_);
   engine_->create_particles(placed);
   engine_->deposit(deposition_);

@@ -158,6 +158,8 @@ Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   if (partitioned_) {
     out.emplace_back(fmt::format("rank{}_received_fluid_state_B", rank_), static_cast<double>(state));
     out.emplace_back(fmt::format("rank{}_sent_feedback_B", rank_), static_cast<double>(feedback));
+    // What it summed with the ranks sharing its cells (sent, and as much received).
+    out.emplace_back(fmt::format("rank{}_halo_B", rank_), static_cast<double>(mine.halo));
   }
   // Its own reports and heartbeats (rank 0's are its port's).
   if (reporter_) out.emplace_back(fmt::format("rank{}_sent_report_B", rank_), static_cast<double>(reports));

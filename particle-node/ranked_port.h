@@ -62,8 +62,9 @@ class RankedPort {
   enum Control : int { kContinue = 0, kStop = 1, kError = 2 };
   void broadcast_control(int& control, std::string& error);
   // What this rank reports: on rank 0 `diag` and its own bytes moved for the coupling since its
-  // last report, on every other rank its bytes alone (rank<r>_sent_B, rank<r>_received_B,
-  // rank<r>_received_fluid_state_B, rank<r>_sent_report_B; common/traffic.h).
+  // last report, on every other rank its bytes alone (rank<r>_sent_B, rank<r>_resent_B,
+  // rank<r>_received_B, rank<r>_received_again_B, rank<r>_received_fluid_state_B,
+  // rank<r>_sent_feedback_B, rank<r>_halo_B, rank<r>_sent_report_B; common/traffic.h).
   Diagnostics with_rank_traffic(const Diagnostics& diag);
 
   MPI_Comm comm_;

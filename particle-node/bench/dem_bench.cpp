@@ -208,7 +208,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0L, 1000000000L));
   books->add_option("--neighbour-rebuild", o.neighbour_rebuild,
                     "When the neighbour lists are rebuilt (default: the scene's dem.neighbour_rebuild)")
-      ->check(CLI::IsMember({"engine", "streaming"}));
+      ->check(CLI::IsMember(hemo::choice_names<hemo::NeighbourRebuild>()));
   books->add_flag("--mesh-wall", o.bookkeeping.mesh_wall,
                   "The wall as a triangle mesh (fix mesh/surface), as a narrowing vessel has it, not zcylinder");
   books->add_flag("--shuffled-tags", o.bookkeeping.shuffled_tags,
@@ -238,8 +238,8 @@ int main(int argc, char** argv) {
       if (o.closures == "paper") use_paper_closures(scene);
       scene.time.closure_every_dem_steps = o.closure_every;
     }
-    if (!o.neighbour_rebuild.empty()) scene.neighbour_rebuild = o.neighbour_rebuild;
-    const bool streaming = scene.neighbour_rebuild == "streaming";
+    if (!o.neighbour_rebuild.empty()) hemo::choice_named(o.neighbour_rebuild, scene.neighbour_rebuild);
+    const bool streaming = scene.neighbour_rebuild == hemo::NeighbourRebuild::streaming;
     const double R = scene.vessel.diameter / 2, l = scene.vessel.length;
     const double interval = from_file ? scene.time.coupling_interval : 1e-5;
     const auto mesh = box_mesh(o.cells, o.cells, o.axial_cells, -R, R, -R, R, l, scene.vessel.diameter);
@@ -297,7 +297,7 @@ int main(int argc, char** argv) {
         {"sort_every_steps", o.bookkeeping.sort_every_steps},
         {"shuffled_tags", o.bookkeeping.shuffled_tags},
         {"mesh_wall", o.bookkeeping.mesh_wall},
-        {"neighbour_rebuild", scene.neighbour_rebuild},
+        {"neighbour_rebuild", hemo::name_of(scene.neighbour_rebuild)},
         {"setup_s", setup_s},
         {"intervals", {{"ns_per_particle_step", ns(intervals_s)},
                        {"callback_ns", ns(intervals_callback_s)},
@@ -342,7 +342,7 @@ int main(int argc, char** argv) {
                   "wall %s\n",
                   out["scene"].get<std::string>().c_str(), placed.size(), size, o.steps, timing.substeps, timing.dt,
                   scene.time.closure_every_dem_steps, o.bookkeeping.skin_diameters, o.bookkeeping.sort_every_steps,
-                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "", scene.neighbour_rebuild.c_str(),
+                  o.bookkeeping.shuffled_tags ? ", tags shuffled" : "", hemo::name_of(scene.neighbour_rebuild).c_str(),
                   o.bookkeeping.mesh_wall ? "a triangle mesh" : "zcylinder");
       std::printf("  in %d runs of one interval: %.1f ns per particle-step (callback %.1f, LIGGGHTS %.1f); %ld "
                   "neighbour-list builds (%.1f per 1000 steps)\n",

@@ -87,12 +87,15 @@ std::optional<long> resumable_from(const std::string& run_dir, const std::string
 }
 
 // `hemocosim run SCENE --out RUN_DIR`, or `hemocosim resume RUN_DIR` when RUN_DIR was kept.
-SceneRunner child_runner(const std::string& hemocosim) {
-  return [hemocosim](const std::string& scene, const std::string& run_dir, const std::string& log_path,
-                     const std::function<void(const std::string&)>& progress) {
-    const std::vector<std::string> args = fs::exists(fs::path(run_dir) / "scene.toml")
-                                              ? std::vector<std::string>{hemocosim, "resume", run_dir}
-                                              : std::vector<std::string>{hemocosim, "run", scene, "--out", run_dir};
+// A developed feeder (vessel.feeder_develop_s) is kept in `feeder_cache` for the runs whose feeder
+// is the same (a swept key that is not the feeder's: each is developed once).
+SceneRunner child_runner(const std::string& hemocosim, const std::string& feeder_cache) {
+  return [hemocosim, feeder_cache](const std::string& scene, const std::string& run_dir, const std::string& log_path,
+                                   const std::function<void(const std::string&)>& progress) {
+    const std::vector<std::string> args =
+        fs::exists(fs::path(run_dir) / "scene.toml")
+            ? std::vector<std::string>{hemocosim, "resume", run_dir}
+            : std::vector<std::string>{hemocosim, "run", scene, "--out", run_dir, "--feeder-cache", feeder_cache};
     std::ofstream log(log_path, std::ios::app);
     log << "$";
     for (const auto& a : args) log << " " << a;
@@ -104,7 +107,9 @@ SceneRunner child_runner(const std::string& hemocosim) {
     opt.on_line = [&](const std::string& line) {
       log << line << "\n";
       log.flush();
-      if (progress && (line.rfind("step ", 0) == 0 || line.find("error") != std::string::npos)) progress(line);
+      if (progress && (line.rfind("step ", 0) == 0 || line.find("error") != std::string::npos ||
+                       line.find("the feeder develops") != std::string::npos))
+        progress(line);
     };
     const auto r = run_child(args, opt);
     log << "# hemocosim " << args[1] << " " << r.describe() << "\n";
@@ -280,7 +285,7 @@ StudyResult run_study(const StudyOptions& opt) {
   };
   const std::string hemocosim =
       !opt.hemocosim.empty() ? opt.hemocosim : (fs::path(executable_dir()) / "hemocosim").string();
-  const SceneRunner runner = opt.runner ? opt.runner : child_runner(hemocosim);
+  const SceneRunner runner = opt.runner ? opt.runner : child_runner(hemocosim, (out / "feeder-develop").string());
 
   // Decide first, so that the plan is printed before anything runs.
   std::vector<bool> done(cases.size());

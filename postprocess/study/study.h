@@ -6,6 +6,8 @@
 //   scenes/<NN-label>.toml   the scene of each run, as generated and validated
 //   runs/<NN-label>/         the run directories (`hemocosim run --out`), each with
 //                            study-finished.toml once the run ended cleanly
+//   feeder-develop/<sha256>/ a developed feeder (vessel.feeder_develop_s), run once for the runs
+//                            whose feeder's scene is the same (`hemocosim run --feeder-cache`)
 //   logs/<NN-label>.log      what `hemocosim run` printed
 //   figures/                 `hemocosim plot` of all finished runs
 //   summary.csv, report.md   the observables per swept value; the report with the figures

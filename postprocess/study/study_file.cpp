@@ -82,7 +82,8 @@ template <class... Args>
 
 // Keys --reduced writes: sweeping one of them would be overwritten.
 const std::set<std::string> kReducedKeys = {"vessel.length_um", "mesh.core_cells",     "mesh.ring_cells",
-                                            "mesh.axial_cells", "time.coupling_steps", "output.every_steps"};
+                                            "mesh.axial_cells", "time.coupling_steps", "output.every_steps",
+                                            "vessel.feeder_develop_s"};
 
 }  // namespace
 
@@ -92,8 +93,8 @@ std::string Reduction::describe() const {
   return fmt::format(
       "vessel diameter x {} (swept diameters too), length {} um, mesh {}x{} core + ring {} ({} cells per section) x {} "
       "axial (a surface vessel, a bifurcation's, keeps its shape and mesh: a narrower one's snapped cells would be "
-      "narrower than a red cell), physical time {} s at the scene's coupling interval, {} particle snapshots; every "
-      "other key as in the scene. The reduced runs test the machinery and show early-time behaviour only: cell-free layer, margination "
+      "narrower than a red cell), physical time {} s at the scene's coupling interval (a developed feeder's, vessel.feeder_develop_s, "
+      "at most as long), {} particle snapshots; every other key as in the scene. The reduced runs test the machinery and show early-time behaviour only: cell-free layer, margination "
       "and steady profiles take of order a second of physical time to form.",
       diameter_factor, length_um, core_cells, core_cells, ring_cells,
       core_cells * core_cells + 4 * core_cells * ring_cells, axial_cells, end_time_s, snapshots);
@@ -129,6 +130,9 @@ void Reduction::apply(toml::table& scene) const {
   const long steps = std::max(1L, std::min(given, static_cast<long>(std::ceil(end_time_s / dt - 1e-9))));
   set_dotted(scene, "time.coupling_steps", std::to_string(steps));
   set_dotted(scene, "output.every_steps", std::to_string(std::max(1L, steps / std::max(1, snapshots))));
+  // A developed feeder (model/feeder_develop.h) is a run of its own: no longer than the run.
+  const double develop = number("vessel.feeder_develop_s", 0);
+  if (develop > end_time_s) set_dotted(scene, "vessel.feeder_develop_s", fmt::format("{:.9g}", end_time_s));
 }
 
 // ---- Study file ------------------------------------------------------------------------------

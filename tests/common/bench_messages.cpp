@@ -11,6 +11,7 @@
 #include "cell_fields.h"
 
 #include <hemo/heartbeat_t.hpp>
+#include <hemo/resend_request_t.hpp>
 
 #include <benchmark/benchmark.h>
 
@@ -127,6 +128,51 @@ void BM_VerifyHeartbeat(benchmark::State& st) {
   st.SetBytesProcessed(static_cast<int64_t>(st.iterations() * buf.size()));
 }
 BENCHMARK(BM_VerifyHeartbeat);
+
+// What a bus pays for a resend request it does not answer, past LCM: the tag check and the
+// decode (the part a filter on the raw request's channel could skip), and then the request's
+// whole way through Bus (the envelope checks, the replay window, the decode, the lookup among what
+// it keeps, the pass-on), heard on loopback. In a busy step of the partitioned 2 x 2 run each
+// bus of a rank heard up to 8.7 kB of them (docs/notes/partitioned-exchange.md).
+void BM_VerifyDecodeResendRequest(benchmark::State& st) {
+  auto ctx = test::make_context("bench");
+  resend_request_t req{};
+  req.envelope.run_id = ctx.run_id;
+  req.envelope.sender = "particles.3";
+  req.channel = channel::of_pair(channel::fluid_state, 2, 4, 3, 4);
+  req.wanted_step = 1000;
+  std::vector<std::uint8_t> buf(static_cast<std::size_t>(req.getEncodedSize()));
+  req.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  sign(buf, ctx.secret);
+  for (auto _ : st) {
+    if (!verify(buf, ctx.secret)) st.SkipWithError("tag did not verify");
+    resend_request_t out;
+    benchmark::DoNotOptimize(out.decode(buf.data(), 0, static_cast<int>(buf.size())));
+  }
+  st.counters["bytes"] = static_cast<double>(buf.size());
+}
+BENCHMARK(BM_VerifyDecodeResendRequest);
+
+void BM_HearResendRequestForAnotherChannel(benchmark::State& st) {
+  auto ctx = test::make_context("resends");
+  Bus asker(ctx, "particles.3", {}), hearer(ctx, "fluid.1", {channel::resend});
+  const std::string wanted = channel::of_pair(channel::fluid_state, 2, 4, 3, 4);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let both subscribe
+  std::int64_t step = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    asker.request_resend(wanted, ++step);
+    std::this_thread::sleep_for(std::chrono::microseconds(200));  // in the socket before the clock runs
+    st.ResumeTiming();
+    int heard = 0;
+    while (heard == 0)
+      if (hearer.poll(1.0, [&](const Received&) { ++heard; }) == 0) {
+        st.SkipWithError("request lost");
+        break;
+      }
+  }
+}
+BENCHMARK(BM_HearResendRequestForAnotherChannel)->Unit(benchmark::kMicrosecond);
 
 // One coupling exchange over LCM on loopback: fluid state one way, feedback the other, each
 // process listening to its node's channels, as in a run; the second argument 1: sealed.

@@ -125,6 +125,43 @@ TEST(Bus, KeptMessageIsPublishedAgainOnRequest) {
   EXPECT_EQ(alice.counters().resent, 1u);
 }
 
+// What a loss costs is counted apart in the process's traffic (common/traffic.h): the first
+// publish and its first receipt by each bus are not, the request, the answer and every copy a bus
+// is handed again are, whole (in one process both buses add to the same counters).
+TEST(Bus, ResendsAreCountedApartFromFirstPublishes) {
+  auto ctx = test::make_context("resent");
+  Bus alice(ctx, "alice"), bob(ctx, "bob");
+  auto drain = [&] {
+    collect(alice, 0.3, 100);
+    collect(bob, 0.3, 100);
+  };
+  RankTraffic::take();
+  step_order_t o{};
+  alice.publish(channel::step, o, 7, /*keep=*/true);
+  drain();
+  const TrafficBytes first = RankTraffic::take();
+  EXPECT_GT(first.sent, 0u);
+  EXPECT_GT(first.received, 0u);
+  EXPECT_EQ(first.resent, 0u);
+  EXPECT_EQ(first.received_again, 0u);
+
+  bob.request_resend(channel::step, 7);  // as if the first copy had been lost
+  drain();
+  const TrafficBytes again = RankTraffic::take();
+  EXPECT_EQ(alice.counters().resent, 1u);
+  EXPECT_GT(again.sent, first.sent);  // the request and the message again
+  EXPECT_EQ(again.resent, again.sent);
+  EXPECT_GE(again.received, first.received);
+  EXPECT_EQ(again.received_again, again.received);
+
+  alice.publish(channel::step, o, 8, /*keep=*/true);  // the next step: a first publish again
+  drain();
+  const TrafficBytes next = RankTraffic::take();
+  EXPECT_EQ(next.sent, first.sent);
+  EXPECT_EQ(next.resent, 0u);
+  EXPECT_EQ(next.received_again, 0u);
+}
+
 // A request is answered by the bus that kept the message and passed on by every other (so that
 // `hemocosim monitor` sees the requests; it used to swallow them and always showed 0).
 TEST(Bus, ARequestSomeoneElseKeepsIsPassedOn) {

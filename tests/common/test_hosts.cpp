@@ -132,7 +132,7 @@ launcher = "local"
   EXPECT_EQ(s.hosts.particles, "b:2,c:2");
   EXPECT_EQ(s.run.particle_ranks, 4);
   EXPECT_EQ(s.run.fluid_ranks, 1);
-  EXPECT_EQ(s.hosts.launcher, "local");
+  EXPECT_EQ(s.hosts.launcher, Launcher::local);
   EXPECT_EQ(s.hosts.launch_command, kDefaultLaunchCommand);
   EXPECT_EQ(s.run.bus_ttl, -1);
 
@@ -156,7 +156,7 @@ launcher = "local"
 
 TEST(Hosts, TransportKeysAreReadAndValidated) {
   const Scene m = load_scene(test::write_temp(std::string(test::kMinimalScene)));
-  EXPECT_EQ(m.hosts.transport, "multicast");
+  EXPECT_EQ(m.hosts.transport, Transport::multicast);
   EXPECT_FALSE(m.hosts.tcp());
   EXPECT_EQ(m.hosts.relay_address, "auto");
   EXPECT_EQ(m.hosts.relay_port, 0);

@@ -42,7 +42,7 @@ class RuntimeTest : public ::testing::Test {
     scene_.run.fluid_command = "fake-fluid";
     scene_.run.particle_command = "fake-particles";
     // The fake nodes compute a step at once, not one after the other.
-    scene_.coupling_scheme = "parallel";
+    scene_.coupling_scheme = CouplingScheme::parallel;
   }
   void TearDown() override {
     std::error_code ec;

@@ -53,6 +53,26 @@ TEST(MonitorStats, LatencyIsKeptPerDirectionAndEmptiedEachInterval) {
   EXPECT_TRUE(next["latency_ms"]["FLUID_STATE"]["mean"].is_null());
 }
 
+// The partitioned exchange's pairs (FLUID_STATE.<f>.<p>, PARTICLE_FEEDBACK.<f>.<p>) are their
+// direction's: their latency is kept with it, and a pair's message seen twice was resent.
+TEST(MonitorStats, APairsChannelCountsInItsDirectionsLatency) {
+  MonitorStats s("run1");
+  s.close_interval(0, 0);
+  send(s, "FLUID_STATE.0.1", "fluid", 1, 0.1, 200);
+  send(s, "FLUID_STATE.1.0", "fluid.1", 1, 0.2, 400);
+  send(s, "PARTICLE_FEEDBACK.1.1", "particles.1", 1, 0.3, 300);
+  send(s, "PARTICLE_FEEDBACK.1.1", "particles.1", 1, 0.4, 300);  // again
+  const auto row = s.close_interval(1, 1);
+  const auto& l = row["latency_ms"];
+  EXPECT_EQ(l.size(), 4u);
+  EXPECT_EQ(l["FLUID_STATE"]["n"], 2);
+  EXPECT_NEAR(l["FLUID_STATE"]["mean"].get<double>(), 0.3, 1e-6);
+  EXPECT_NEAR(l["FLUID_STATE"]["max"].get<double>(), 0.4, 1e-6);
+  EXPECT_EQ(l["PARTICLE_FEEDBACK"]["n"], 2);
+  EXPECT_EQ(row["channels"]["FLUID_STATE.1.0"]["msgs"], 1);  // the bytes stay per channel
+  EXPECT_EQ(row["resends"]["repeated_messages"], 1);
+}
+
 TEST(MonitorStats, AMessageWithoutASendStampHasNoLatency) {
   MonitorStats s("run1");
   s.message("STEP", "coordinator", 1, 10, 0, 123456, 0.5);
@@ -217,7 +237,7 @@ TEST(MonitorStats, WallShearStressIsHeldAgainstTheImposedOne) {
   scene.vessel.length = 600e-6;
   scene.plasma.viscosity = 1.2e-3;
   scene.driving.pressure_drop = 4 * 1.2e-3 * 600e-6 * 799 / 100e-6;
-  scene.mesh.wall_polygon = "inscribed";  // the exact balance reaches cos(pi/16) of the imposed
+  scene.mesh.wall_polygon = WallPolygon::inscribed;  // the exact balance reaches cos(pi/16) of the imposed
   MonitorStats s("run1", 10);
   s.balance_reference(scene);
   s.close_interval(0, 0);

@@ -29,6 +29,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <random>
@@ -872,18 +873,36 @@ TEST(RelayBus, RunDirectoryKeepsTheTransportForResume) {
   auto [dir, ctx] = RunDirectory::create(path, scene);
   EXPECT_FALSE(RunDirectory::open(path).first.transport_recorded);
   HostPlacement h;
-  h.transport = "tcp";
+  h.transport = Transport::tcp;
   h.relay_address = "10.0.0.7";
   h.relay_port = 7711;
   dir.record_transport(h);
   dir.record_bus_url("tcpq://10.0.0.7:7711");
   const auto [again, again_ctx] = RunDirectory::open(path);
   EXPECT_TRUE(again.transport_recorded);
-  EXPECT_EQ(again.placement.transport, "tcp");
+  EXPECT_EQ(again.placement.transport, Transport::tcp);
   EXPECT_EQ(again.placement.relay_address, "10.0.0.7");
   EXPECT_EQ(again.placement.relay_port, 7711);
   EXPECT_EQ(again_ctx.lcm_url, "tcpq://10.0.0.7:7711");
   EXPECT_EQ(again_ctx.run_id, ctx.run_id);
+
+  // A run.toml naming a transport there is none of is refused in one line naming the known ones.
+  std::string info;
+  {
+    std::ifstream in(path + "/run.toml");
+    info.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto at = info.find("transport = 'tcp'");
+  ASSERT_NE(at, std::string::npos) << info;
+  info.replace(at, 17, "transport = 'udp'");
+  std::ofstream(path + "/run.toml") << info;
+  try {
+    RunDirectory::open(path);
+    ADD_FAILURE() << "a run.toml with transport 'udp' was opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("hosts.transport 'udp' is none of multicast, tcp"), std::string::npos)
+        << e.what();
+  }
   std::filesystem::remove_all(path);
   std::filesystem::remove(scene);
 }

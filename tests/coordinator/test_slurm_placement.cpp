@@ -39,7 +39,7 @@ class ScopedEnv {
 
 Scene slurm_scene(int fluid_ranks, int particle_ranks) {
   Scene s;
-  s.hosts.launcher = "slurm";
+  s.hosts.launcher = Launcher::slurm;
   s.run.fluid_ranks = fluid_ranks;
   s.run.particle_ranks = particle_ranks;
   return s;
@@ -76,6 +76,6 @@ TEST(SlurmPlacement, OutsideAnAllocationTheRunIsRefusedInOneLine) {
     EXPECT_EQ(what.find('\n'), std::string::npos) << what;
   }
   Scene local = slurm_scene(1, 1);
-  local.hosts.launcher = "ssh";
+  local.hosts.launcher = Launcher::ssh;
   EXPECT_EQ(placed_in_allocation(local).hosts.particles, "");  // other launchers: unchanged
 }

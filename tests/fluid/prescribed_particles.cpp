@@ -290,7 +290,7 @@ int main(int argc, char** argv) {
   try {
     scene = hemo::load_scene(scene_path);
     ctx.load_secret();
-    port = std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, 1, scene.coupling_scheme == "parallel");
+    port = std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, 1, scene.coupling_scheme == hemo::CouplingScheme::parallel);
   } catch (const std::exception& e) {
     std::cerr << "hemocosim-prescribed-particles: error: " << one_line(e.what()) << "\n";
     return 1;

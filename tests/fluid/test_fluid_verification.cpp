@@ -99,7 +99,9 @@ PoiseuilleRun poiseuille(int core, int ring, const std::string& mode = "--mode n
   const hemo::Vessel vessel{100e-6, 600e-6};
   const double R = vessel.radius(), dP = 4 * kMu * vessel.length * 799 / vessel.diameter;
   const double a = dP / (4 * kMu * vessel.length), umax = a * R * R;
-  const auto mesh = hemo::make_vessel_mesh(vessel, hemo::MeshSpec{core, ring, s.axial, wall_polygon});
+  hemo::MeshSpec spec{core, ring, s.axial};
+  hemo::choice_named(wall_polygon, spec.wall_polygon);
+  const auto mesh = hemo::make_vessel_mesh(vessel, spec);
   const auto r2 = cell_mean_r2(mesh);
   out.cells = read_state(r.dir + "/state.csv");
   EXPECT_EQ(out.cells.size(), static_cast<std::size_t>(mesh.n_cells));

@@ -37,7 +37,7 @@ Built build(int core, int ring, int axial, hemo::Vessel v = paper_vessel(),
   spec.core_cells = core;
   spec.ring_cells = ring;
   spec.axial_cells = axial;
-  spec.wall_polygon = wall_polygon;
+  hemo::choice_named(wall_polygon, spec.wall_polygon);
   Built b{hemo::make_vessel_mesh(v, spec), {}};
   b.geo = hemo::compute_geometry(b.mesh);
   return b;
@@ -150,7 +150,7 @@ TEST(VesselMesh, WallPolygonTouchesOrIsInscribedInTheCircleAndHasTheHydraulicDia
       const auto& wall = m.patch("wall");
       hemo::MeshSpec spec;
       spec.core_cells = n;
-      spec.wall_polygon = polygon;
+      hemo::choice_named(polygon, spec.wall_polygon);
       const double corner = polygon == "inscribed" ? R : R / std::cos(kPi / (4 * n));
       EXPECT_NEAR(spec.wall_corner_radius() * R, corner, 1e-15);
       double wall_area = 0, volume = 0;

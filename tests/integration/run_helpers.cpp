@@ -107,6 +107,8 @@ Snapshot read_snapshot(const std::string& h5_path, const std::string& name) {
   s.species = read_dataset<signed char>(g, "species", H5T_NATIVE_SCHAR, 1);
   s.position = read_dataset<double>(g, "position", H5T_NATIVE_DOUBLE, 3);
   s.velocity = read_dataset<double>(g, "velocity", H5T_NATIVE_DOUBLE, 3);
+  if (H5Lexists(g, "orientation", H5P_DEFAULT) > 0)
+    s.orientation = read_dataset<double>(g, "orientation", H5T_NATIVE_DOUBLE, 4);
   H5Gclose(g);
   H5Fclose(f);
   return s;

@@ -44,6 +44,7 @@ struct Snapshot {
   std::vector<long long> id;
   std::vector<signed char> species;
   std::vector<double> position, velocity;  // N x 3, row-major
+  std::vector<double> orientation;         // N x 4 (w, x, y, z); empty when the file has none
 };
 std::vector<std::string> snapshot_names(const std::string& h5_path);
 Snapshot read_snapshot(const std::string& h5_path, const std::string& name);

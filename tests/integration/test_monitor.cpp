@@ -4,14 +4,17 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <map>
 #include <lcm/lcm-cpp.hpp>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -35,10 +38,12 @@ std::vector<json> json_lines(const std::string& text) {
 struct LiveRun {
   std::string dir;
   std::future<CommandResult> result;
-  explicit LiveRun(const std::string& name, long steps, const std::string& run_keys = "") : dir(fresh_run_dir(name)) {
+  explicit LiveRun(const std::string& name, long steps, const std::string& run_keys = "",
+                   const std::string& ranks = "")
+      : dir(fresh_run_dir(name)) {
     std::ofstream(dir + ".toml") << small_scene_text(steps, run_keys);
-    result =
-        std::async(std::launch::async, [d = dir] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d); });
+    result = std::async(std::launch::async,
+                        [d = dir, ranks] { return run(bin("hemocosim") + " run " + d + ".toml --out " + d + ranks); });
     wait_until_stepping(dir);
   }
   // A test that stops early must not leave the run going (nor wait for its 100,000 steps).
@@ -186,6 +191,38 @@ TEST(Monitor, JsonLinesOfARealRunAgreeWithItsMetrics) {
 
 // The live page in Debian's chromium, headless: its script fetched the monitor's rows and drew
 // every plot with them, during the run and, once it has ended, up to its very last step.
+// A partitioned run (2 x 2) has no whole-mesh FLUID_STATE or PARTICLE_FEEDBACK: a monitor started
+// while it runs asks for the nodes' hellos, learns their rank counts, listens to the pairs'
+// channels (FLUID_STATE.<f>.<p>, PARTICLE_FEEDBACK.<f>.<p>) and shows their latency in their
+// direction's, and the ranks' own reports with their bytes, resends apart.
+TEST(Monitor, APartitionedRunsPairsHaveTheirDirectionsLatency) {
+  LiveRun r("monitor-pairs", 5000, "", " --np-fluid 2 --np-particles 2");
+  const auto mon = run("(" + bin("hemocosim") + " monitor " + r.dir + " --json --interval 0.5 --duration 6 2> " +
+                       r.dir + "-monitor.err)");
+  r.interrupt();
+  r.result.get();
+  ASSERT_EQ(mon.exit_code, 0) << mon.output;
+  std::vector<json> rows;
+  ASSERT_NO_THROW(rows = json_lines(mon.output)) << mon.output;
+  std::map<std::string, long> latencies;
+  std::set<std::string> pairs;
+  bool rank_bytes = false;
+  for (const auto& row : rows) {
+    for (const auto& [channel, l] : row["latency_ms"].items()) latencies[channel] += l["n"].get<long>();
+    for (const auto& [channel, c] : row["channels"].items())
+      if (std::count(channel.begin(), channel.end(), '.') == 2) pairs.insert(channel);
+    if (row["diagnostics"].contains("particles")) {
+      const auto& v = row["diagnostics"]["particles"]["values"];
+      rank_bytes |= v.contains("rank1_sent_B") && v.contains("rank1_resent_B") && v.contains("rank1_halo_B");
+    }
+  }
+  EXPECT_GT(latencies["FLUID_STATE"], 0);
+  EXPECT_GT(latencies["PARTICLE_FEEDBACK"], 0);
+  for (const char* pair : {"FLUID_STATE.0.0", "FLUID_STATE.1.1", "PARTICLE_FEEDBACK.0.1", "PARTICLE_FEEDBACK.1.0"})
+    EXPECT_TRUE(pairs.count(pair)) << pair;
+  EXPECT_TRUE(rank_bytes);
+}
+
 TEST(Monitor, LivePageDrawsTheRunInAHeadlessBrowser) {
   if (chromium().empty()) GTEST_SKIP() << "chromium is not installed (deploy/install-deps.sh installs it)";
   LiveRun r("monitor-page", 100000);

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -160,6 +161,139 @@ TEST(OpenRun, SwappedParticleNodeGoesOnWithItsCounts) {
   expect_counts_balance(m);
   EXPECT_GT(count_at(m, "rbc_inserted", 120), count_at(m, "rbc_inserted", k)) << "cells entered after the swap";
   EXPECT_GE(count_at(m, "rbc_inserted", k + 1), count_at(m, "rbc_inserted", k)) << "the counts went on";
+}
+
+namespace {
+// open_small.toml with its feeder developed first for `develop_s` (vessel.feeder_develop_s), a
+// checkpoint every 10 steps, `steps` steps, and `run_keys` in its [run] table.
+std::string developed_open_scene(const std::string& develop_s, long steps, const std::string& run_keys = "") {
+  std::string s = open_scene_with_checkpoints(10);
+  const std::string ends = "ends = \"open\"", count = "coupling_steps = 40", run = "[run]";
+  s.replace(s.find(ends), ends.size(), ends + "\nfeeder_develop_s = " + develop_s);
+  s.replace(s.find(count), count.size(), "coupling_steps = " + std::to_string(steps));
+  s.replace(s.find(run), run.size(), run + "\n" + run_keys);
+  return s;
+}
+}  // namespace
+
+// vessel.feeder_develop_s: the coordinator first runs the feeder alone (a periodic tube, 10 steps
+// here) into the run's feeder-develop (in the cache given, linked); the run's feeder starts with
+// that run's last cells (as many), and the vessel with copies of those of them that fit in it:
+// each copy at its source's position (z on the period) moved onto the inlet, with its velocity
+// and orientation as the develop run's last snapshot has them. The counts balance at every step.
+// A second run of the same scene with the same cache uses the developed feeder as it is; stopped
+// and resumed it does not develop it again, and ends as the first, bit for bit.
+TEST(OpenRun, ADevelopedFeederStartsTheRunWithTheDevelopRunsLastCells) {
+  const std::string a = fresh_run_dir("open-developed"), b = fresh_run_dir("open-developed-parts");
+  const std::string cache = fresh_run_dir("open-developed-cache");
+  std::ofstream(a + ".toml") << developed_open_scene("2e-4", 20);
+  const auto first = run(bin("hemocosim") + " run " + a + ".toml --out " + a + " --feeder-cache " + cache);
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  EXPECT_NE(first.output.find("the feeder develops on its own for 0.0002 s (10 steps)"), std::string::npos)
+      << first.output;
+  const std::string develop = a + "/feeder-develop";
+  ASSERT_TRUE(std::filesystem::is_symlink(develop)) << "not linked from the cache";
+  EXPECT_EQ(std::filesystem::canonical(develop).parent_path(), std::filesystem::canonical(cache));
+
+  const hemo::Scene open = hemo::load_scene(a + "/scene.toml");
+  const hemo::Scene tube = hemo::load_scene(develop + "/scene.toml");
+  const hemo::FeederLayout feeder = hemo::feeder_layout(open);
+  ASSERT_EQ(tube.time.coupling_steps, 10);
+  const auto developed_names = snapshot_names(develop + "/particles.h5");
+  ASSERT_EQ(std::stol(developed_names.back()), 10);
+  const auto developed = read_snapshot(develop + "/particles.h5", developed_names.back());
+  const auto start = read_snapshot(a + "/particles.h5", snapshot_names(a + "/particles.h5").front());
+  ASSERT_EQ(start.time_s, 0.0);
+
+  const auto m = read_metrics(a);
+  EXPECT_EQ(count_at(m, "particles", 0) - count_at(m, "particles_in_vessel", 0),
+            static_cast<double>(developed.id.size()))
+      << "the feeder holds the develop run's cells, as many";
+  expect_counts_balance(m);
+
+  // The copies the vessel starts with: the develop run's cells inside the vessel's length, clear of
+  // its wall by a radius and the placement's gap.
+  std::vector<bool> matched(start.id.size(), false);
+  std::size_t expected = 0;
+  for (std::size_t i = 0; i < developed.id.size(); ++i) {
+    const double d = developed.species[i] == 0 ? open.rbc.diameter : open.platelet.diameter;
+    const double x = developed.position[3 * i], y = developed.position[3 * i + 1];
+    const double z = std::fmod(std::fmod(developed.position[3 * i + 2], feeder.period) + feeder.period, feeder.period);
+    if (!(z < feeder.vessel_length && std::hypot(x, y) <= open.vessel.radius() - 0.52 * d)) continue;
+    ++expected;
+    std::size_t found = start.id.size();
+    for (std::size_t k = 0; k < start.id.size(); ++k)
+      if (!matched[k] && start.species[k] == developed.species[i] &&
+          std::abs(start.position[3 * k] - x - feeder.inlet_x) < 1e-15 &&
+          std::abs(start.position[3 * k + 1] - y - feeder.inlet_y) < 1e-15 &&
+          std::abs(start.position[3 * k + 2] - z) < 1e-15)
+        found = k;
+    ASSERT_LT(found, start.id.size()) << "no copy of the develop run's cell " << developed.id[i];
+    matched[found] = true;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(start.velocity[3 * found + c], developed.velocity[3 * i + c]) << developed.id[i];
+    for (int c = 0; c < 4 && !developed.orientation.empty(); ++c)
+      EXPECT_EQ(start.orientation[4 * found + c], developed.orientation[4 * i + c]) << developed.id[i];
+  }
+  EXPECT_EQ(start.id.size(), expected) << "the vessel holds copies of the developed cells and nothing else";
+  EXPECT_GT(expected, 0u);
+
+  const auto stopped = run(bin("hemocosim") + " run " + a + ".toml --out " + b + " --feeder-cache " + cache +
+                           " --stop-after-step 10");
+  ASSERT_EQ(stopped.exit_code, 0) << stopped.output;
+  EXPECT_NE(stopped.output.find("developed earlier"), std::string::npos) << stopped.output;
+  const auto resumed = run(bin("hemocosim") + " resume " + b);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_EQ(resumed.output.find("feeder develops"), std::string::npos) << resumed.output;
+  const auto mb = read_metrics(b);
+  for (const char* c : kCounts)
+    for (long step = 0; step <= 20; ++step) EXPECT_EQ(count_at(m, c, step), count_at(mb, c, step)) << c << " " << step;
+  expect_same_snapshots(a, b);
+}
+
+// Interrupted (SIGINT) while its feeder develops, the run stops with the develop run's checkpoint
+// and before its own nodes start; `hemocosim resume` goes on with the develop run from that
+// checkpoint, then runs the scene from its start.
+TEST(OpenRun, InterruptedWhileItsFeederDevelopsTheRunResumesTheDevelopRunThenStarts) {
+  const std::string dir = fresh_run_dir("open-develop-interrupted");
+  std::ofstream(dir + ".toml") << developed_open_scene("1.2e-3", 20);  // 60 develop steps
+  {
+    Background going(bin("hemocosim") + " run " + dir + ".toml --out " + dir, dir + "-first");
+    wait_for_step(dir + "/feeder-develop", 15);
+    going.signal(SIGINT);
+    const auto stopped = going.done.get();
+    EXPECT_NE(stopped.exit_code, 0);
+    EXPECT_NE(error_line(file_text(going.err)).find("the feeder's develop run " + dir + "/feeder-develop did not "
+                                                    "finish: interrupted after step "),
+              std::string::npos)
+        << file_text(going.err);
+  }
+  ASSERT_FALSE(std::filesystem::exists(dir + "/metrics.csv")) << "the run's own nodes started";
+  const auto resumed = run(bin("hemocosim") + " resume " + dir);
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_NE(resumed.output.find("starts after its feeder's develop run"), std::string::npos) << resumed.output;
+  const long from = step_after(resumed.output, "/feeder-develop resumes from step ");
+  EXPECT_GE(from, 10) << resumed.output;
+  EXPECT_LT(from, 60) << resumed.output;
+  const auto m = read_metrics(dir);
+  ASSERT_EQ(m.at({"particles", "particles"}).size(), 21u);  // step 0 and 20 steps, each once
+  expect_counts_balance(m);
+  const auto developed = read_metrics(dir + "/feeder-develop");
+  EXPECT_EQ(developed.at({"particles", "particles"}).rbegin()->first, 60);
+}
+
+// A develop run that fails (here the fluid's Courant guard, which the derived scene keeps) stops
+// the run in one line naming it, before the run's own nodes start.
+TEST(OpenRun, AFailedDevelopRunStopsTheRunInOneLineNamingIt) {
+  const std::string dir = fresh_run_dir("open-develop-fails");
+  std::ofstream(dir + ".toml") << developed_open_scene("2e-4", 20, "max_courant = 1e-9");
+  const auto r = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir);
+  EXPECT_NE(r.exit_code, 0);
+  const std::string line = error_line(r.output);
+  EXPECT_NE(line.find("the feeder's develop run " + dir + "/feeder-develop did not finish: "), std::string::npos)
+      << r.output;
+  EXPECT_NE(line.find("Courant"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/metrics.csv")) << "the run's own nodes started";
 }
 
 // Blood through a fed Y bifurcation (scenes/bifurcation.toml's, small): cells leave through both

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -23,11 +24,13 @@ using namespace hemo::test;
 namespace {
 
 // The small scene twice as long on cells half as long (24 layers of 5 um, 480 cells), so that
-// a particle rank's half of the vessel, with its margin and halo, is not the whole mesh.
-std::string long_scene_text(const std::string& run_keys = "", const std::string& more = "") {
+// a particle rank's half of the vessel, with its margin and halo, is not the whole mesh; or
+// `layers` such layers.
+std::string long_scene_text(const std::string& run_keys = "", const std::string& more = "", int layers = 24) {
   std::string text = small_scene_text(12, run_keys, more);
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"length_um = 60", "length_um = 120"},
-                                 {"axial_cells = 6", "axial_cells = 24"}}) {
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"length_um = 60", "length_um = " + std::to_string(5 * layers)},
+        {"axial_cells = 6", "axial_cells = " + std::to_string(layers)}}) {
     const auto at = text.find(from);
     if (at == std::string::npos) throw std::runtime_error("coupled_small.toml lost its " + from);
     text.replace(at, from.size(), to);
@@ -41,9 +44,9 @@ struct RankedRun {
 };
 
 RankedRun run_long(const std::string& name, const std::string& ranks, const std::string& run_keys = "",
-                   const std::string& more = "") {
+                   const std::string& more = "", int layers = 24) {
   RankedRun r{fresh_run_dir(name), {}};
-  std::ofstream(r.dir + ".toml") << long_scene_text(run_keys, more);
+  std::ofstream(r.dir + ".toml") << long_scene_text(run_keys, more, layers);
   const auto result = run(bin("hemocosim") + " run " + r.dir + ".toml --out " + r.dir + ranks);
   EXPECT_EQ(result.exit_code, 0) << result.output;
   r.metrics = read_metrics(r.dir);
@@ -138,6 +141,64 @@ TEST(PartitionedRun, TheDragOverTheVoidFractionSumsTheSolidVolumeOfEveryRank) {
   const RankedRun one = run_long("partitioned-cfdem-1x1", "", "", form);
   const RankedRun two = run_long("partitioned-cfdem-2x2", " --np-fluid 2 --np-particles 2", "", form);
   expect_same_run_to_round_off(one, two, "cfdem_B, 2 x 2");
+}
+
+// coupling.implicit_drag = "co_relaxed": every DEM step each cell's plasma answers the drag of
+// every particle in it, whichever rank holds the particle. Each particle rank sums those per-cell
+// impulses with the ranks sharing its cells only (CellHaloSum, no all-reduce of the whole mesh):
+// on 2 and 3 particle ranks (one fluid rank, so that only the particle ranks' sums differ) and on
+// 2 x 2 the run ends as the one-rank run to round-off. Measured: 1 x 2 and 1 x 3, 1.4e-20 m and
+// 3e-15 and 2e-14 of the fastest (the partials' sums alone); 2 x 2, 7.4e-14 m and 1.3e-7 (the
+// decomposed fluid's sums, as without the co-relaxation). With each rank's sums left its own (the
+// halo sum left out), all three end 1.45e-8 m and 5.4e-3 of the fastest off.
+const std::string kCoRelaxed = "[coupling]\nimplicit_drag = \"co_relaxed\"\n";
+
+const RankedRun& co_relaxed_one_by_two() {
+  static const RankedRun r = run_long("partitioned-corelaxed-1x2", " --np-particles 2", "", kCoRelaxed);
+  return r;
+}
+
+TEST(PartitionedRun, CoRelaxedOnTwoAndThreeParticleRanksEndsAsOnOne) {
+  const RankedRun one = run_long("partitioned-corelaxed-1x1", "", "", kCoRelaxed);
+  const RankedRun one_by_three = run_long("partitioned-corelaxed-1x3", " --np-particles 3", "", kCoRelaxed);
+  const RankedRun two_by_two = run_long("partitioned-corelaxed-2x2", " --np-fluid 2 --np-particles 2", "", kCoRelaxed);
+  expect_same_run_to_round_off(one, co_relaxed_one_by_two(), "co_relaxed, 1 x 2");
+  expect_same_run_to_round_off(one, one_by_three, "co_relaxed, 1 x 3");
+  expect_same_run_to_round_off(one, two_by_two, "co_relaxed, 2 x 2");
+}
+
+// What a particle rank moves for the co-relaxation scales with the cells it shares with other
+// ranks, not with the mesh: the same vessel twice as long (48 layers of 5 um, 960 cells, twice the
+// particles) on 2 particle ranks shares the same layers at each rank's two ends, so every rank's
+// halo bytes a step are the same as on 24 layers, to the byte. A step's halo is one solid-volume
+// sum (8 B a shared cell) and one impulse sum (32 B a shared cell) per force evaluation (one a
+// DEM step, and the first run's setup); the all-reduce it replaces moved 32 B for every cell of
+// the mesh every evaluation, so twice as much on the longer vessel.
+TEST(PartitionedRun, ACoRelaxedRanksBytesScaleWithItsSharedCellsNotWithTheMesh) {
+  const RankedRun& short_run = co_relaxed_one_by_two();
+  const RankedRun long_run = run_long("partitioned-corelaxed-1x2-long", " --np-particles 2", "", kCoRelaxed, 48);
+  const auto substeps = over_steps(short_run, "particles", "dem_substeps");
+  ASSERT_EQ(substeps.size(), 12u);
+  ASSERT_EQ(over_steps(long_run, "particles", "dem_substeps"), substeps);
+  for (int r = 0; r < 2; ++r) {
+    const std::string name = "rank" + std::to_string(r) + "_halo_B";
+    const auto a = over_steps(short_run, "particles", name), b = over_steps(long_run, "particles", name);
+    ASSERT_EQ(a.size(), 12u) << name;
+    ASSERT_EQ(b.size(), 12u) << name;
+    const double evaluations = substeps[1];
+    const double shared = a[1] / (8 + 32 * evaluations);
+    std::printf("[ info ] particle rank %d: %.0f B of halo a step, %.0f B a DEM step, on 480 and on 960 cells: %.0f "
+                "shared cells; the whole-mesh all-reduce moved %.0f and %.0f B a DEM step\n",
+                r, a[1], a[1] / evaluations, shared, 32.0 * 480, 32.0 * 960);
+    EXPECT_EQ(shared, std::round(shared)) << name << ": not a whole number of cells";
+    EXPECT_GT(shared, 0) << name;
+    EXPECT_LT(shared, 0.5 * 480) << name;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const double want = shared * (8 + 32 * (substeps[i] + (i == 0 ? 1 : 0)));  // the first run's setup
+      EXPECT_EQ(a[i], want) << name << ", step " << i + 1;
+      EXPECT_EQ(b[i], want) << name << ", step " << i + 1 << " on 960 cells";
+    }
+  }
 }
 
 // What each rank of the 2 x 2 run moves: every fluid rank sends its partitions and, but the
@@ -275,9 +336,14 @@ TEST(PartitionedRun, TheCoordinatorHeardEveryRanksReportOfEveryStep) {
 // at least 3 of those are lost too. Each asks the rank that kept the lost one again, which
 // answers from a thread of its own while it waits in OpenFOAM's collectives or runs the DEM, and
 // the run ends bit for bit as without.
+const RankedRun& lossy_two_by_two() {
+  static const RankedRun r = run_long("partitioned-2x2-lossy", " --np-fluid 2 --np-particles 2", "drop_every = 7\n");
+  return r;
+}
+
 TEST(PartitionedRun, LostPartitionsAreAskedAgainAndLeaveTheResultUnchanged) {
   const RankedRun& clean = two_by_two();
-  const RankedRun lossy = run_long("partitioned-2x2-lossy", " --np-fluid 2 --np-particles 2", "drop_every = 7\n");
+  const RankedRun& lossy = lossy_two_by_two();
   const auto names = snapshot_names(clean.dir + "/particles.h5");
   ASSERT_EQ(names, snapshot_names(lossy.dir + "/particles.h5"));
   for (const auto& name : names) {
@@ -287,6 +353,41 @@ TEST(PartitionedRun, LostPartitionsAreAskedAgainAndLeaveTheResultUnchanged) {
     EXPECT_EQ(a.velocity, b.velocity) << name;
   }
   EXPECT_EQ(over_steps(clean, "fluid", "mean_velocity_m_s"), over_steps(lossy, "fluid", "mean_velocity_m_s"));
+}
+
+// What the losses cost is counted apart (common/traffic.h): in the lossy run every rank of both
+// nodes asks again and is asked again, so resends and copies had again show up in every rank's
+// rank<r>_resent_B and rank<r>_received_again_B, and what is left, sent less resent and received
+// less had again, is what the clean run moved: the same partitions, reports and orders (the
+// clean run's own few resends left out too), within the heartbeats' share of a longer run. Steps
+// after the first: the first step's report may or may not hold the step-0 state, published at
+// start-up, depending on when it arrived.
+TEST(PartitionedRun, ResendsAreCountedApartFromWhatARankMustMove) {
+  const RankedRun& clean = two_by_two();
+  const RankedRun& lossy = lossy_two_by_two();
+  for (const char* node : {"fluid", "particles"})
+    for (int r = 0; r < 2; ++r) {
+      const std::string rank = "rank" + std::to_string(r);
+      auto totals = [&](const RankedRun& run) {
+        const auto sent = over_steps(run, node, rank + "_sent_B"), resent = over_steps(run, node, rank + "_resent_B");
+        const auto received = over_steps(run, node, rank + "_received_B");
+        const auto again = over_steps(run, node, rank + "_received_again_B");
+        EXPECT_EQ(resent.size(), sent.size()) << run.dir << " " << node << " " << rank;
+        EXPECT_EQ(again.size(), received.size()) << run.dir << " " << node << " " << rank;
+        for (std::size_t i = 0; i < std::min(sent.size(), resent.size()); ++i) EXPECT_LE(resent[i], sent[i]);
+        for (std::size_t i = 0; i < std::min(received.size(), again.size()); ++i) EXPECT_LE(again[i], received[i]);
+        auto after_first = [](const std::vector<double>& v) { return v.empty() ? 0.0 : sum(v) - v.front(); };
+        return std::array<double, 4>{after_first(sent), after_first(resent), after_first(received), after_first(again)};
+      };
+      const auto c = totals(clean), l = totals(lossy);
+      std::printf("[ info ] %s %s: sent %.0f B (resent %.0f) clean, %.0f B (resent %.0f) lossy; received %.0f B "
+                  "(again %.0f) clean, %.0f B (again %.0f) lossy\n",
+                  node, rank.c_str(), c[0], c[1], l[0], l[1], c[2], c[3], l[2], l[3]);
+      EXPECT_GT(l[1], 0) << node << " " << rank << " resent nothing in the lossy run";
+      EXPECT_GT(l[3], 0) << node << " " << rank << " had nothing again in the lossy run";
+      EXPECT_NEAR(l[0] - l[1], c[0] - c[1], 0.05 * (c[0] - c[1])) << node << " " << rank << ", sent";
+      EXPECT_NEAR(l[2] - l[3], c[2] - c[3], 0.05 * (c[2] - c[3])) << node << " " << rank << ", received";
+    }
 }
 
 // A particle rank takes its state after the order (RankedPort::advance), while the fluid solves:

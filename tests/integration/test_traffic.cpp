@@ -119,6 +119,13 @@ TEST(Traffic, TheFluidMastersStateBytesAreItsMessagesAndGrowWithTheCells) {
     EXPECT_GE(profile.at({"particles", "rank0_received_B_per_step"}), message) << r->dir;
     EXPECT_GT(profile.at({"coordinator", "rank0_sent_B_per_step"}), 0) << r->dir;
     EXPECT_LT(profile.at({"coordinator", "rank0_received_B_per_step"}), message) << r->dir;
+    // What loss cost is beside each process's bytes, a part of them (common/traffic.h).
+    for (const char* node : {"fluid", "particles", "coordinator"}) {
+      EXPECT_LE(profile.at({node, "rank0_resent_B_per_step"}), profile.at({node, "rank0_sent_B_per_step"}))
+          << r->dir << " " << node;
+      EXPECT_LE(profile.at({node, "rank0_received_again_B_per_step"}), profile.at({node, "rank0_received_B_per_step"}))
+          << r->dir << " " << node;
+    }
   }
 }
 

@@ -123,9 +123,9 @@ TEST(Scene, ClosuresShapeDepositionAndTimingKeysHaveModelDefaults) {
   EXPECT_EQ(s.platelet.torque, "oblate");
   EXPECT_NEAR(s.platelet.semi_axis_a, 2.06e-6, 1e-18);
   EXPECT_NEAR(s.platelet.semi_axis_c, 0.52e-6, 1e-18);
-  EXPECT_EQ(s.platelet.orientation_integrator, "splitting");
+  EXPECT_EQ(s.platelet.orientation_integrator, OrientationMethod::splitting);
   EXPECT_EQ(s.solid_fraction, "sphere_overlap");
-  EXPECT_EQ(s.implicit_drag, "interval_response");
+  EXPECT_EQ(s.implicit_drag, ImplicitDrag::interval_response);
   EXPECT_TRUE(s.return_held_back_momentum);
   EXPECT_EQ(s.time.steps_per_contact, 10);
   EXPECT_EQ(s.time.relaxation_factor, 0);
@@ -159,11 +159,11 @@ mass_scaling = 10
   EXPECT_EQ(t.platelet.drag, "schiller_naumann");
   EXPECT_EQ(t.platelet.lift, "shear_lift");
   EXPECT_DOUBLE_EQ(t.platelet.semi_axis_c, 1e-6);
-  EXPECT_EQ(t.platelet.orientation_integrator, "euler");
+  EXPECT_EQ(t.platelet.orientation_integrator, OrientationMethod::euler);
   EXPECT_EQ(t.solid_fraction, "centre_cell");
-  EXPECT_EQ(s.coupling_scheme, "serial");
-  EXPECT_EQ(t.coupling_scheme, "parallel");
-  EXPECT_EQ(t.implicit_drag, "instantaneous");
+  EXPECT_EQ(s.coupling_scheme, CouplingScheme::serial);
+  EXPECT_EQ(t.coupling_scheme, CouplingScheme::parallel);
+  EXPECT_EQ(t.implicit_drag, ImplicitDrag::instantaneous);
   EXPECT_FALSE(t.return_held_back_momentum);
   EXPECT_DOUBLE_EQ(t.gravity.z, -9.81);
   EXPECT_EQ(t.time.steps_per_contact, 20);
@@ -531,10 +531,10 @@ TEST(Scene, SuspensionViscositiesAreTheTablesAndNoneIsTheDefault) {
 TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   const Scene ours =
       load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
-  EXPECT_EQ(ours.fluid_velocity, "reconstructed");
+  EXPECT_EQ(ours.fluid_velocity, FluidVelocity::reconstructed);
   EXPECT_EQ(ours.fluid_force, "per_dem_step");
   EXPECT_EQ(ours.momentum, "paper");
-  EXPECT_EQ(ours.plasma_velocity, "face_flux");
+  EXPECT_EQ(ours.plasma_velocity, PlasmaVelocity::face_flux);
   for (const auto& r : numerical_readings(ours))
     EXPECT_NE(r.reading.rfind("CFDEM", 0), 0u) << r.key << ": " << r.reading;  // no reading of CFDEM's alone
 
@@ -553,7 +553,7 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   }
 
   Scene paper = ours;
-  paper.platelet.orientation_integrator = "euler";
+  paper.platelet.orientation_integrator = OrientationMethod::euler;
   EXPECT_NE(numerical_readings(paper).back().reading.find("Algorithm 1"), std::string::npos);
 
   std::map<std::string, std::string> by_key;
@@ -572,4 +572,41 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   EXPECT_FALSE(problems_of(std::string(test::kMinimalScene) +
                            "[coupling]\nfluid_force = \"held\"\nimplicit_drag = \"co_relaxed\"\n")
                    .empty());
+}
+
+// Every named option's table (model/scene_choices.h) names each value once, and a name read from
+// a scene comes back as the same value: a value added to an enum without its entry, or two
+// entries spelling one name, fail here.
+template <class E>
+void expect_choices_round_trip(int values) {
+  const auto names = choice_names<E>();
+  EXPECT_EQ(static_cast<int>(names.size()), values) << ChoiceTable<E>::key;
+  EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), names.size()) << ChoiceTable<E>::key;
+  for (int v = 0; v < values; ++v) {
+    const E value = static_cast<E>(v);
+    E read = static_cast<E>(values - 1 - v);
+    ASSERT_TRUE(choice_named(name_of(value), read)) << name_of(value);
+    EXPECT_EQ(read, value) << name_of(value);
+    EXPECT_FALSE(choice_of(value).reading.empty()) << name_of(value);
+  }
+  E untouched = static_cast<E>(0);
+  EXPECT_FALSE(choice_named("no such name", untouched));
+}
+
+TEST(Scene, EveryNamedOptionReadsBackAsItsValue) {
+  expect_choices_round_trip<CouplingScheme>(2);
+  expect_choices_round_trip<NeighbourRebuild>(2);
+  expect_choices_round_trip<WallPolygon>(2);
+  expect_choices_round_trip<FluidVelocity>(2);
+  expect_choices_round_trip<PlasmaVelocity>(2);
+  expect_choices_round_trip<OrientationMethod>(2);
+  expect_choices_round_trip<ImplicitDrag>(3);
+  // and a scene spells them as the tables do
+  const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) +
+                                              "[coupling]\nscheme = \"parallel\"\nplasma_velocity = \"cell_centre\"\n"));
+  EXPECT_EQ(s.coupling_scheme, CouplingScheme::parallel);
+  EXPECT_EQ(s.plasma_velocity, PlasmaVelocity::cell_centre);
+  const auto ps = problems_of(std::string(test::kMinimalScene) + "[coupling]\nscheme = \"jacobi\"\n");
+  ASSERT_EQ(ps.size(), 1u);
+  EXPECT_NE(ps[0].message.find("serial, parallel"), std::string::npos) << ps[0].message;
 }

@@ -34,7 +34,7 @@ Vec3 relax(std::vector<Body>& bodies, double plasma, const Vec3& u_seen, double 
       drag[i] = exponential_drag_force(r, b.beta, u_seen - b.v, Vec3::Zero());
       cell.add(0, dt * drag[i], dt * r * b.beta);
     }
-    cell.relax(MPI_COMM_NULL);
+    cell.relax(nullptr, MPI_COMM_NULL);
     for (std::size_t i = 0; i < bodies.size(); ++i) {
       Body& b = bodies[i];
       const double r = exponential_drag_ratio(b.mass, b.beta, dt);
@@ -98,7 +98,7 @@ TEST(CellPlasma, StartIntervalForgetsTheShift) {
   CellPlasmaRelaxation cell(1);
   cell.set_plasma_mass(0, 1e-12);
   cell.add(0, Vec3(0, 0, 1e-16), 1e-13);
-  cell.relax(MPI_COMM_NULL);
+  cell.relax(nullptr, MPI_COMM_NULL);
   EXPECT_LT(cell.shift(0).z(), 0.0);
   cell.start_interval();
   EXPECT_EQ(cell.shift(0), Vec3::Zero());

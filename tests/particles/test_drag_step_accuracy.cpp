@@ -81,7 +81,7 @@ TEST(DragStepAccuracy, OblatePlateletReleasedAtRestTilted) {
   s.drag = s.lift = s.torque = "oblate";
   const SpeciesForces forces(s, vessel());
   const auto rotation =
-      make_orientation_integrator("splitting", SymmetricTop::oblate_spheroid(s.mass, 2.06e-6, 0.52e-6));
+      make_orientation_integrator(hemo::OrientationMethod::splitting, SymmetricTop::oblate_spheroid(s.mass, 2.06e-6, 0.52e-6));
   const double tau = forces.mass() / forces.max_coefficient_at_rest();  // 0.21 us, broadside
   SingleParticle start;
   start.x = Vec3(0.8 * kR, 0, 0);

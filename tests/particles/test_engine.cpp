@@ -303,7 +303,7 @@ TEST(DemEngine, DragCoefficientHandedToTheFluidIsTheSlopeOfTheIntervalImpulse) {
     EXPECT_DOUBLE_EQ(response, response_du);  // a property of the particles, not of the flow
     EXPECT_NEAR(response, mass * -std::expm1(-beta_time / mass), 1e-9 * response);
 
-    fx.scene.implicit_drag = "instantaneous";
+    fx.scene.implicit_drag = hemo::ImplicitDrag::instantaneous;
     double held = 0;
     interval_impulse(u, &held);
     EXPECT_NEAR(held, beta_time, 1e-9 * beta_time) << "mass scaling " << scaling;
@@ -628,7 +628,7 @@ TEST(DemEngine, RefusesClosuresItDoesNotHave) {
 TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
   Fixture fx(0.15, false);
   fx.scene.time.mass_scaling = 10;
-  fx.scene.implicit_drag = "co_relaxed";
+  fx.scene.implicit_drag = hemo::ImplicitDrag::co_relaxed;
   const double u = 1e-3;
   fx.fluid.set_state(
       fluid_state(fx.mesh, [u](const std::array<double, 3>&, std::array<double, 3>& vel, std::array<double, 9>& g) {
@@ -645,7 +645,7 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
   const double exact = M * u / (M + m) * (1 - std::exp(-rate * time));
   std::printf("[ info ] plasma %.3g kg, red cell (DEM) %.3g kg, relaxation time %.3g s\n", M, m, time);
 
-  const auto run = [&](int substeps, const std::string& implicit_drag) {
+  const auto run = [&](int substeps, hemo::ImplicitDrag implicit_drag) {
     hemo::Scene scene = fx.scene;
     scene.implicit_drag = implicit_drag;
     DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
@@ -668,7 +668,7 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
   };
   double previous = 0;
   for (int substeps : {8, 16, 32}) {
-    const double error = std::abs(run(substeps, "co_relaxed") - exact) / exact;
+    const double error = std::abs(run(substeps, hemo::ImplicitDrag::co_relaxed) - exact) / exact;
     std::printf("[ info ] %d DEM steps per relaxation time: error %.3g\n", substeps, error);
     if (previous > 0) {
       EXPECT_GT(std::log2(previous / error), 0.7) << substeps;
@@ -677,7 +677,7 @@ TEST(DemEngine, CoRelaxedPlasmaAnswersItsParticlesDrag) {
     previous = error;
   }
   EXPECT_LT(previous, 0.02);
-  const double held = run(32, "interval_response");
+  const double held = run(32, hemo::ImplicitDrag::interval_response);
   EXPECT_NEAR(held, u * (1 - std::exp(-beta / m * time)), 0.02 * held);
   EXPECT_GT(held, 1.2 * exact);
 }
@@ -829,7 +829,7 @@ TEST(DemEngine, RunawayPlateletSpinStopsTheRunNamingIt) {
   Fixture fx(0.02);
   hemo::Scene scene = fx.scene;
   scene.momentum = "cfdem_A";  // the pressure gradient holds the slip
-  scene.platelet.orientation_integrator = "euler";
+  scene.platelet.orientation_integrator = hemo::OrientationMethod::euler;
   DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
   const double slip = 0.5, beta = 3 * hemo::units::pi * scene.plasma.viscosity * scene.platelet.diameter;
   fx.fluid.set_state(uniform_state(fx.mesh, Vec3::Zero(), Vec3(0, 0, slip * beta / scene.platelet.volume)));

@@ -25,7 +25,7 @@ constexpr double kPi = 3.14159265358979323846;
 
 // d = 100 um, L = 300 um in 6 layers of 50 um: the feeder is 8 layers, P = 400 um. Inscribed
 // polygon: the wall's corners on the circle, so its faces are chords with a gap behind them.
-const hemo::MeshSpec kSpec{4, 3, 6, "inscribed"};
+const hemo::MeshSpec kSpec{4, 3, 6, hemo::WallPolygon::inscribed};
 
 hemo::Vessel open_vessel() {
   hemo::Vessel v{100e-6, 300e-6};

@@ -9,10 +9,12 @@
 #include "cell_fields.h"
 #include "dem_engine.h"
 #include "cell_halo_sum.h"
+#include "cell_plasma.h"
 #include "dem_timing.h"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
+#include <traffic.h>
 
 #include <cmath>
 #include <cstdio>
@@ -136,7 +138,7 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
 // M_c shift_c equals minus the interval's deposited impulse, to round-off.
 TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum) {
   auto scene = PoiseuilleCase::paper_scene();
-  scene.implicit_drag = "co_relaxed";
+  scene.implicit_drag = hemo::ImplicitDrag::co_relaxed;
   scene.time.mass_scaling = 10;  // the cells' mass near their cells' plasma: a large answer
   PoiseuilleCase pc(scene);
   const CellLocator& locator = pc.locator;
@@ -158,6 +160,61 @@ TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum)
   MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
   MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   for (int k = 0; k < 3; ++k) EXPECT_EQ(lo[k], hi[k]) << "component " << k;
+}
+
+// The co-relaxation's sums over the ranks sharing each cell (CellPlasmaRelaxation::relax with a
+// CellHaloSum) move every cell a rank takes exactly as the whole-mesh all-reduce does, on every
+// rank that takes it (the same slabs as above; integer impulses, so that any order of adding
+// gives the same bits), and a step's bytes are 32 B a shared cell and peer, whatever the mesh:
+// the all-reduce moved 32 B for every cell of it.
+TEST(CellHaloSum, TheCoRelaxedPlasmaMovesAsWithTheWholeMeshAllReduce) {
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  constexpr int kCells = 24;
+  hemo::OverlapMap map;
+  map.from.resize(static_cast<std::size_t>(ranks));
+  auto needs = [&](int p, int c) {
+    const int lo = p * kCells / ranks - 1, hi = (p + 1) * kCells / ranks;  // [lo, hi], cyclic
+    for (int k = lo; k <= hi; ++k)
+      if ((k + kCells) % kCells == c) return true;
+    return false;
+  };
+  for (int p = 0; p < ranks; ++p)
+    for (int c = 0; c < kCells; ++c)
+      if (needs(p, c)) map.from[static_cast<std::size_t>(p)][0].push_back(c);
+  const CellHaloSum halo(map, rank, MPI_COMM_WORLD);
+  CellPlasmaRelaxation with_halo(kCells), whole(kCells);
+  for (CellPlasmaRelaxation* plasma : {&with_halo, &whole})
+    for (int c = 0; c < kCells; ++c) plasma->set_plasma_mass(c, 64.0 + c);
+  hemo::RankTraffic::take();
+  std::uint64_t halo_bytes = 0;
+  for (int step = 0; step < 3; ++step) {
+    // Each rank's particles in every other cell it takes (a few cells of its own untouched).
+    for (int c = 0; c < kCells; ++c)
+      if (needs(rank, c) && (c + step + rank) % 2 == 0)
+        for (CellPlasmaRelaxation* plasma : {&with_halo, &whole})
+          plasma->add(c, Vec3(1.0 + rank, -2.0 * step, 3.0), 2.0 + c % 3);
+    with_halo.relax(&halo, MPI_COMM_WORLD);
+    halo_bytes += hemo::RankTraffic::take().halo;
+    whole.relax(nullptr, MPI_COMM_WORLD);
+    hemo::RankTraffic::take();
+    for (int c = 0; c < kCells; ++c) {
+      if (!needs(rank, c)) continue;
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(with_halo.shift(c)[k], whole.shift(c)[k]) << "cell " << c << ", step " << step;
+      }
+    }
+  }
+  EXPECT_EQ(halo_bytes, 3 * halo.bytes(4));
+  std::uint64_t shared = 0;  // cells shared, once per peer
+  for (int p = 0; p < ranks; ++p)
+    if (p != rank)
+      for (int c = 0; c < kCells; ++c) shared += needs(rank, c) && needs(p, c);
+  EXPECT_EQ(halo.bytes(4), 32 * shared);
+  if (ranks > 1) {
+    EXPECT_GT(shared, 0u);
+  }
 }
 
 int main(int argc, char** argv) {

@@ -41,8 +41,8 @@ INSTANTIATE_TEST_SUITE_P(ImplicitDrag, NodeCheckpointDrag,
 
 TEST_P(NodeCheckpointDrag, ResumedNodeGoesOnBitForBitAsTheNodeThatWroteIt) {
   auto scene = contact_scene();
-  scene.implicit_drag = GetParam().implicit_drag;
-  scene.neighbour_rebuild = GetParam().neighbour_rebuild;
+  hemo::choice_named(GetParam().implicit_drag, scene.implicit_drag);
+  hemo::choice_named(GetParam().neighbour_rebuild, scene.neighbour_rebuild);
   const auto mesh = wedge_mesh(16, 8, kR, kL, "wedge16");
   const auto fluid = fluid_state(mesh, pressing_flow());
   const long K = 4, N = 4;

@@ -26,7 +26,7 @@ using TorqueFn = std::function<Vec3(const Quat&)>;
 // the exact drift, which the engine's leapfrog equals with omega at half steps), the paper's
 // Euler as kick then drift.
 void step(const OrientationIntegrator& integ, Quat& q, Vec3& l, const TorqueFn& torque, double dt) {
-  if (integ.name() == "splitting") {
+  if (integ.method() == hemo::OrientationMethod::splitting) {
     integ.kick(q, l, torque(q), 0.5 * dt);
     integ.drift(q, l, dt);
     integ.kick(q, l, torque(q), 0.5 * dt);
@@ -41,8 +41,8 @@ struct Final {
   Vec3 w;  // omega, world frame
 };
 
-Final run(const std::string& name, const TorqueFn& torque, double dt, long steps) {
-  const auto integ = make_orientation_integrator(name, kTop);
+Final run(hemo::OrientationMethod method, const TorqueFn& torque, double dt, long steps) {
+  const auto integ = make_orientation_integrator(method, kTop);
   Quat q = kQ0;
   Vec3 l = kTop.angular_momentum(kQ0, kQ0 * kOmegaBody0);
   for (long n = 0; n < steps; ++n) step(*integ, q, l, torque, dt);
@@ -78,10 +78,10 @@ TEST(Orientation, TorqueFreeTopPrecessesAsTheAnalyticSolution) {
       std::complex<double>(kOmegaBody0.x(), kOmegaBody0.y()) * std::exp(std::complex<double>(0, big_omega * t));
   const Vec3 wb_exact(w_perp.real(), w_perp.imag(), kOmegaBody0.z());
 
-  const Final s = run("splitting", kNoTorque, kDt, steps);
+  const Final s = run(hemo::OrientationMethod::splitting, kNoTorque, kDt, steps);
   const double n_err = (symmetry_axis(s.q) - n_exact).norm();
   const double w_err = ((s.q.conjugate() * s.w) - wb_exact).norm() / kOmegaBody0.norm();
-  const Final e = run("euler", kNoTorque, kDt, steps);
+  const Final e = run(hemo::OrientationMethod::euler, kNoTorque, kDt, steps);
   const double n_err_euler = (symmetry_axis(e.q) - n_exact).norm();
   std::printf(
       "[ info ] torque-free top, 1e5 steps of omega dt = %.3g: axis error splitting %.2e, euler %.2e; "
@@ -97,13 +97,14 @@ TEST(Orientation, EnergyAndAngularMomentumOver1e5Steps) {
   const Vec3 w0 = kQ0 * kOmegaBody0;
   const double e0 = kTop.kinetic_energy(kQ0, w0);
   const Vec3 l0 = kTop.angular_momentum(kQ0, w0);
-  for (const char* name : {"splitting", "euler"}) {
-    const Final f = run(name, kNoTorque, kDt, steps);
+  for (const auto method : {hemo::OrientationMethod::splitting, hemo::OrientationMethod::euler}) {
+    const std::string name = hemo::name_of(method);
+    const Final f = run(method, kNoTorque, kDt, steps);
     const double de = std::abs(kTop.kinetic_energy(f.q, f.w) - e0) / e0;
     const double dl = (kTop.angular_momentum(f.q, f.w) - l0).norm() / l0.norm();
     std::printf("[ info ] %s: relative drift over 1e5 steps: energy %.2e, angular momentum %.2e, |q| - 1 = %.1e\n",
-                name, de, dl, f.q.norm() - 1);
-    if (std::string(name) == "splitting") {
+                name.c_str(), de, dl, f.q.norm() - 1);
+    if (method == hemo::OrientationMethod::splitting) {
       EXPECT_LT(de, 1e-11);
       EXPECT_LT(dl, 1e-11);
     } else {
@@ -113,7 +114,7 @@ TEST(Orientation, EnergyAndAngularMomentumOver1e5Steps) {
   }
   // With the heavy-top torque: energy (kinetic + potential) and L_z are conserved by the
   // splitting to O(dt^2), without secular drift.
-  const auto integ = make_orientation_integrator("splitting", kTop);
+  const auto integ = make_orientation_integrator(hemo::OrientationMethod::splitting, kTop);
   Quat q = kQ0;
   Vec3 l = l0;
   auto energy = [&] { return 0.5 * l.dot(kTop.angular_velocity(q, l)) - kK * symmetry_axis(q).z(); };
@@ -133,18 +134,19 @@ TEST(Orientation, EnergyAndAngularMomentumOver1e5Steps) {
 TEST(Orientation, ObservedOrderOfAccuracy) {
   // With the torque: errors at T against a reference at dt/64.
   const long base_steps = 2000;  // T = 0.4 ms
-  for (const char* name : {"splitting", "euler"}) {
-    const Final ref = run(name, kGravityLike, kDt / 64, base_steps * 64);
+  for (const auto method : {hemo::OrientationMethod::splitting, hemo::OrientationMethod::euler}) {
+    const std::string name = hemo::name_of(method);
+    const Final ref = run(method, kGravityLike, kDt / 64, base_steps * 64);
     double errors[3];
     for (int k = 0; k < 3; ++k) {
       const long f = 1L << k;
-      const Final s = run(name, kGravityLike, kDt / f, base_steps * f);
+      const Final s = run(method, kGravityLike, kDt / f, base_steps * f);
       errors[k] = (symmetry_axis(s.q) - symmetry_axis(ref.q)).norm();
     }
     const double order1 = std::log2(errors[0] / errors[1]), order2 = std::log2(errors[1] / errors[2]);
-    std::printf("[ info ] %s: axis error at dt, dt/2, dt/4: %.3e %.3e %.3e, observed order %.2f %.2f\n", name,
+    std::printf("[ info ] %s: axis error at dt, dt/2, dt/4: %.3e %.3e %.3e, observed order %.2f %.2f\n", name.c_str(),
                 errors[0], errors[1], errors[2], order1, order2);
-    const double expected = std::string(name) == "splitting" ? 2.0 : 1.0;
+    const double expected = method == hemo::OrientationMethod::splitting ? 2.0 : 1.0;
     EXPECT_NEAR(order1, expected, 0.15) << name;
     EXPECT_NEAR(order2, expected, 0.15) << name;
   }

@@ -45,7 +45,7 @@ hemo::Vessel stenosed(double diameter, double length, double area_reduction, dou
 // (no shape) would miss the first: its circle is R0, and the throat's faces are no chords of it.
 TEST(ShapeLocator, WallGapFollowsTheLocalRadius) {
   const auto vessel = stenosed(100e-6, 600e-6, 0.5, 300e-6);
-  const hemo::MeshSpec spec{4, 3, 48, "inscribed"};
+  const hemo::MeshSpec spec{4, 3, 48, hemo::WallPolygon::inscribed};
   const auto message = mesh_message(vessel, spec);
   std::shared_ptr<const hemo::VesselGeometry> geometry = hemo::make_vessel_geometry(vessel);
   const CellLocator locator(message, geometry);
@@ -77,7 +77,7 @@ TEST(ShapeLocator, WallGapFollowsTheLocalRadius) {
 // answers.
 TEST(ShapeLocator, StraightShapeIsTheFixedRadius) {
   const hemo::Vessel vessel{100e-6, 600e-6};
-  const auto message = mesh_message(vessel, {4, 3, 24, "inscribed"});
+  const auto message = mesh_message(vessel, {4, 3, 24, hemo::WallPolygon::inscribed});
   const CellLocator fixed(message);
   const CellLocator shaped(message, hemo::make_vessel_geometry(vessel));
   EXPECT_EQ(fixed.wall_gap(), shaped.wall_gap());

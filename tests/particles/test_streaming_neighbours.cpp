@@ -56,7 +56,7 @@ struct Case {
   }
   static hemo::Scene scene_with(const std::string& rebuild) {
     hemo::Scene s = blood_scene(2 * kRadius, kLength, 0.30, kShear);
-    s.neighbour_rebuild = rebuild;
+    hemo::choice_named(rebuild, s.neighbour_rebuild);
     return s;
   }
   void step(long k) { ASSERT_EQ(engine.run(k, 1, timing.dt, fluid), ""); }

@@ -247,6 +247,21 @@ TEST(ShippedStudies, ExpandToValidScenes) {
   }
 }
 
+// The bifurcation studies' base scenes develop their feeders first (vessel.feeder_develop_s); a
+// reduced study develops them no longer than its runs last.
+TEST(ShippedStudies, AReducedStudyDevelopsItsFeederNoLongerThanItsRuns) {
+  const Study s = load_study(resolve_study("bifurcation-30"));
+  ScratchDir dir("shipped-bifurcation-30");
+  const Reduction red;
+  for (const auto& c : expand_study(s, dir.str() + "/full", nullptr))
+    EXPECT_DOUBLE_EQ(load_scene(c.scene_path).vessel.feeder_develop, 0.3);
+  for (const auto& c : expand_study(s, dir.str() + "/reduced", &red)) {
+    const Scene sc = load_scene(c.scene_path);
+    EXPECT_DOUBLE_EQ(sc.vessel.feeder_develop, red.end_time_s);
+    EXPECT_NEAR(sc.time.end_time(), red.end_time_s, 1e-12);
+  }
+}
+
 TEST(ShippedStudies, CalibrationSceneIsThePapersCase) {
   const Scene s = load_scene(std::string(HEMO_SCENES_DIR) + "/calibration.toml");
   EXPECT_NEAR(s.vessel.diameter, 100e-6, 1e-15);
