@@ -237,7 +237,7 @@ VesselWall::Section BifurcationWall::section_at(const Point& x) const {
 }
 
 std::vector<VesselWall::Opening> BifurcationWall::outlets() const {
-  return {{end_[1], daughter_direction(spec_, 0)}, {end_[2], daughter_direction(spec_, 1)}};
+  return {{end_[1], daughter_direction(spec_, 0), radius_[1]}, {end_[2], daughter_direction(spec_, 1), radius_[2]}};
 }
 
 std::vector<WallTriangle> BifurcationWall::dem_wall() const { return wall_facing_in(make_bifurcation(spec_)); }

@@ -80,7 +80,9 @@ class VesselGeometry : public VesselWall {
   // wall_surface at dem_wall_resolution.
   std::vector<WallTriangle> dem_wall() const override;
   // The plane z = length, facing +z.
-  std::vector<Opening> outlets() const override { return {{Point(0, 0, length()), Point::UnitZ()}}; }
+  std::vector<Opening> outlets() const override {
+    return {{Point(0, 0, length()), Point::UnitZ(), radius_at(length())}};
+  }
 
  protected:
   VesselGeometry(double radius, double length) : radius_(radius), length_(length) {}

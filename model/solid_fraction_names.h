@@ -38,4 +38,11 @@ inline double kernel_reach(double width_diameters, double diameter) {
   return kKernelReachSigmas * kernel_sigma(width_diameters, diameter);
 }
 
+// How far from its centre, per radius, a particle shared by this model reaches the fluid's
+// cells: its sphere (1), or the kernel's reach. An open vessel keeps a cell in the DEM until its
+// centre is this far past an end (particle-node/dem_open_ends.h).
+inline double reach_per_radius(const std::string& solid_fraction, double width_diameters) {
+  return shares_over_kernel(solid_fraction) ? kernel_reach(width_diameters, 2.0) : 1.0;
+}
+
 }  // namespace hemo

@@ -276,7 +276,8 @@ std::vector<VesselWall::Opening> SurfaceWall::outlets() const {
   for (int k = 1;; ++k) {
     const int r = surface_.region_index(surface_region::outlet(k));
     if (r < 0) return out;
-    out.push_back({surface_.centroid(r), surface_.area_vector(r).normalized()});
+    const Point area = surface_.area_vector(r);
+    out.push_back({surface_.centroid(r), area.normalized(), std::sqrt(area.norm() / units::pi)});
   }
 }
 

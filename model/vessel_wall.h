@@ -49,10 +49,11 @@ class VesselWall {
   // has open ends.
   virtual std::vector<WallTriangle> dem_wall() const = 0;
 
-  // The outlets of the vessel with open ends: each cap's centre and outward unit normal, in the
-  // order of the fluid mesh's outlet patches (outlet_1, outlet_2, ...).
+  // The outlets of the vessel with open ends: each cap's centre, outward unit normal and radius
+  // (its area's equivalent), in the order of the fluid mesh's outlet patches (outlet_1, ...).
   struct Opening {
     Point centre, normal;
+    double radius = 0;
   };
   virtual std::vector<Opening> outlets() const = 0;
 

@@ -107,7 +107,7 @@ void LiggghtsCheckpoint::save(EngineState& s) {
   const std::vector<double> carried = gather_carried();
   liggghts_.rebuild_neighbours();
   scatter_carried(carried);
-  s.particles = liggghts_.particles();
+  s.particles = liggghts_.particles() + liggghts_.straddling();  // the atoms it holds
   s.created = liggghts_.created();
   s.tag_capacity = liggghts_.tag_capacity();
   if (const auto* open = liggghts_.fixes().open_ends) {
@@ -190,9 +190,9 @@ void LiggghtsCheckpoint::restore(const EngineState& written, LiggghtsSession::Op
   liggghts_.set_created(s.created);
   OpenEndsState open{{s.inserted, s.left_outlet, s.left_inlet}, static_cast<long>(s.tag_capacity)};
   agreed([&] { liggghts_.first_init(std::move(listener), liggghts_.open() ? &open : nullptr); }, comm_);
-  if (liggghts_.particles() != s.particles || liggghts_.tag_capacity() != s.tag_capacity)
+  if (liggghts_.particles() + liggghts_.straddling() != s.particles || liggghts_.tag_capacity() != s.tag_capacity)
     throw std::invalid_argument(fmt::format("the checkpoint's counts make {} particles on {} tags, it has {} on {}",
-                                            liggghts_.particles(), liggghts_.tag_capacity(), s.particles,
+                                            liggghts_.particles() + liggghts_.straddling(), liggghts_.tag_capacity(), s.particles,
                                             s.tag_capacity));
   restore_contact_history(s);
   liggghts_.rebuild_neighbours();

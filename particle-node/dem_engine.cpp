@@ -13,6 +13,8 @@
 #include "dem_fixes.h"
 #include "dem_open_ends.h"
 
+#include <solid_fraction_names.h>
+
 #include <stdexcept>
 
 namespace hemo::particles {
@@ -40,7 +42,7 @@ DemEngine::DemEngine(const Scene& scene, const CellLocator& locator, const std::
       comm_(comm),
       species_(scene_, scene),
       liggghts_(scene_.contact, locator, species_, log_path, append_log, with_neighbour_policy(bookkeeping, scene_),
-                comm, feeder_of(scene_)),
+                comm, feeder_of(scene_), reach_per_radius(scene_.solid_fraction, scene_.kernel_width_diameters)),
       tracking_(locator),
       orientation_(liggghts_, problems_),
       fluid_force_(scene_, locator, species_, liggghts_, tracking_, orientation_, problems_, comm),
@@ -99,12 +101,15 @@ void DemEngine::follow(const std::vector<dem::OpenEndsEvent>& events) {
       tracking_.leave(e.tag);
       continue;
     }
-    tracking_.enter(e.tag);
+    tracking_.enter(e.tag, e.z);
     if (held == nullptr) continue;
-    // Held closures name the fluid cell they were evaluated in: the copy's is in the vessel.
+    // Held closures name the fluid cell they were evaluated in: the copy's is in the vessel (at
+    // the inlet while it straddles it).
     for (int i = atom.nlocal - 1; i >= 0; --i)
       if (atom.tag[i] == e.tag) {
-        held[i][dem::kCell] = tracking_.cell_of(e.tag, Vec3(atom.x[i][0], atom.x[i][1], atom.x[i][2]));
+        DemFluidForce::AtEnds at;
+        held[i][dem::kCell] = fluid_force_.locate(e.tag, Vec3(atom.x[i][0], atom.x[i][1], atom.x[i][2]),
+                                                  atom.radius[i], at);
         break;
       }
   }
@@ -171,6 +176,8 @@ EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
   d.outside_mesh = fluid_force_.outside_mesh();
   for (int sp = 0; sp < kSpeciesCount; ++sp) d.max_reynolds[sp] = fluid_force_.max_reynolds(sp);
   d.lost = lost_;
+  d.straddling = liggghts_.straddling();
+  d.volume_inside = dem::sum_all(fluid_force_.inside_volume(), comm_);
   return d;
 }
 

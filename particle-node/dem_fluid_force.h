@@ -108,6 +108,22 @@ class DemFluidForce {
   void save(EngineState& state) const;
   void restore(const EngineState& state);
 
+  // Where a particle stands against an open vessel's ends (dem_open_ends.h): its centre in the
+  // vessel's frame (wrapped; before the inlet, below it), how far it is past the end whose plane
+  // it is furthest past or nearest to (m; < 0 inside; -inf in a periodic vessel and the feeder),
+  // and where it is located and reads the plasma: its centre (as given), or, with the centre past an end,
+  // the point of that end's plane just inside, beside it (the plasma past an end taken as the
+  // end's own, as the outlet's zero gradient takes it).
+  struct AtEnds {
+    Vec3 centre = Vec3::Zero(), probe = Vec3::Zero();
+    double beyond = -std::numeric_limits<double>::infinity();
+  };
+  // Its fluid cell there (or -1), with the locate cache of `tag`.
+  int locate(int tag, const Vec3& x, double radius, AtEnds& at);
+  // The particles' volume on the inside of the vessel's ends at the last deposit, this rank's
+  // (what the deposited solid volume sums to).
+  double inside_volume() const { return inside_volume_; }
+
  private:
   void on_force(std::int64_t ntimestep, int nlocal, const int* tag, double** x, double** f);
   // One force evaluation of a run, the same for every atom.
@@ -196,6 +212,7 @@ class DemFluidForce {
   std::vector<FluidForce> step_forces_;
   std::vector<int> step_cells_;
   double seconds_ = 0;  // wall seconds in the callback since take_seconds
+  double inside_volume_ = 0;
 
   // The last run's, over all ranks.
   std::array<double, kSpeciesCount> max_re_{};

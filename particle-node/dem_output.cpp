@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "dem_fixes.h"
+#include "dem_open_ends.h"
 
 namespace hemo::particles {
 
@@ -31,6 +32,7 @@ EngineDiagnostics DemOutput::diagnostics(const FluidSampler* fluid) {
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
     max_speed = std::max(max_speed, Vec3(v[i][0], v[i][1], v[i][2]).norm());
+    if (straddles_outside(x[i])) continue;  // not in the vessel: past an end, on its way in or out
     bool in_gap = false;
     const int cell = tracking_.cell_of(tag[i], xi, &in_gap);
     sums[3] += in_gap;
@@ -66,6 +68,18 @@ DemOutput::DemOutput(const LiggghtsSession& liggghts, ParticleTracking& tracking
   }
 }
 
+bool DemOutput::straddles_outside(const double* x) const {
+  const dem::FixOpenEnds* ends = liggghts_.fixes().open_ends;
+  return ends != nullptr && dem::FixOpenEnds::outside(ends->place(x));
+}
+
+bool DemOutput::crosses_an_end(const double* x, double radius) const {
+  const dem::FixOpenEnds* ends = liggghts_.fixes().open_ends;
+  if (ends == nullptr) return false;
+  const dem::FixOpenEnds::Place p = ends->place(x);
+  return p.end != dem::FixOpenEnds::kNone && p.beyond > -radius;
+}
+
 bool DemOutput::in_core(const Vec3& x, int cell) const {
   if (!core_cell_.empty()) return core_cell_[static_cast<std::size_t>(cell)];
   const VesselWall::Section section = locator_.section(x);  // a feeder cell's core is the feeder's
@@ -85,6 +99,7 @@ double DemOutput::local_max_overlap() const {
   const auto& feeder = locator_.feeder();
   for (int i = 0; i < nlocal; ++i) {
     const Vec3 xi(x[i][0], x[i][1], x[i][2]);
+    if (crosses_an_end(x[i], r[i])) continue;  // the wall ends at an end's plane
     if (facets_ && !(feeder && feeder->in_feeder(xi.x()))) {
       const double d = facets_->distance(xi);
       if (d < r[i]) worst = std::max(worst, (r[i] - d) / (2 * r[i]));
@@ -115,7 +130,8 @@ ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
   const std::size_t n = static_cast<std::size_t>(liggghts_.tag_capacity());
   // Per tag: written (1), species, position (3), velocity (3), orientation (4); summed over ranks
   // (each atom on one rank). A tag no rank has (lost, or free in an open vessel) is not written,
-  // nor is an open vessel's feeder (the inlet's supply, not the vessel's blood).
+  // nor is an open vessel's feeder (the inlet's supply, not the vessel's blood), nor a cell whose
+  // centre is past an end (straddling it on its way in or out: not in the vessel, as counted).
   constexpr int kPer = 12;
   std::vector<double> buf(kPer * n, 0.0);
   const LAMMPS_NS::Atom& atom = liggghts_.atom();
@@ -127,7 +143,7 @@ ParticleSnapshot DemOutput::snapshot(long step, double time_s) {
   double** rot = per_atom(liggghts_.fixes().rotation);
   const auto& feeder = liggghts_.feeder();
   for (int i = 0; i < nlocal; ++i) {
-    if (feeder && feeder->in_feeder(x[i][0])) continue;
+    if ((feeder && feeder->in_feeder(x[i][0])) || straddles_outside(x[i])) continue;
     const std::size_t k = kPer * static_cast<std::size_t>(tag[i] - 1);
     const int sp = liggghts_.species_of_type(type[i]);
     buf[k] = 1;

@@ -30,7 +30,9 @@ struct EngineDiagnostics {
   double max_speed = 0;             // m/s
   double max_reynolds[2] = {0, 0};  // per species, over the last run
   long lost = 0;                    // particles LIGGGHTS no longer has
-  long in_vessel = 0;               // particles in the vessel (all but an open vessel's feeder's)
+  long in_vessel = 0;               // particles in the vessel (all but an open vessel's feeder's, centres inside its ends)
+  long straddling = 0;              // an open vessel's particles whose centres are past an end, still in the DEM
+  double volume_inside = 0;         // m^3, the particles' volume inside the ends at the last deposit
 };
 
 class DemOutput {
@@ -48,6 +50,10 @@ class DemOutput {
  private:
   // The largest overlap of this rank's particles (pairs and wall), relative to the smaller diameter.
   double local_max_overlap() const;
+  // An open vessel's atom whose centre is past an end (dem_open_ends.h), and one whose sphere
+  // reaches past an end's plane, where the wall ends.
+  bool straddles_outside(const double* x) const;
+  bool crosses_an_end(const double* x, double radius) const;
 
   const LiggghtsSession& liggghts_;
   ParticleTracking& tracking_;

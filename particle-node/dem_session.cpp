@@ -141,7 +141,7 @@ void set_fluid_force_callback(LAMMPS_NS::Fix* fix, FluidForceCallback callback, 
 
 LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
                                  const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping,
-                                 MPI_Comm comm, std::optional<FeederLayout> feeder)
+                                 MPI_Comm comm, std::optional<FeederLayout> feeder, double end_reach)
     : contact_(contact),
       locator_(locator),
       species_(species),
@@ -149,7 +149,8 @@ LiggghtsSession::LiggghtsSession(const Contact& contact, const CellLocator& loca
       wall_file_(wall_file_for(log_path, comm)),
       bookkeeping_(bookkeeping),
       comm_(comm),
-      feeder_(std::move(feeder)) {
+      feeder_(std::move(feeder)),
+      end_reach_(end_reach) {
   std::vector<std::string> args = {"hemocosim-particles", "-screen", "none", "-log",
                                    append_log ? std::string("none") : log_path_};
   std::vector<char*> argv;
@@ -334,15 +335,18 @@ std::vector<std::string> LiggghtsSession::wall_commands(int wall_type) const {
 }
 
 void LiggghtsSession::check_outlet_gap() const {
-  // A cell at the outlet and one at the inlet are one period minus the vessel's length apart
-  // through the box's periodic z; no pair may reach across (dem_open_ends.h).
-  const double reach = 2 * species_.d_max * kContactReach + bookkeeping_.skin_diameters * species_.d_max;
+  // Through the box's periodic z the vessel's top and its inlet are one period minus the vessel's
+  // length apart. That gap holds the cells straddling the outlets (centres up to end_reach radii
+  // past them) and those straddling the inlet (as far before it), and no pair may reach across
+  // between them (dem_open_ends.h).
+  const double straddling = end_reach_ * species_.d_max;  // both ends' share of the gap
+  const double pair = species_.d_max * kContactReach + bookkeeping_.skin_diameters * species_.d_max;
   const double gap = feeder_->period - feeder_->vessel_length;
-  if (!(gap > reach))
+  if (!(gap > straddling + pair))
     throw std::invalid_argument(fmt::format(
-        "the feeder is {:.4g} um longer than the open vessel: a pair's reach ({:.4g} um, with the neighbour skin) "
-        "would cross from the outlet to the inlet",
-        gap / units::um, reach / units::um));
+        "the feeder is {:.4g} um longer than the open vessel: the cells straddling the outlet and the inlet "
+        "({:.4g} um past each) and a pair's reach between them ({:.4g} um, with the neighbour skin) need more",
+        gap / units::um, 0.5 * straddling / units::um, pair / units::um));
 }
 
 void LiggghtsSession::write_wall_surface(const std::vector<WallTriangle>& wall) const {
@@ -403,10 +407,16 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (!feeder_) return;
   // The inlet buffer: one largest cell diameter, so that a copy is wholly inside the vessel when
   // it is let go (dem_open_ends.h).
-  dem::OpenEndsLayout layout{{}, feeder_->split_x, feeder_->axis_x - feeder_->inlet_x, species_.d_max};
+  dem::OpenEndsLayout layout{{},
+                             feeder_->split_x,
+                             feeder_->axis_x - feeder_->inlet_x,
+                             species_.d_max,
+                             end_reach_,
+                             locator_.z0() + feeder_->vessel_length};
   for (const VesselWall::Opening& end : locator_.wall().outlets())
     layout.outlets.push_back({{end.centre.x(), end.centre.y(), locator_.z0() + end.centre.z()},
-                              {end.normal.x(), end.normal.y(), end.normal.z()}});
+                              {end.normal.x(), end.normal.y(), end.normal.z()},
+                              end.radius});
   command(open_ends_command(layout));
   fixes_.open_ends = static_cast<FixOpenEnds*>(find_fix(kOpenEndsFix));
   // A copy takes the source's orientation and held closures; its impulse starts at zero (the
@@ -420,12 +430,17 @@ void LiggghtsSession::first_init(OpenEndsListener listener, const OpenEndsState*
   if (fixes_.rotation != nullptr) replayed.push_back(fixes_.rotation);
   fixes_.open_ends->copy_values_of(copied, replayed);
   fixes_.open_ends->on_events(std::move(listener));
-  if (restored) fixes_.open_ends->restore(*restored);
+  if (restored)
+    fixes_.open_ends->restore(*restored);
+  else
+    fixes_.open_ends->start();
 }
 
 long LiggghtsSession::particles() const {
   return particles_ + (fixes_.open_ends ? static_cast<long>(fixes_.open_ends->counts().net()) : 0);
 }
+
+long LiggghtsSession::straddling() const { return fixes_.open_ends ? fixes_.open_ends->straddling() : 0; }
 
 long LiggghtsSession::tag_capacity() const {
   return fixes_.open_ends ? std::max<long>(particles_, fixes_.open_ends->tag_capacity()) : particles_;
@@ -491,7 +506,7 @@ LiggghtsSession::Lost LiggghtsSession::find_lost(const std::vector<char>& expect
   // LIGGGHTS drops an atom that leaves the box (thermo_modify lost ignore).
   Lost lost;
   const long have = static_cast<long>(sum_all(static_cast<double>(atom_->nlocal), comm_));
-  lost.count = particles() - have;
+  lost.count = particles() + straddling() - have;
   if (lost.count == 0) return lost;
   std::vector<double> present(expected.size(), 0.0);
   for (int i = 0; i < atom_->nlocal; ++i)

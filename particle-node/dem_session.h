@@ -95,10 +95,12 @@ class LiggghtsSession {
   // Starts LIGGGHTS with the settings that need no particles yet. Its log goes to `log_path`
   // ("none": no log; appended to with `append_log`); the screen stays quiet.
   // `feeder`: an open vessel's layout (model/vessel_ends.h): the box holds the vessel and its
-  // feeder, each with its wall, and the ends are open (dem_open_ends.h).
+  // feeder, each with its wall, and the ends are open (dem_open_ends.h); `end_reach`: how far
+  // past an end, per radius, a cell's solid fraction still reaches the vessel's cells
+  // (reach_per_radius, model/solid_fraction_names.h), so how long it straddles it.
   LiggghtsSession(const Contact& contact, const CellLocator& locator, const DemSpecies& species,
                   const std::string& log_path, bool append_log, const DemBookkeeping& bookkeeping, MPI_Comm comm,
-                  std::optional<FeederLayout> feeder = std::nullopt);
+                  std::optional<FeederLayout> feeder = std::nullopt, double end_reach = 1.0);
   ~LiggghtsSession();
   LiggghtsSession(const LiggghtsSession&) = delete;
   LiggghtsSession& operator=(const LiggghtsSession&) = delete;
@@ -154,8 +156,12 @@ class LiggghtsSession {
   const DemBookkeeping& bookkeeping() const { return bookkeeping_; }
   int type_of(int species) const { return type_of_[species]; }  // 0: none
   int species_of_type(int type) const { return species_of_type_[type]; }
-  // The particles present: created, and with open ends inserted - left (the open ends' counts).
+  // The particles present: created, and with open ends inserted - left (the open ends' counts of
+  // centres crossing them).
   long particles() const;
+  // With open ends, the atoms whose centres are past an end, still in the DEM while they straddle
+  // it (dem_open_ends.h); else 0.
+  long straddling() const;
   long local_particles() const;
   std::int64_t dem_step() const;
   // Neighbour-list builds since the last run that set up anew.
@@ -197,6 +203,7 @@ class LiggghtsSession {
   const DemBookkeeping bookkeeping_;
   MPI_Comm comm_;
   const std::optional<FeederLayout> feeder_;
+  const double end_reach_;
   LAMMPS_NS::LAMMPS* lmp_ = nullptr;
   LAMMPS_NS::Atom* atom_ = nullptr;  // LAMMPS keeps one for its lifetime
   LAMMPS_NS::Fix* fluid_fix_ = nullptr;

@@ -19,14 +19,14 @@ void ParticleTracking::start(const std::vector<const PlacedParticle*>& order) {
   for (std::size_t i = 0; i < order.size(); ++i) tracked_[i + 1].last_z = order[i]->position.z();
 }
 
-void ParticleTracking::enter(int tag) {
+void ParticleTracking::enter(int tag, double z) {
   const auto t = static_cast<std::size_t>(tag);
   if (t >= tracked_.size()) {
     tracked_.resize(t + 1);
     present_.resize(t + 1, 0);
   }
   tracked_[t] = Tracked{};
-  tracked_[t].last_z = std::numeric_limits<double>::quiet_NaN();
+  tracked_[t].last_z = z;  // LIGGGHTS's wrapping it into the box counts as a crossing
   present_[t] = 1;
 }
 

@@ -33,9 +33,10 @@ class ParticleTracking {
 
   // Tags 1..N for the particles in `order`, where they start.
   void start(const std::vector<const PlacedParticle*>& order);
-  // An open end's events: a tag freed, a tag given (again) to a new particle, its z not yet seen.
+  // An open end's events: a tag freed, a tag given (again) to a new particle made at z (m, as
+  // made: below the box when before the inlet, so that its z unwraps to the vessel's frame).
   void leave(int tag) { present_[tag] = 0; }
-  void enter(int tag);
+  void enter(int tag, double z);
   // Per tag (index = tag, 0 unused): whether a particle has it.
   const std::vector<char>& present() const { return present_; }
 

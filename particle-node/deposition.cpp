@@ -25,6 +25,8 @@ double cap_beyond(double d, double r) {
 }
 }  // namespace
 
+double sphere_inside_share(double beyond, double radius) { return 1 - cap_beyond(beyond, radius); }
+
 void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::vector<CellShare>& out) const {
   out.assign(1, {cell, 1.0});
   if (!(radius > 0)) return;

@@ -92,12 +92,15 @@ class Deposition {
 
   // One particle of radius r (m) centred at x (wrapped) in `cell`: its volume (m^3), and over
   // the interval the integral of its fluid force (N s) and its drag response dJ/du (kg), shared
-  // among cells with the model's fractions.
-  void add_particle(int cell, const Vec3& x, double radius, double volume, const Vec3& impulse, double drag_response) {
+  // among cells with the model's fractions; of a particle straddling an open end, the share
+  // `inside` of each (SolidFractionModel::inside_share; x may then lie past the end, `cell` the
+  // one it reads the plasma in).
+  void add_particle(int cell, const Vec3& x, double radius, double volume, const Vec3& impulse, double drag_response,
+                    double inside = 1.0) {
     model_->share(cell, x, radius, shares_);
     for (const CellShare& share : shares_) {
       double* a = &acc_[static_cast<std::size_t>(share.cell) * kStride];
-      const double w = share.fraction;
+      const double w = share.fraction * inside;
       a[0] += w * impulse.x();
       a[1] += w * impulse.y();
       a[2] += w * impulse.z();

@@ -23,7 +23,7 @@ namespace hemo::particles {
 struct EngineState {
   // The same on every rank.
   std::int64_t ranks = 1;
-  std::int64_t particles = 0;     // present
+  std::int64_t particles = 0;     // the atoms held: present, and an open vessel's straddling its ends
   std::int64_t created = 0;       // at the run's start
   std::int64_t tag_capacity = 0;  // tags in use lie in 1..tag_capacity
   // An open vessel's counts per LIGGGHTS atom type (index 0 unused; empty for a periodic one);

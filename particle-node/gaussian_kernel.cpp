@@ -56,4 +56,22 @@ void GaussianKernelFraction::share(int cell, const Vec3& x, double radius, std::
   out.resize(kept);
 }
 
+double GaussianKernelFraction::inside_share(double beyond, double radius) const {
+  // The kernel (exp(-r^2 / 2 s^2) - f) over the ball of radius R = 3 s, f = exp(-R^2 / 2 s^2),
+  // integrated over the slices t (along the plane's normal, from the centre) below the plane,
+  // t < -beyond. A slice's integral over its disc of radius sqrt(R^2 - t^2) is
+  // 2 pi [s^2 (exp(-t^2 / 2 s^2) - f) - f (R^2 - t^2) / 2], whose integral over t is G below.
+  if (!(radius > 0)) return beyond > 0 ? 0.0 : 1.0;
+  const double s = sigma(radius);
+  const double reach = kKernelReachSigmas * s;
+  if (beyond <= -reach) return 1.0;
+  if (beyond >= reach) return 0.0;
+  const double floor = std::exp(-0.5 * kKernelReachSigmas * kKernelReachSigmas);
+  auto G = [&](double t) {
+    return s * s * s * std::sqrt(M_PI / 2) * std::erf(t / (s * std::sqrt(2.0))) - floor * (s * s + 0.5 * reach * reach) * t +
+           floor * t * t * t / 6;
+  };
+  return (G(-beyond) - G(-reach)) / (G(reach) - G(-reach));
+}
+
 }  // namespace hemo::particles

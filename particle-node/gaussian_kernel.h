@@ -23,6 +23,10 @@
 // one step). The fractions are continuous in x except where the ball of 3 sigma first reaches
 // round a wall's edge to cells whose centres it already holds (a bifurcation's carina tip).
 //
+// At an open end nothing is renormalised: the share of the kernel on the inside of the end's plane
+// (inside_share: the continuous kernel's mass there) is what the vessel's cells take of a cell
+// straddling it, the fractions spreading that share as they spread a whole particle.
+//
 // The same fractions read the fluid the particle sees (FluidSampler::seen): the kernel's mean of
 // each cell's reconstruction at x (exact for a linear field), of the cells' gradients, pressure
 // gradients and viscous forces, so that a particle's drag is not the value of a cell it mostly
@@ -52,6 +56,9 @@ class GaussianKernelFraction final : public SolidFractionModel {
   bool samples_over_shares() const override { return true; }
   double reach(double radius) const override { return kernel_reach(width_, 2 * radius); }
   double sigma(double radius) const { return kernel_sigma(width_, 2 * radius); }
+  // The kernel's mass on the inside of an open end's plane (not renormalised: the rest is the
+  // plasma's beyond the end), of the continuous kernel the cells sample.
+  double inside_share(double beyond, double radius) const override;
 
  private:
   const CellLocator* locator_;

@@ -1,5 +1,6 @@
 // What the open ends of a vessel report (dem_open_ends.h), without LIGGGHTS's headers: each list
-// build's events and the counts since the run started.
+// build's events (atoms leaving the DEM, copies entering it) and the counts of centres crossing
+// the ends since the run started.
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 
@@ -15,6 +16,7 @@ struct OpenEndsEvent {
   int type = 0;        // LIGGGHTS atom type
   int source_tag = 0;  // an insertion's feeder atom (0 for a removal)
   int outlet = 0;      // left_outlet: which outlet (from 0)
+  double z = 0;        // an insertion's: the copy's z as made (m; below the box when before the inlet)
 };
 
 // Per LIGGGHTS atom type (index 0 unused), the same on every rank.

@@ -531,6 +531,10 @@ Diagnostics ParticleNode::diagnostics() {
       {kTimeDiagnostic, time_},
   };
   if (engine_->open_ends()) {  // counts since the run started, per species and end
+    // The cells whose centres are past an end, still in the DEM while they straddle it, and the
+    // particles' volume inside the ends, which the deposited solid volume sums to.
+    out.emplace_back("particles_straddling", static_cast<double>(d.straddling));
+    out.emplace_back("particles_volume_inside_m3", d.volume_inside);
     const DemEngine::EndCounts c = engine_->end_counts();
     for (int sp = 0; sp < kSpeciesCount; ++sp) {
       if (!used_[sp]) continue;

@@ -21,6 +21,10 @@ struct CellShare {
   double dz = 0;
 };
 
+// The share of a sphere of radius r on the inside of a plane its centre is `beyond` past (m; < 0:
+// the centre inside): 1 minus the spherical cap beyond the plane; 1 from a radius inside on.
+double sphere_inside_share(double beyond, double radius);
+
 class SolidFractionModel {
  public:
   virtual ~SolidFractionModel() = default;
@@ -35,6 +39,12 @@ class SolidFractionModel {
   // How far from its centre a particle of radius r reaches the cells it is shared with (m): what
   // a rank must hold of the fluid around its particles.
   virtual double reach(double radius) const { return radius; }
+  // The share of a particle of radius r, its centre `beyond` past an open end's plane (m; < 0:
+  // inside), that is on the inside: what the vessel's cells take of its volume, impulse and drag
+  // response while it straddles the end (the fractions of share() sum to 1 over the cells, across
+  // walls; across an open end the rest is the plasma's beyond, outside the fluid's domain).
+  // The sphere's; exactly 1 from reach(radius) inside on.
+  virtual double inside_share(double beyond, double radius) const { return sphere_inside_share(beyond, radius); }
 };
 
 }  // namespace hemo::particles

@@ -156,6 +156,8 @@ TEST(SurfaceWall, DemWallFacesInAndTheOutletIsTheEndCap) {
   ASSERT_EQ(outlets.size(), 1u);
   EXPECT_NEAR((outlets[0].centre - Point(0, 0, length)).norm(), 0, 1e-18);
   EXPECT_NEAR((outlets[0].normal - axis).norm(), 0, 1e-12);
+  // The cap's equivalent radius: a 24-gon's area, pi r^2 sin(2 pi / 24) / (2 pi / 24).
+  EXPECT_NEAR(outlets[0].radius, r * std::sqrt(std::sin(2 * M_PI / 24) / (2 * M_PI / 24)), 1e-12 * r);
 }
 
 // On the bifurcation our own generator makes, read as an imported surface: the sign is the
@@ -189,6 +191,9 @@ TEST(SurfaceWall, AnImportedBifurcationIsInsideWhereTheAnalyticOneIs) {
                   .norm(),
               0.02 * r.daughter_diameter[i]);
     EXPECT_GT(outlets[static_cast<std::size_t>(i)].normal.dot(d), 0.999);
+    // The cap's equivalent radius, the daughter's to the facets' error; the analytic wall's exactly.
+    EXPECT_NEAR(outlets[static_cast<std::size_t>(i)].radius, r.daughter_diameter[i] / 2, 0.02 * r.daughter_diameter[i]);
+    EXPECT_EQ(BifurcationWall(spec).outlets()[static_cast<std::size_t>(i)].radius, r.daughter_diameter[i] / 2);
   }
   const VesselWall::Section inlet = wall.section_at(Point(0.3 * r.parent_diameter / 2, 0, 0));
   EXPECT_NEAR(inlet.radius, r.parent_diameter / 2, 0.02 * r.parent_diameter);

@@ -301,3 +301,50 @@ TEST(GaussianKernel, TheOtherModelsReadAtTheCentreAndShareAsBefore) {
   }
   EXPECT_THROW(GaussianKernelFraction(loc, 0.0), std::invalid_argument);
 }
+
+// A cell straddling an open end: the share of it inside the end's plane (inside_share) is the
+// kernel's mass on that side, not renormalised, against the kernel integrated numerically (the
+// midpoint rule over 2000 slices along the plane's normal, each sliced into 2000 rings; the
+// sphere's: its volume on that side, the same way); 1 and 0 a reach inside and outside, a half on
+// the plane, falling as the centre moves out.
+TEST(GaussianKernel, AStraddlingCellsInsideShareIsTheKernelsMassInside) {
+  const auto mesh = cubes();
+  const CellLocator loc(mesh);
+  const GaussianKernelFraction kernel(loc, 1.0);
+  const SphereOverlapFraction sphere(loc);
+  const double s = kernel.sigma(kRadius), reach = kernel.reach(kRadius);
+  const double floor = std::exp(-0.5 * hemo::kKernelReachSigmas * hemo::kKernelReachSigmas);
+  // The share of the ball of radius `ball` at t < -beyond (t along the normal), of the kernel or
+  // of a uniform density.
+  auto integrated = [&](double beyond, double ball, bool gaussian) {
+    constexpr int n = 2000;
+    double in = 0, all = 0;
+    for (int i = 0; i < n; ++i) {
+      const double t = -ball + (i + 0.5) * 2 * ball / n;
+      const double disc = std::sqrt(ball * ball - t * t);
+      double slice = 0;
+      for (int j = 0; j < n; ++j) {
+        const double rho = (j + 0.5) * disc / n;
+        slice += 2 * M_PI * rho * disc / n * (gaussian ? std::exp(-(t * t + rho * rho) / (2 * s * s)) - floor : 1.0);
+      }
+      all += slice;
+      if (t < -beyond) in += slice;
+    }
+    return in / all;
+  };
+  EXPECT_EQ(kernel.inside_share(-reach, kRadius), 1.0);
+  EXPECT_EQ(kernel.inside_share(reach, kRadius), 0.0);
+  EXPECT_NEAR(kernel.inside_share(0, kRadius), 0.5, 1e-15);
+  EXPECT_EQ(sphere.inside_share(-kRadius, kRadius), 1.0);
+  EXPECT_NEAR(sphere.inside_share(0, kRadius), 0.5, 1e-15);
+  double last = 1;
+  for (const double f : {-0.8, -0.5, -0.2, 0.1, 0.4, 0.7}) {
+    const double b = f * reach;
+    const double share = kernel.inside_share(b, kRadius);
+    EXPECT_NEAR(share, integrated(b, reach, true), 2e-3) << "kernel, " << f << " of its reach past";
+    EXPECT_LT(share, last);
+    last = share;
+    const double bs = f * kRadius;
+    EXPECT_NEAR(sphere.inside_share(bs, kRadius), integrated(bs, kRadius, false), 2e-3) << "sphere, " << f << " r past";
+  }
+}

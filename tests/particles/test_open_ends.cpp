@@ -3,7 +3,8 @@
 // fluid: cells streaming along z leave the vessel through its outlet the step they cross it, and
 // the feeder's cells that cross its end enter the vessel as copies, with the velocity, place and
 // per-atom values of their source, on the tags the leavers freed; present = created + inserted -
-// left at every step; over the inlet buffer a copy replays its source, so a cell in its way is
+// left at every step; with a reach, a cell straddles each end, in the DEM until its centre is that
+// far past it, counted as its centre crosses; over the inlet buffer a copy replays its source, so a cell in its way is
 // pushed on rather than the copy thrown back through the inlet; on one rank and on two (ctest
 // particles.OpenEnds.ranks2: the box split along z, the copies made on the rank of their source and owned by the rank
 // of the inlet).
@@ -89,13 +90,14 @@ class OpenEndsBox {
   }
   // Sizes, the common velocity, each atom's own value (its tag), LIGGGHTS's set-up and the fix.
   // The outlets: the plane z = kOutlet unless told.
-  void start(double buffer = 0, std::vector<OpenEndsLayout::Outlet> outlets = {{{0, 0, kOutlet}, {0, 0, 1}}}) {
+  void start(double buffer = 0, std::vector<OpenEndsLayout::Outlet> outlets = {{{0, 0, kOutlet}, {0, 0, 1}}},
+             double reach = 0) {
     command(fmt::format("set group all diameter {} density 1100", kDiameter));
     command(fmt::format("velocity all set 0 0 {} units box", kSpeed));
     auto* values = static_cast<LAMMPS_NS::FixPropertyAtom*>(fix("values"));
     for (int i = 0; i < lmp_->atom->nlocal; ++i) values->array_atom[i][0] = lmp_->atom->tag[i];
     command("run 0 pre yes post no");  // LIGGGHTS makes its contact history fix (before ours)
-    command(open_ends_command({std::move(outlets), 1.5 * kRadius, kShift, buffer}));
+    command(open_ends_command({std::move(outlets), 1.5 * kRadius, kShift, buffer, reach}));
     open_ = static_cast<FixOpenEnds*>(fix(kOpenEndsFix));
     open_->copy_values_of({values}, {values});  // a copy takes them, and replays them in the buffer
     open_->on_events([this](const std::vector<OpenEndsEvent>& events) {
@@ -327,4 +329,95 @@ TEST(OpenEnds, OverTheInletBufferACopyReplaysItsSourceAndIsNotThrownBack) {
       EXPECT_EQ(c.left_inlet[2], 1);  // what the buffer prevents
     }
   }
+}
+
+// With a reach (one radius here, a sphere's), a cell straddles each end over the steps its sphere
+// crosses it: the vessel's cell is counted out the step its centre passes the outlet and leaves the
+// DEM only once its centre is a radius past it; the feeder's cell gets its copy the step its leading
+// edge reaches the feeder's end, the copy replaying it from a radius before the inlet, and is
+// counted in the step its centre crosses the inlet. LIGGGHTS holds the cells present and those
+// straddling at every step.
+TEST(OpenEnds, WithAReachACellStraddlesEachEndAndIsCountedAsItsCentreCrosses) {
+  OpenEndsBox box;
+  const double r = kDiameter / 2, step = kSpeed * kDt;
+  box.create(1, 0.3 * kRadius, 0, 79e-6);            // tag 1: its centre passes the outlet at step 20
+  box.create(2, kShift - 0.4 * kRadius, 0, 95e-6);   // tag 2: its leading edge reaches the end at step ~44
+  box.start(0, {{{0, 0, kOutlet}, {0, 0, 1}}}, 1.0);
+  const long created = 2;
+  double last_z = 0;
+  int copy_seen = 0;
+  for (int s = 0; s < 200; ++s) {
+    box.step(s == 0);
+    const auto& c = box.open().counts();
+    const long present = created + sum(c.inserted) - sum(c.left_outlet) - sum(c.left_inlet);
+    ASSERT_EQ(box.natoms(), present + box.open().straddling()) << "step " << s;
+    const auto atoms = box.atoms();
+    long straddling = 0;
+    if (atoms.count(1)) {
+      last_z = atoms.at(1).x[2];
+      ASSERT_EQ(c.left_outlet[1], last_z >= kOutlet ? 1 : 0) << "step " << s;
+      straddling += last_z >= kOutlet;
+    } else {
+      ASSERT_EQ(c.left_outlet[1], 1) << "step " << s;
+    }
+    const Atom& source = atoms.at(2);
+    bool copy = false;
+    for (const auto& [tag, a] : atoms) {
+      if (tag <= 2) continue;
+      copy = true;
+      ++copy_seen;
+      ASSERT_NEAR(a.x[0], source.x[0] - kShift, 1e-15) << "step " << s;
+      ASSERT_EQ(a.x[2], source.x[2]) << "a straddling copy replays its source, step " << s;
+    }
+    // The source past the feeder's end (wrapped by now, or not yet): the copy's centre is inside.
+    const bool entered = source.x[2] < kOutlet || source.x[2] >= kPeriod;
+    ASSERT_EQ(c.inserted[2], entered ? 1 : 0) << "step " << s;
+    if (copy && !entered) {
+      ++straddling;
+      ASSERT_GE(source.x[2] + r, kPeriod - 1.5 * step) << "copied before its leading edge reached the end";
+    }
+    if (!copy) {
+      ASSERT_LT(source.x[2] + r, kPeriod) << "its leading edge reached the end uncopied, step " << s;
+    }
+    ASSERT_EQ(box.open().straddling(), straddling) << "step " << s;
+  }
+  const auto& c = box.open().counts();
+  EXPECT_EQ(c.left_outlet[1], 1);
+  EXPECT_EQ(c.inserted[2], 1);
+  EXPECT_GE(last_z, kOutlet + r - 1.5 * step) << "it left the DEM before it was a radius past the outlet";
+  EXPECT_LT(last_z, kOutlet + r) << "it was kept a step longer than its reach";
+  EXPECT_GT(copy_seen, static_cast<int>(2 * r / step));  // present before and after it entered
+}
+
+// Past an outlet the vessel goes on as a tube of the outlet's radius: a straddling cell moving
+// out sideways is held a radius inside it (its centre at most R - r off the outlet's axis, its
+// velocity out of the tube taken away), where no wall of the vessel's is; inside the vessel it
+// moves freely.
+TEST(OpenEnds, PastAnOutletTheOutletsTubeHoldsAStraddlingCell) {
+  OpenEndsBox box;
+  const double R = 10e-6, r = kDiameter / 2;
+  box.create(1, 0, 0, 79e-6);  // past the outlet from step 20, moving 200 nm a step sideways
+  box.start(0, {{{0, 0, kOutlet}, {0, 0, 1}, R}}, 1.0);
+  box.command(fmt::format("velocity all set {} 0 {} units box", 4 * kSpeed, kSpeed));
+  double widest_inside = 0, widest_past = 0;
+  int past = 0;
+  for (int s = 0; s < 110; ++s) {
+    box.step(s == 0);
+    const auto atoms = box.atoms();
+    if (!atoms.count(1)) break;
+    const Atom& a = atoms.at(1);
+    if (a.x[2] < kOutlet) {
+      widest_inside = std::max(widest_inside, a.x[0]);
+      continue;
+    }
+    ++past;
+    widest_past = std::max(widest_past, a.x[0]);
+    ASSERT_LE(a.x[0], R - r + 1e-15) << "step " << s;
+    if (a.x[0] > R - r - 1e-12) {
+      ASSERT_EQ(a.v[0], 0.0) << "its velocity out of the tube, at step " << s;
+    }
+  }
+  EXPECT_GT(past, 50);
+  EXPECT_NEAR(widest_inside, 80 * kSpeed * kDt, 8 * kSpeed * kDt);  // free inside: 4 um in 20 steps
+  EXPECT_NEAR(widest_past, R - r, 1e-12);                            // held past it
 }

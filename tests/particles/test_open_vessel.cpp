@@ -5,15 +5,22 @@
 // cells present are those created plus those inserted minus those that left; the snapshots hold
 // the vessel's cells only, each tag once, none past the outlet, and tags freed at the outlet are
 // given again; a node resumed from a checkpoint goes on bit for bit as the node that wrote it,
-// its counts included. On one rank and on two (ctest particles.OpenVessel.ranks2).
+// its counts included. A single cell's volume crosses each end over the steps its sphere (or
+// kernel) takes to cross it, not in one, its centre counted as it crosses. On one rank and on two
+// (ctest particles.OpenVessel.ranks2).
 #include "checkpoint_case.h"
+#include "dem_engine.h"
+#include "dem_timing.h"
+#include "deposition.h"
 
+#include <solid_fraction_names.h>
 #include <vessel_ends.h>
 #include <vessel_mesh.h>
 
 #include <gtest/gtest.h>
 #include <mpi.h>
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -172,5 +179,151 @@ TEST(OpenVessel, ResumedNodeGoesOnBitForBitWithItsCounts) {
   if (checkpoint_case::world_rank() == 0) {
     fs::remove_all(a_dir);
     fs::remove_all(b_dir);
+  }
+}
+
+namespace {
+
+// A thin open tube in cubes of about 2.5 um (narrower than a red cell, as a Gaussian kernel
+// carries them), one red cell on its axis 8 um short of the outlet and one on the feeder's axis
+// 30 um short of its end, in a plug flow of kU: the first leaves, then the second's copy enters.
+// Each coupling step: the solid volume deposited in the vessel's cells, whether each is in the
+// vessel (its centre inside, as the snapshot says) and the counts.
+constexpr double kThinD = 24e-6, kThinL = 40e-6, kU = 0.02;
+struct Crossing {
+  std::vector<double> solid;   // m^3, the vessel's cells' sum of phi V
+  std::vector<double> total;   // m^3, every cell's (the feeder's too)
+  std::vector<double> inside;  // m^3, the particles' volume inside the ends (particles_volume_inside_m3)
+  std::vector<long> in_vessel, left, inserted, straddling, present;
+  double volume = 0, step_length = 0, diameter = 0;
+};
+
+Crossing cross_both_ends(const std::string& solid_fraction, int steps) {
+  auto scene = synthetic::blood_scene(kThinD, kThinL, 0.15);
+  synthetic::use_paper_closures(scene);
+  scene.vessel.ends = "open";
+  scene.mesh.core_cells = 4;
+  scene.mesh.ring_cells = 2;
+  scene.mesh.axial_cells = 16;  // 2.5-um layers
+  scene.solid_fraction = solid_fraction;
+  const auto feeder = hemo::feeder_layout(scene);
+  const auto mesh = mesh_of(scene);
+  const CellLocator locator(mesh, hemo::make_vessel_wall(scene.vessel), feeder);
+  FluidSampler fluid(locator);
+  fluid.set_state(synthetic::fluid_state(mesh, [](const std::array<double, 3>&, std::array<double, 3>& u,
+                                                  std::array<double, 9>& g) {
+    u = {0, 0, kU};
+    g.fill(0);
+  }));
+  Deposition deposition(locator, make_solid_fraction_model(solid_fraction, locator, scene.kernel_width_diameters));
+  fluid.read_over(&deposition.model());
+  const double interval = 1e-5;
+  const DemTiming timing = derive_dem_timing(scene, interval);
+  const std::string log = (fs::temp_directory_path() / ("hemo_crossing_" + std::to_string(::getpid()) + ".log")).string();
+  DemEngine engine(scene, locator, log, MPI_COMM_WORLD);
+  const double d = scene.rbc.diameter;
+  engine.create_particles({PlacedParticle{kRbc, d, Vec3(0, 0, kThinL - 8e-6)},
+                           PlacedParticle{kRbc, d, Vec3(feeder.axis_x, 0, feeder.period - 30e-6)}});
+  Crossing c;
+  c.volume = scene.rbc.volume;
+  c.step_length = kU * interval;
+  c.diameter = d;
+  for (int k = 0; k <= steps; ++k) {
+    if (k > 0) {
+      EXPECT_EQ(engine.run(k, timing.substeps, timing.dt, fluid), "") << "step " << k;
+    }
+    engine.deposit(deposition);
+    double solid = 0;
+    for (int cell = 0; cell < locator.n_cells(); ++cell)
+      if (!feeder.in_feeder(locator.centre(cell).x())) solid += deposition.solid_volume(cell);
+    const EngineDiagnostics diag = engine.diagnostics(&fluid);
+    const auto counts = engine.end_counts();
+    c.solid.push_back(solid);
+    c.total.push_back(deposition.total_volume());
+    c.inside.push_back(diag.volume_inside);
+    c.in_vessel.push_back(diag.in_vessel);
+    c.left.push_back(counts.left_outlet[kRbc]);
+    c.inserted.push_back(counts.inserted[kRbc]);
+    c.straddling.push_back(diag.straddling);
+    c.present.push_back(engine.particle_count());
+  }
+  fs::remove(log);
+  return c;
+}
+
+}  // namespace
+
+// The cell leaving: from the step its sphere (or kernel) first reaches past the outlet plane the
+// vessel's cells hold only the share of it inside, which falls to 0 over the steps it takes to
+// move its reach twice; the feeder's cell's copy enters the same way from 0. So the solid volume in
+// the vessel's cells changes by at most about V_p (U dt / d) a step (1.5 of that for the sphere's
+// cap at its steepest, 0.94 for the kernel's Gaussian of one diameter), where the cells handed
+// over the step their centres crossed took or gave V_p at once. All along it is the particles'
+// volume inside the ends (particles_volume_inside_m3) to round-off; a cell is in the vessel (in
+// its count and snapshot) from the step its centre crosses the inlet to the step it crosses the
+// outlet, counted then.
+TEST(OpenVessel, ASingleCellsVolumeCrossesEachEndOverManyStepsAndItsCentreIsCounted) {
+  for (const std::string model : {"sphere_overlap", "gaussian_kernel"}) {
+    SCOPED_TRACE(model);
+    const int steps = 200;  // 40 um at 0.2 um a step
+    const Crossing c = cross_both_ends(model, steps);
+    const double V = c.volume;
+    EXPECT_NEAR(c.solid.front(), V, 1e-12 * V) << "the leaving cell wholly inside at the start";
+    EXPECT_NEAR(c.solid.back(), V, 1e-12 * V) << "the entering copy wholly inside at the end";
+    double largest = 0;
+    int partial = 0;
+    for (int k = 0; k <= steps; ++k) {
+      EXPECT_NEAR(c.total[k], c.inside[k], 1e-12 * V) << "step " << k;
+      if (k > 0) largest = std::max(largest, std::abs(c.solid[k] - c.solid[k - 1]));
+      partial += c.solid[k] > 1e-9 * V && c.solid[k] < (1 - 1e-9) * V;
+      // The centre-crossing counts: the leaving cell is in the vessel until it is counted out,
+      // the copy from when it is counted in.
+      EXPECT_EQ(c.in_vessel[k], (c.left[k] == 0 ? 1 : 0) + c.inserted[k]) << "step " << k;
+      EXPECT_EQ(c.present[k], 2 + c.inserted[k] - c.left[k]) << "step " << k;
+      // Straddling: the leaving cell counted out and the copy not yet counted in, while in the DEM.
+      EXPECT_LE(c.straddling[k], 1) << "step " << k;
+    }
+    EXPECT_EQ(c.left.back(), 1);
+    EXPECT_EQ(c.inserted.back(), 1);
+    const double smooth = V * c.step_length / c.diameter;
+    std::printf("[ info ] %s: largest one-step change of the vessel's solid volume %.3g V_p = %.2f V_p (U dt / d); "
+                "%d steps partly inside; handed over at once it was 1 V_p\n",
+                model.c_str(), largest / V, largest / smooth, partial);
+    EXPECT_LT(largest, 2 * smooth);
+    // Both crossings: a sphere's 2 d at U dt, a kernel's reach twice, each over many steps.
+    EXPECT_GT(partial, 2 * 0.8 * c.diameter / c.step_length);
+  }
+}
+
+// The box's gap past the vessel holds the cells straddling the outlet and the inlet and a pair's
+// reach between them: the thin tube's 25-um gap holds a kernel one diameter wide (2 x 7.1 um of
+// straddling and 7.1 um of pair and skin) and refuses one 1.5 diameters wide (2 x 10.6 um and
+// 7.1 um), in one line naming both.
+TEST(OpenVessel, AFeederTooShortForTheCellsStraddlingItsEndsIsRefused) {
+  for (const double width : {1.0, 1.5}) {
+    auto scene = synthetic::blood_scene(kThinD, kThinL, 0.15);
+    scene.vessel.ends = "open";
+    scene.mesh.core_cells = 4;
+    scene.mesh.ring_cells = 2;
+    scene.mesh.axial_cells = 16;
+    scene.solid_fraction = "gaussian_kernel";
+    scene.kernel_width_diameters = width;
+    const auto feeder = hemo::feeder_layout(scene);
+    const auto mesh = mesh_of(scene);
+    const CellLocator locator(mesh, hemo::make_vessel_wall(scene.vessel), feeder);
+    DemEngine engine(scene, locator, "none", MPI_COMM_WORLD);
+    const std::vector<PlacedParticle> cell = {PlacedParticle{kRbc, scene.rbc.diameter, Vec3(0, 0, kThinL / 2)}};
+    if (width == 1.0) {
+      EXPECT_NO_THROW(engine.create_particles(cell));
+      continue;
+    }
+    try {
+      engine.create_particles(cell);
+      ADD_FAILURE() << "a 25-um gap taken for cells straddling 10.6 um past each end";
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("straddling the outlet and the inlet"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
   }
 }
