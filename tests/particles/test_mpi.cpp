@@ -162,6 +162,27 @@ TEST(ParticleEngineMpi, CoRelaxedPlasmaIsTheSameOnEveryRankAndConservesMomentum)
   for (int k = 0; k < 3; ++k) EXPECT_EQ(lo[k], hi[k]) << "component " << k;
 }
 
+namespace {
+
+// Rank p of `ranks` needs a slab of `cells` cells and one cell either side, cyclically; the
+// overlap map of those needs, all from fluid rank 0 (the halo sum's tests).
+bool slab_needs(int cells, int ranks, int p, int c) {
+  const int lo = p * cells / ranks - 1, hi = (p + 1) * cells / ranks;  // [lo, hi], cyclic
+  for (int k = lo; k <= hi; ++k)
+    if ((k + cells) % cells == c) return true;
+  return false;
+}
+hemo::OverlapMap slab_overlap(int cells, int ranks) {
+  hemo::OverlapMap map;
+  map.from.resize(static_cast<std::size_t>(ranks));
+  for (int p = 0; p < ranks; ++p)
+    for (int c = 0; c < cells; ++c)
+      if (slab_needs(cells, ranks, p, c)) map.from[static_cast<std::size_t>(p)][0].push_back(c);
+  return map;
+}
+
+}  // namespace
+
 // The co-relaxation's sums over the ranks sharing each cell (CellPlasmaRelaxation::relax with a
 // CellHaloSum) move every cell a rank takes exactly as the whole-mesh all-reduce does, on every
 // rank that takes it (the same slabs as above; integer impulses, so that any order of adding
@@ -172,17 +193,8 @@ TEST(CellHaloSum, TheCoRelaxedPlasmaMovesAsWithTheWholeMeshAllReduce) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
   constexpr int kCells = 24;
-  hemo::OverlapMap map;
-  map.from.resize(static_cast<std::size_t>(ranks));
-  auto needs = [&](int p, int c) {
-    const int lo = p * kCells / ranks - 1, hi = (p + 1) * kCells / ranks;  // [lo, hi], cyclic
-    for (int k = lo; k <= hi; ++k)
-      if ((k + kCells) % kCells == c) return true;
-    return false;
-  };
-  for (int p = 0; p < ranks; ++p)
-    for (int c = 0; c < kCells; ++c)
-      if (needs(p, c)) map.from[static_cast<std::size_t>(p)][0].push_back(c);
+  auto needs = [&](int p, int c) { return slab_needs(kCells, ranks, p, c); };
+  const hemo::OverlapMap map = slab_overlap(kCells, ranks);
   const CellHaloSum halo(map, rank, MPI_COMM_WORLD);
   CellPlasmaRelaxation with_halo(kCells), whole(kCells);
   for (CellPlasmaRelaxation* plasma : {&with_halo, &whole})
@@ -282,17 +294,8 @@ TEST(CellHaloSum, EachRankGetsTheSumOverTheRanksSharingItsCellsAndNoOther) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
   constexpr int kCells = 12;
-  hemo::OverlapMap map;
-  map.from.resize(static_cast<std::size_t>(ranks));
-  auto needs = [&](int p, int c) {
-    const int lo = p * kCells / ranks - 1, hi = (p + 1) * kCells / ranks;  // [lo, hi], cyclic
-    for (int k = lo; k <= hi; ++k)
-      if ((k + kCells) % kCells == c) return true;
-    return false;
-  };
-  for (int p = 0; p < ranks; ++p)
-    for (int c = 0; c < kCells; ++c)
-      if (needs(p, c)) map.from[static_cast<std::size_t>(p)][0].push_back(c);
+  auto needs = [&](int p, int c) { return slab_needs(kCells, ranks, p, c); };
+  const hemo::OverlapMap map = slab_overlap(kCells, ranks);
   const CellHaloSum halo(map, rank, MPI_COMM_WORLD);
 
   std::vector<double> values(2 * kCells, -1.0);  // two values a cell; -1 where not needed
