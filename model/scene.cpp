@@ -1071,7 +1071,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   read_choice(r, "coupling.implicit_drag", s.implicit_drag);
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
   read_choice(r, "coupling.fluid_velocity", s.fluid_velocity);
-  read_name(r, "coupling.fluid_force", s.fluid_force, {"per_dem_step", "held_implicit_drag", "held"});
+  read_choice(r, "coupling.fluid_force", s.fluid_force);
   read_name(r, "coupling.momentum", s.momentum, momentum_form_names());
   r.retired("coupling.pressure_gradient_force",
             "replaced by coupling.momentum (\"cfdem_A\": -V_p grad P and the viscous force on the particles; "
@@ -1089,7 +1089,7 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
           "vessel.feeder_develop_s", "above 0 needs a feeder (vessel.ends = \"open\", vessel.inlet = \"feeder\")");
   r.check(!(s.vessel.feeder_develop > 0) || !s.time.adaptive_interval(), "vessel.feeder_develop_s",
           "above 0 needs fixed coupling intervals (time.coupling_relaxation_times = 0)");
-  r.check(s.fluid_force == "per_dem_step" || s.implicit_drag != ImplicitDrag::co_relaxed, "coupling.fluid_force",
+  r.check(s.fluid_force == FluidForceUpdate::per_dem_step || s.implicit_drag != ImplicitDrag::co_relaxed, "coupling.fluid_force",
           "a held fluid force cannot be co-relaxed with the plasma (coupling.implicit_drag = \"co_relaxed\")");
 
   if (r.problems().empty()) check_geometry_and_work(r, s, narrowest_end);
@@ -1132,11 +1132,8 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
                   s.time.closure_every_dem_steps);
   std::vector<NumericalReading> r = {
       reading_of(s.fluid_velocity),
-      {"coupling.fluid_force", s.fluid_force,
-       s.fluid_force == "held"                 ? "CFDEM's couple/cfd/force: drag, lift, torque held from the exchange"
-       : s.fluid_force == "held_implicit_drag" ? "CFDEM's couple/cfd/force/implicit: drag implicit on the current "
-                                                 "velocity, lift and torque held from the exchange"
-                                               : every},
+      {"coupling.fluid_force", name_of(s.fluid_force),
+       s.fluid_force == FluidForceUpdate::per_dem_step ? every : std::string(choice_of(s.fluid_force).reading)},
       reading_of(s.implicit_drag),
       {"coupling.momentum", s.momentum, momentum_form(s.momentum).reading},
   };

@@ -305,7 +305,7 @@ struct Scene {
   //                         at the interval's first DEM step and applied as constants until the
   //                         next exchange (stable only while the interval is below twice the
   //                         particles' drag relaxation time at their DEM mass).
-  std::string fluid_force = "per_dem_step";
+  FluidForceUpdate fluid_force = FluidForceUpdate::per_dem_step;
   // How the pressure (with the imposed mean drop) and the plasma's viscous stress are shared
   // between the plasma and the particles, and what the particles hand back: one of the forms in
   // momentum_forms.h ("paper": the paper's eq:momentum with F_p and F_v on the particles, not

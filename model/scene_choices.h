@@ -132,6 +132,21 @@ struct ChoiceTable<OrientationMethod> {
   }};
 };
 
+// coupling.fluid_force: when the closures are evaluated and what is held until the next.
+enum class FluidForceUpdate { per_dem_step, held_implicit_drag, held };
+template <>
+struct ChoiceTable<FluidForceUpdate> {
+  static constexpr std::string_view key = "coupling.fluid_force";
+  static constexpr std::array<Choice<FluidForceUpdate>, 3> entries = {{
+      {FluidForceUpdate::per_dem_step, "per_dem_step",
+       "ours: closures every time.closure_every_dem_steps DEM steps, drag on the current velocity every step"},
+      {FluidForceUpdate::held_implicit_drag, "held_implicit_drag",
+       "CFDEM's couple/cfd/force/implicit: drag implicit on the current velocity, lift and torque held from the "
+       "exchange"},
+      {FluidForceUpdate::held, "held", "CFDEM's couple/cfd/force: drag, lift, torque held from the exchange"},
+  }};
+};
+
 // hosts.launcher: how a node with hosts is started (docs/hosts.md, docs/slurm.md).
 enum class Launcher { ssh, local, slurm };
 template <>

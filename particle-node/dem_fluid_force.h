@@ -179,10 +179,8 @@ class DemFluidForce {
   // pass's orientation step with its drift and kick inlined.
   std::array<const SplittingIntegrator*, kSpeciesCount> splitting_{};
   // coupling.fluid_force: when the closures are evaluated and what is held until the next.
-  enum class Update { per_dem_step, held_implicit_drag, held };
-  const Update update_ = scene_.fluid_force == "held"                 ? Update::held
-                         : scene_.fluid_force == "held_implicit_drag" ? Update::held_implicit_drag
-                                                                      : Update::per_dem_step;
+  using Update = FluidForceUpdate;
+  const Update update_ = scene_.fluid_force;
   // coupling.momentum: F_p = -V_p grad P and F_v = V_p div tau on the particles (the fluid
   // states carry both per cell), whether they go to the plasma with the drag and lift, and the
   // drag over the void fraction (CFDEM's model B).

@@ -532,7 +532,7 @@ TEST(Scene, NumericalReadingsDefaultToOursAndNameCfdemsWhenChosen) {
   const Scene ours =
       load_scene(test::write_temp(std::string(test::kMinimalScene) + "[platelet]\nnumber_density_per_ul = 1000\n"));
   EXPECT_EQ(ours.fluid_velocity, FluidVelocity::reconstructed);
-  EXPECT_EQ(ours.fluid_force, "per_dem_step");
+  EXPECT_EQ(ours.fluid_force, FluidForceUpdate::per_dem_step);
   EXPECT_EQ(ours.momentum, "paper");
   EXPECT_EQ(ours.plasma_velocity, PlasmaVelocity::face_flux);
   for (const auto& r : numerical_readings(ours))
@@ -600,6 +600,7 @@ TEST(Scene, EveryNamedOptionReadsBackAsItsValue) {
   expect_choices_round_trip<FluidVelocity>(2);
   expect_choices_round_trip<PlasmaVelocity>(2);
   expect_choices_round_trip<OrientationMethod>(2);
+  expect_choices_round_trip<FluidForceUpdate>(3);
   expect_choices_round_trip<ImplicitDrag>(3);
   // and a scene spells them as the tables do
   const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) +

@@ -607,7 +607,7 @@ TEST(DemEngine, OnePassCallbackIsTheTwoPassOneBitForBit) {
       scene.platelet.torque = "none";
     }
     scene.momentum = variant.momentum;
-    scene.fluid_force = variant.fluid_force;
+    hemo::choice_named(variant.fluid_force, scene.fluid_force);
     scene.time.closure_every_dem_steps = variant.closure_every;
     scene.gravity = {3, -2, 5};  // a weight in every component, as contacts, lift and stress have
     // Poiseuille flow with a cross-flow, a pressure gradient and viscous force in every component:
@@ -846,7 +846,7 @@ TEST(DemEngine, HeldForceDeliversForceTimesIntervalOfImpulse) {
   const double m = fx.scene.rbc.mass, T = fx.interval;
   const auto one_interval = [&](const std::string& mode, Vec3* impulse) {
     hemo::Scene scene = fx.scene;
-    scene.fluid_force = mode;
+    hemo::choice_named(mode, scene.fluid_force);
     DemEngine engine(scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
     engine.create_particles({PlacedParticle{kRbc, scene.rbc.diameter, Vec3(4e-6, 4e-6, 56e-6)}});
     EXPECT_EQ(engine.run(1, fx.timing.substeps, fx.timing.dt, fx.fluid), "");
@@ -875,7 +875,7 @@ TEST(DemEngine, HeldForceDeliversForceTimesIntervalOfImpulse) {
 TEST(DemEngine, HeldImplicitDragEvaluatesTheClosuresOncePerInterval) {
   const auto end_state = [](const std::string& mode, int closure_every) {
     Fixture fx(0.15, true, closure_every);
-    fx.scene.fluid_force = mode;
+    hemo::choice_named(mode, fx.scene.fluid_force);
     DemEngine engine(fx.scene, fx.locator, Fixture::log_path(), MPI_COMM_WORLD);
     const double R = 25e-6, u_max = 799 * R / 2;
     fx.fluid.set_state(fluid_state(fx.mesh, poiseuille(R, u_max)));
