@@ -109,6 +109,24 @@ fluid_partition_t slice_partition(const fluid_state_t& local, const std::vector<
   return m;
 }
 
+namespace {
+
+// A pair message's cell ids (a state partition's or a feedback partition's), as many as it says
+// and exactly the ones the overlap map expects from that rank; `cells` takes them.
+template <class PairMessage>
+std::string pair_cells(const PairMessage& msg, const std::vector<int>& expected, const std::string& from,
+                       std::vector<int>& cells) {
+  if (static_cast<int>(msg.cells.size()) != msg.n_cells)
+    return fmt::format("{}: {} cell ids for {} cells", from, msg.cells.size(), msg.n_cells);
+  cells.assign(msg.cells.begin(), msg.cells.end());
+  if (std::string why = cell_list_problem(cells, expected); !why.empty())
+    return fmt::format("{}: {} ({} cells received, {} expected by the overlap map)", from, why, cells.size(),
+                       expected.size());
+  return {};
+}
+
+}  // namespace
+
 std::string take_partition(const fluid_partition_t& msg, const std::vector<int>& expected, int fluid_rank,
                            int particle_rank, fluid_state_t& whole) {
   const std::string from = fmt::format("fluid rank {} -> particle rank {}", fluid_rank, particle_rank);
@@ -118,12 +136,8 @@ std::string take_partition(const fluid_partition_t& msg, const std::vector<int>&
   if (msg.mesh_hash != whole.mesh_hash)
     return fmt::format("{}: the state is for mesh '{}', not the mesh received ('{}')", from, msg.mesh_hash,
                        whole.mesh_hash);
-  if (static_cast<int>(msg.cells.size()) != msg.n_cells)
-    return fmt::format("{}: {} cell ids for {} cells", from, msg.cells.size(), msg.n_cells);
-  const std::vector<int> cells(msg.cells.begin(), msg.cells.end());
-  if (std::string why = cell_list_problem(cells, expected); !why.empty())
-    return fmt::format("{}: {} ({} cells received, {} expected by the overlap map)", from, why, cells.size(),
-                       expected.size());
+  std::vector<int> cells;
+  if (std::string why = pair_cells(msg, expected, from, cells); !why.empty()) return why;
   std::string why = flat_size_problem("velocity", msg.n_velocity_values, msg.velocity, kVectorValues, msg.n_cells);
   if (why.empty())
     why = flat_size_problem("velocity gradient", msg.n_gradient_values, msg.velocity_gradient, kTensorValues,
@@ -180,12 +194,8 @@ std::string add_feedback_partition(const feedback_partition_t& msg, const std::v
                        msg.fluid_rank);
   if (msg.mesh_hash != sum.mesh_hash)
     return fmt::format("{}: the feedback is for mesh '{}', not this mesh ('{}')", from, msg.mesh_hash, sum.mesh_hash);
-  if (static_cast<int>(msg.cells.size()) != msg.n_cells)
-    return fmt::format("{}: {} cell ids for {} cells", from, msg.cells.size(), msg.n_cells);
-  const std::vector<int> cells(msg.cells.begin(), msg.cells.end());
-  if (std::string why = cell_list_problem(cells, expected); !why.empty())
-    return fmt::format("{}: {} ({} cells received, {} expected by the overlap map)", from, why, cells.size(),
-                       expected.size());
+  std::vector<int> cells;
+  if (std::string why = pair_cells(msg, expected, from, cells); !why.empty()) return why;
   std::string why = flat_size_problem("solid fraction", msg.n_cells, msg.solid_fraction, 1, msg.n_cells);
   if (why.empty()) why = flat_size_problem("drag coefficient", msg.n_cells, msg.drag_coefficient, 1, msg.n_cells);
   if (why.empty())
