@@ -118,6 +118,7 @@ const std::set<std::string> kMayBeZero = {"run.seed",
                                           "vessel.daughter_1_diameter_um",   // 0: Murray's law
                                           "vessel.daughter_2_diameter_um",
                                           "vessel.daughter_length_um",  // 0: the parent's length
+                                          "vessel.feeder_develop_s",    // 0: the feeder is not developed first
                                           "mesh.surface_cell_size_um",  // 0: the vessel's diameter / 12
                                           "rbc.mass_scaling",
                                           "platelet.number_density_per_ul",
