@@ -46,6 +46,7 @@ DemFluidForce::DemFluidForce(const Scene& scene, const CellLocator& locator, con
     splitting_[sp] = dynamic_cast<const SplittingIntegrator*>(species_.rotation[sp].get());
   if (scene_.implicit_drag == ImplicitDrag::co_relaxed) {
     cell_plasma_ = std::make_unique<CellPlasmaRelaxation>(locator.n_cells());
+    end_shares_ = make_solid_fraction_model(scene.solid_fraction, locator, scene.kernel_width_diameters);
     take_plasma_mass(Deposition(locator));  // no particles deposited yet: all plasma
   }
 }
@@ -249,8 +250,11 @@ void DemFluidForce::step_fluid_force(const ForceStep& step, int i, int t, const 
     ff = held_fluid_force(step.held[i], vi, other, update_ == Update::held);
     step_cells_[i] = static_cast<int>(step.held[i][kCell]);
   }
-  if (cell_plasma_)
-    cell_plasma_->add(step_cells_[i], step.duration * exchanged(ff), step.duration * ff.ratio * ff.beta);
+  if (cell_plasma_) {
+    // Straddling an open end, the plasma inside answers only the share the fluid is handed (deposit).
+    const double inside = inside_share(x, sp);
+    cell_plasma_->add(step_cells_[i], inside * step.duration * exchanged(ff), inside * step.duration * ff.ratio * ff.beta);
+  }
   if (rotation) orientation_.kick_and_store(step.spin, i, t, *rotation, spin, ff.torque);
 }
 
@@ -422,6 +426,14 @@ void DemFluidForce::deposit(Deposition& deposition) {
   if (size > 1) MPI_Allreduce(MPI_IN_PLACE, deposition.data(), deposition.size(), MPI_DOUBLE, MPI_SUM, comm_);
   RankTraffic::all_reduce(sizeof(double) * static_cast<std::uint64_t>(deposition.size()), size);
   take_plasma_mass(deposition);
+}
+
+double DemFluidForce::inside_share(const double* x, int species) const {
+  const dem::FixOpenEnds* ends = liggghts_.fixes().open_ends;
+  if (ends == nullptr) return 1.0;
+  const dem::FixOpenEnds::Place place = ends->place(x);
+  if (place.end == dem::FixOpenEnds::kNone) return 1.0;
+  return end_shares_->inside_share(place.beyond, 0.5 * species_.diameter[species]);
 }
 
 int DemFluidForce::locate(int tag, const Vec3& x, double radius, AtEnds& at) {

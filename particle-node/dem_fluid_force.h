@@ -120,6 +120,9 @@ class DemFluidForce {
   };
   // Its fluid cell there (or -1), with the locate cache of `tag`.
   int locate(int tag, const Vec3& x, double radius, AtEnds& at);
+  // The share of a particle of `species` at x (unwrapped) inside the vessel's ends: 1 unless it
+  // straddles one (SolidFractionModel::inside_share, the deposition's).
+  double inside_share(const double* x, int species) const;
   // The particles' volume on the inside of the vessel's ends at the last deposit, this rank's
   // (what the deposited solid volume sums to).
   double inside_volume() const { return inside_volume_; }
@@ -197,6 +200,9 @@ class DemFluidForce {
   std::unique_ptr<CellHaloSum> halo_;  // the partitioned exchange's (null: deposition summed over all ranks)
   // Each cell's plasma relaxing with its particles (coupling.implicit_drag = "co_relaxed"; else null).
   std::unique_ptr<CellPlasmaRelaxation> cell_plasma_;
+  // co_relaxed: the scene's solid fraction model, for the share of a cell straddling an open end
+  // inside it (the plasma the fluid's cells hold answers that share of its drag).
+  std::unique_ptr<SolidFractionModel> end_shares_;
 
   // The run in progress.
   Run run_;

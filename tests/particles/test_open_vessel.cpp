@@ -195,10 +195,20 @@ struct Crossing {
   std::vector<double> total;   // m^3, every cell's (the feeder's too)
   std::vector<double> inside;  // m^3, the particles' volume inside the ends (particles_volume_inside_m3)
   std::vector<long> in_vessel, left, inserted, straddling, present;
+  // N s along z, every cell's: the co-relaxed plasma's momentum at the interval's end (sum of
+  // M_c shift_c) and the particles' fluid impulse deposited (what the fluid is handed)
+  std::vector<double> plasma_momentum, deposited_impulse;
   double volume = 0, step_length = 0, diameter = 0;
 };
 
-Crossing cross_both_ends(const std::string& solid_fraction, int steps) {
+// How the crossing is run: the plug flow's speed and how far short of the outlet the leaving
+// cell starts (m), and the plasma's answer to the drag.
+struct CrossingRun {
+  double u = kU, leaving_short = 8e-6;
+  hemo::ImplicitDrag implicit_drag = hemo::ImplicitDrag::interval_response;
+};
+
+Crossing cross_both_ends(const std::string& solid_fraction, int steps, const CrossingRun& how = {}) {
   auto scene = synthetic::blood_scene(kThinD, kThinL, 0.15);
   synthetic::use_paper_closures(scene);
   scene.vessel.ends = "open";
@@ -206,13 +216,14 @@ Crossing cross_both_ends(const std::string& solid_fraction, int steps) {
   scene.mesh.ring_cells = 2;
   scene.mesh.axial_cells = 16;  // 2.5-um layers
   scene.solid_fraction = solid_fraction;
+  scene.implicit_drag = how.implicit_drag;
   const auto feeder = hemo::feeder_layout(scene);
   const auto mesh = mesh_of(scene);
   const CellLocator locator(mesh, hemo::make_vessel_wall(scene.vessel), feeder);
   FluidSampler fluid(locator);
-  fluid.set_state(synthetic::fluid_state(mesh, [](const std::array<double, 3>&, std::array<double, 3>& u,
-                                                  std::array<double, 9>& g) {
-    u = {0, 0, kU};
+  fluid.set_state(synthetic::fluid_state(mesh, [&how](const std::array<double, 3>&, std::array<double, 3>& u,
+                                                      std::array<double, 9>& g) {
+    u = {0, 0, how.u};
     g.fill(0);
   }));
   Deposition deposition(locator, make_solid_fraction_model(solid_fraction, locator, scene.kernel_width_diameters));
@@ -222,17 +233,25 @@ Crossing cross_both_ends(const std::string& solid_fraction, int steps) {
   const std::string log = (fs::temp_directory_path() / ("hemo_crossing_" + std::to_string(::getpid()) + ".log")).string();
   DemEngine engine(scene, locator, log, MPI_COMM_WORLD);
   const double d = scene.rbc.diameter;
-  engine.create_particles({PlacedParticle{kRbc, d, Vec3(0, 0, kThinL - 8e-6)},
+  engine.create_particles({PlacedParticle{kRbc, d, Vec3(0, 0, kThinL - how.leaving_short)},
                            PlacedParticle{kRbc, d, Vec3(feeder.axis_x, 0, feeder.period - 30e-6)}});
   Crossing c;
   c.volume = scene.rbc.volume;
-  c.step_length = kU * interval;
+  c.step_length = how.u * interval;
   c.diameter = d;
   for (int k = 0; k <= steps; ++k) {
     if (k > 0) {
       EXPECT_EQ(engine.run(k, timing.substeps, timing.dt, fluid), "") << "step " << k;
     }
+    if (const CellPlasmaRelaxation* plasma = engine.cell_plasma()) {
+      double momentum = 0;  // before deposit(), which sets the next interval's plasma masses
+      for (int cell = 0; cell < locator.n_cells(); ++cell) momentum += plasma->plasma_mass(cell) * plasma->shift(cell).z();
+      c.plasma_momentum.push_back(momentum);
+    }
     engine.deposit(deposition);
+    double impulse = 0;
+    for (int cell = 0; cell < locator.n_cells(); ++cell) impulse += deposition.data()[cell * Deposition::kStride + 2];
+    c.deposited_impulse.push_back(impulse);
     double solid = 0;
     for (int cell = 0; cell < locator.n_cells(); ++cell)
       if (!feeder.in_feeder(locator.centre(cell).x())) solid += deposition.solid_volume(cell);
@@ -293,6 +312,25 @@ TEST(OpenVessel, ASingleCellsVolumeCrossesEachEndOverManyStepsAndItsCentreIsCoun
     // Both crossings: a sphere's 2 d at U dt, a kernel's reach twice, each over many steps.
     EXPECT_GT(partial, 2 * 0.8 * c.diameter / c.step_length);
   }
+}
+
+// coupling.implicit_drag = "co_relaxed" with a cell straddling an end: the plasma inside answers
+// only the share of its drag that the fluid is handed (the share inside the end's plane; the rest
+// is the plasma's beyond the end). A red cell from rest, its centre on the outlet's plane (half of
+// it inside), in a slow plug flow: over one interval it moves a millionth of its kernel's reach, so
+// its share stays 1/2 to that, and the plasma's momentum gained is what the deposited impulse says
+// the cells took from it (with the whole drag it was twice that).
+TEST(OpenVessel, CoRelaxedPlasmaTakesAStraddlingCellsInsideShareOfItsDrag) {
+  CrossingRun how;
+  how.u = 1e-4;
+  how.leaving_short = 0;
+  how.implicit_drag = hemo::ImplicitDrag::co_relaxed;
+  const Crossing c = cross_both_ends("gaussian_kernel", 1, how);
+  ASSERT_EQ(c.plasma_momentum.size(), 2u);
+  const double impulse = c.deposited_impulse[1], momentum = c.plasma_momentum[1];
+  std::printf("[ info ] deposited impulse %.4g N s, the plasma's momentum %.4g N s\n", impulse, momentum);
+  EXPECT_GT(impulse, 0.0) << "the flow drags the cell along";
+  EXPECT_NEAR(momentum, -impulse, 1e-3 * impulse);
 }
 
 // The box's gap past the vessel holds the cells straddling the outlet and the inlet and a pair's
