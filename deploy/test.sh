@@ -6,4 +6,6 @@ deploy/install-deps.sh
 # A warning in our code fails the run, so that a clean clone stays clean at -Wall -Wextra.
 HEMOCOSIM_WERROR=ON deploy/build.sh
 cd build
-ctest --output-on-failure --timeout 900 "$@"
+# As many tests at once as cores (HEMOCOSIM_TEST_JOBS to change it): a test of several processes
+# says how many cores it takes (PROCESSORS), and the integration tests run alone (RUN_SERIAL).
+ctest --output-on-failure --timeout 900 -j "${HEMOCOSIM_TEST_JOBS:-$(nproc)}" "$@"
