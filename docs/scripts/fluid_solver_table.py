@@ -4,6 +4,7 @@
 (PISO correctors, p and U iterations), and the observables against the reference run.
 
     /usr/bin/python3 docs/scripts/fluid_solver_table.py runs/bench-fsol [--hemocosim build/bin/hemocosim]
+    /usr/bin/python3 docs/scripts/fluid_solver_table.py runs/bench-fsol --seeds runs/fsol-seeds
 
 BENCH_DIR is the bench's --out. Per run (runs/bench-fsol/fluid-solvers/runs/NN-label): from
 metrics.csv the means over steps 1.. of the fluid's compute_s, its momentum and pressure phases,
@@ -12,6 +13,10 @@ largest Courant number and continuity_error / alpha_ddt_norm; from analysis.json
 `hemocosim analyze` when missing: window the run's second half) the CFL thickness (edge /
 profile), D and mu_app/mu; from bench.csv the wall time and e_U. Prints a Markdown table, each
 observable as its difference from the reference run's in per cent.
+
+With --seeds DIR (runs named NN-label-sSEED, the bench's scene NN-label with run.seed changed):
+per label, the differences from the reference of the same seed (the bench's runs are seed 1),
+mean +- standard error over the seeds, each seed's in brackets, and the fluid compute per step.
 """
 import argparse
 import csv
@@ -53,12 +58,64 @@ def pct(value, reference):
     return f"{100 * (value / reference - 1):+.1f} %"
 
 
+def seeded(a, bench_runs):
+    import math
+    import re
+    per = defaultdict(dict)  # label -> seed -> (analysis, fluid compute per step)
+    for name in sorted(os.listdir(bench_runs)):
+        run = os.path.join(bench_runs, name)
+        if os.path.exists(os.path.join(run, "study-finished.toml")):
+            per[name][1] = (analysis(run, a.hemocosim), fluid_means(run)[0]["compute_s"])
+    for name in sorted(os.listdir(a.seeds)):
+        m = re.fullmatch(r"(.+)-s(\d+)", name)
+        run = os.path.join(a.seeds, name)
+        if m and os.path.isdir(run) and os.path.exists(os.path.join(run, "metrics.csv")):
+            try:
+                per[m.group(1)][int(m.group(2))] = (analysis(run, a.hemocosim), fluid_means(run)[0]["compute_s"])
+            except (subprocess.CalledProcessError, KeyError):
+                continue
+    ref_name = next(n for n in per if n.endswith("-reference"))
+    ref = per[ref_name]
+    quantities = [("CFL δ edge", lambda x: x["cfl"]["edge"]["thickness_m"]),
+                  ("CFL δ profile", lambda x: x["cfl"]["profile"]["thickness_m"]),
+                  ("D", lambda x: x["diffusion"]["D_m2_s"]),
+                  ("µ_app/µ", lambda x: x["rheology"]["relative_apparent_viscosity"])]
+
+    def mean_se(v):
+        n = len(v)
+        m = sum(v) / n
+        return m, (math.sqrt(sum((x - m) ** 2 for x in v) / (n - 1) / n) if n > 1 else float("nan"))
+
+    print("| run | seeds | fluid compute per step | " + " | ".join(q for q, _ in quantities) + " |")
+    print("|---|---|---|" + "---|" * len(quantities))
+    for name, runs in per.items():
+        seeds = sorted(s for s in runs if s in ref)
+        if len(seeds) < 2:
+            continue
+        cost = mean_se([1e3 * runs[s][1] for s in seeds])
+        cells = []
+        for _, get in quantities:
+            if name == ref_name:
+                v = [get(runs[s][0]) for s in seeds]
+                m, se = mean_se(v)
+                cells.append(f"{m:.4g} ± {se:.2g} (over seeds)")
+                continue
+            d = [100 * (get(runs[s][0]) / get(ref[s][0]) - 1) for s in seeds]
+            m, se = mean_se(d)
+            cells.append(f"{m:+.1f} ± {se:.1f} % (" + ", ".join(f"{x:+.1f}" for x in d) + ")")
+        print(f"| {name} | {','.join(map(str, seeds))} | {cost[0]:.2f} ± {cost[1]:.2f} ms | " + " | ".join(cells) + " |")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("bench_dir")
     p.add_argument("--suite", default="fluid-solvers")
     p.add_argument("--hemocosim", default="build/bin/hemocosim")
+    p.add_argument("--seeds", help="directory of the same scenes at other seeds (NN-label-sSEED)")
     a = p.parse_args()
+    if a.seeds:
+        seeded(a, os.path.join(a.bench_dir, a.suite, "runs"))
+        return 0
     bench = {}
     with open(os.path.join(a.bench_dir, "bench.csv")) as f:
         for row in csv.DictReader(f):
