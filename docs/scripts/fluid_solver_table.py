@@ -76,17 +76,18 @@ def seeded(a, bench_runs):
                 continue
     ref_name = next(n for n in per if n.endswith("-reference"))
     ref = per[ref_name]
-    quantities = [("CFL δ edge", lambda x: x["cfl"]["edge"]["thickness_m"]),
-                  ("CFL δ profile", lambda x: x["cfl"]["profile"]["thickness_m"]),
-                  ("D", lambda x: x["diffusion"]["D_m2_s"]),
-                  ("µ_app/µ", lambda x: x["rheology"]["relative_apparent_viscosity"])]
+    # (name, value, scale and unit of the reference's own row)
+    quantities = [("CFL δ edge", lambda x: x["cfl"]["edge"]["thickness_m"], 1e6, " µm"),
+                  ("CFL δ profile", lambda x: x["cfl"]["profile"]["thickness_m"], 1e6, " µm"),
+                  ("D", lambda x: x["diffusion"]["D_m2_s"], 1e11, "·10⁻¹¹ m²/s"),
+                  ("µ_app/µ", lambda x: x["rheology"]["relative_apparent_viscosity"], 1, "")]
 
     def mean_se(v):
         n = len(v)
         m = sum(v) / n
         return m, (math.sqrt(sum((x - m) ** 2 for x in v) / (n - 1) / n) if n > 1 else float("nan"))
 
-    print("| run | seeds | fluid compute per step | " + " | ".join(q for q, _ in quantities) + " |")
+    print("| run | seeds | fluid compute per step | " + " | ".join(q[0] for q in quantities) + " |")
     print("|---|---|---|" + "---|" * len(quantities))
     for name, runs in per.items():
         seeds = sorted(s for s in runs if s in ref)
@@ -94,11 +95,10 @@ def seeded(a, bench_runs):
             continue
         cost = mean_se([1e3 * runs[s][1] for s in seeds])
         cells = []
-        for _, get in quantities:
+        for _, get, scale, unit in quantities:
             if name == ref_name:
-                v = [get(runs[s][0]) for s in seeds]
-                m, se = mean_se(v)
-                cells.append(f"{m:.4g} ± {se:.2g} (over seeds)")
+                m, se = mean_se([scale * get(runs[s][0]) for s in seeds])
+                cells.append(f"{m:.4g} ± {se:.2g}{unit}")
                 continue
             d = [100 * (get(runs[s][0]) / get(ref[s][0]) - 1) for s in seeds]
             m, se = mean_se(d)
