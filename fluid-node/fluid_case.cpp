@@ -99,9 +99,13 @@ std::string fv_solution(const FluidSolver& solver) {
        "        tolerance       " +
        num(solver.velocity_tolerance) +
        ";\n"
-       "        relTol          0;\n        maxIter         100;\n    }\n"
+       "        relTol          " +
+       num(solver.velocity_relative_tolerance) +
+       ";\n        maxIter         100;\n    }\n"
        "}\n\n"
-       "PISO\n{\n    momentumPredictor yes;\n"
+       "PISO\n{\n    momentumPredictor " +
+       (solver.momentum_predictor ? "yes" : "no") +
+       ";\n"
        "    nCorrectors     " +
        std::to_string(solver.min_correctors) +
        ";\n"
@@ -111,7 +115,9 @@ std::string fv_solution(const FluidSolver& solver) {
        "    correctorTolerance " +
        num(solver.corrector_tolerance) +
        ";\n"
-       "    nNonOrthogonalCorrectors 1;\n    pRefCell        0;\n    pRefValue       0;\n}\n";
+       "    nNonOrthogonalCorrectors " +
+       std::to_string(solver.non_orthogonal_correctors) +
+       ";\n    pRefCell        0;\n    pRefValue       0;\n}\n";
   return s;
 }
 

@@ -267,6 +267,7 @@ class Reader {
         {"fluid.min_correctors", {ninf, 1000}},
         {"fluid.max_correctors", {ninf, 1000}},
         {"fluid.corrector_tolerance", {ninf, 1}},
+        {"fluid.non_orthogonal_correctors", {ninf, 100}},
         {"fluid.steady_tolerance", {ninf, 1}},
         {"fluid.solve_every", {ninf, 1e4}},
     };
@@ -1046,9 +1047,12 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("fluid.pressure_tolerance", f.pressure_tolerance);
   r.read("fluid.pressure_relative_tolerance", f.pressure_relative_tolerance);
   r.read("fluid.velocity_tolerance", f.velocity_tolerance);
+  r.read("fluid.velocity_relative_tolerance", f.velocity_relative_tolerance);
+  r.read("fluid.momentum_predictor", f.momentum_predictor);
   r.read("fluid.min_correctors", f.min_correctors);
   r.read("fluid.max_correctors", f.max_correctors);
   r.read("fluid.corrector_tolerance", f.corrector_tolerance);
+  r.read("fluid.non_orthogonal_correctors", f.non_orthogonal_correctors);
   r.read("fluid.skip_when_steady", f.skip_when_steady);
   r.read("fluid.steady_tolerance", f.steady_tolerance);
   r.read("fluid.solve_every", f.solve_every);
@@ -1057,9 +1061,13 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.check(f.pressure_relative_tolerance >= 0 && f.pressure_relative_tolerance < 1, "fluid.pressure_relative_tolerance",
           "must be in [0, 1)");
   r.check(f.velocity_tolerance > 0, "fluid.velocity_tolerance", "must be positive");
+  r.check(f.velocity_relative_tolerance >= 0 && f.velocity_relative_tolerance < 1, "fluid.velocity_relative_tolerance",
+          "must be in [0, 1)");
   r.check(f.min_correctors >= 1, "fluid.min_correctors", "must be at least 1");
   r.check(f.max_correctors >= f.min_correctors, "fluid.max_correctors", "must be at least fluid.min_correctors");
   r.check(f.corrector_tolerance > 0, "fluid.corrector_tolerance", "must be positive");
+  r.check(f.non_orthogonal_correctors >= 0, "fluid.non_orthogonal_correctors",
+          "must not be negative (0: one pressure solve per corrector)");
   r.check(f.steady_tolerance > 0, "fluid.steady_tolerance", "must be positive");
   r.check(f.solve_every >= 1, "fluid.solve_every", "must be at least 1 (1: the fluid solved every coupling step)");
 

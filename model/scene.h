@@ -165,9 +165,17 @@ struct FluidSolver {
   double pressure_tolerance = 1e-10;          // p: OpenFOAM's normalised residual, final corrector
   double pressure_relative_tolerance = 0.01;  // p: non-final correctors, fraction of the initial residual
   double velocity_tolerance = 1e-12;          // U predictor: normalised residual
+  double velocity_relative_tolerance = 0;     // U predictor: fraction of its initial residual (0: none)
+  // Whether PISO solves the momentum predictor before the correctors (OpenFOAM's
+  // momentumPredictor); without it the first corrector starts from the old U.
+  bool momentum_predictor = true;
   int min_correctors = 2;                     // PISO pressure correctors at least ...
   int max_correctors = 20;                    // ... and at most,
   double corrector_tolerance = 1e-3;          // more while a corrector's initial p residual is above
+  // Extra solves of each corrector's pressure equation with its explicit non-orthogonal
+  // correction updated (OpenFOAM's nNonOrthogonalCorrectors); 0: one solve, the correction
+  // taken from the p before it.
+  int non_orthogonal_correctors = 1;
   // p's linear solver: "GAMG" (algebraic multigrid, Gauss-Seidel smoother) or "PCG" (conjugate
   // gradients with DIC: more iterations, each far cheaper on small meshes).
   std::string pressure_solver = "GAMG";

@@ -99,6 +99,7 @@ const std::set<std::string> kIntegerKeys = {"run.seed",
                                             "output.checkpoint_every_steps",
                                             "fluid.min_correctors",
                                             "fluid.max_correctors",
+                                            "fluid.non_orthogonal_correctors",
                                             "run.bus_ttl"};
 // -1 is "chosen for you" (run.bus_ttl: 0 on one host, 1 across hosts); below it is refused.
 const std::set<std::string> kMinusOneIsAuto = {"run.bus_ttl"};
@@ -133,7 +134,9 @@ const std::set<std::string> kMayBeZero = {"run.seed",
                                           "gravity.x_m_s2",
                                           "gravity.y_m_s2",
                                           "gravity.z_m_s2",
-                                          "fluid.pressure_relative_tolerance"};
+                                          "fluid.pressure_relative_tolerance",
+                                          "fluid.velocity_relative_tolerance",
+                                          "fluid.non_orthogonal_correctors"};
 
 enum class Kind { string, boolean, integer, number };
 Kind kind_of(const SceneKey& k) {

@@ -5,6 +5,8 @@
 #include "fluid_case.h"
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 namespace {
 
@@ -71,6 +73,67 @@ TEST(FluidCase, WritesTheCase) {
        {"system/controlDict", "system/fvSchemes", "system/fvSolution", "0/U", "0/p", "constant/polyMesh/boundary"})
     EXPECT_TRUE(std::filesystem::exists(dir / p)) << p;
   std::filesystem::remove_all(dir);
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The written fvSolution of a scene: its PISO and solver entries as OpenFOAM reads them.
+std::string written_fv_solution(const hemo::FluidSolver& solver) {
+  auto f = hemo::fluid_settings(paper_scene());
+  f.solver = solver;
+  const auto s = paper_scene();
+  const auto mesh = hemo::make_vessel_mesh(s.vessel, hemo::MeshSpec{2, 1, 2});
+  const auto dir = std::filesystem::temp_directory_path() / "hemocosim_test_fv_solution";
+  std::filesystem::remove_all(dir);
+  hemo::write_case(dir.string(), f, s.vessel, mesh, hemo::compute_geometry(mesh), hemo::InitialFlow::poiseuille);
+  const std::string text = read_text(dir / "system" / "fvSolution");
+  std::filesystem::remove_all(dir);
+  return text;
+}
+
+// The entry `name value;` within the sub-dictionary that starts at `block` (e.g. "    U\n    {").
+std::string entry_in(const std::string& text, const std::string& block, const std::string& name) {
+  const auto start = text.find(block);
+  if (start == std::string::npos) return "(no block " + block + ")";
+  const auto end = text.find('}', start);
+  std::istringstream lines(text.substr(start, end - start));
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream words(line);
+    std::string key, value;
+    words >> key >> value;
+    if (key == name) return value;
+  }
+  return "(no " + name + ")";
+}
+
+// fluid.non_orthogonal_correctors, velocity_relative_tolerance and momentum_predictor reach the
+// case's fvSolution; by default it says what it said before they were keys (1, 0, yes).
+TEST(FluidCase, SolverKeysReachFvSolution) {
+  const std::string defaults = written_fv_solution(hemo::FluidSolver{});
+  EXPECT_EQ(entry_in(defaults, "PISO\n{", "nNonOrthogonalCorrectors"), "1;");
+  EXPECT_EQ(entry_in(defaults, "PISO\n{", "momentumPredictor"), "yes;");
+  EXPECT_EQ(entry_in(defaults, "    U\n    {", "relTol"), "0;");
+  EXPECT_EQ(entry_in(defaults, "    U\n    {", "tolerance"), "9.9999999999999998e-13;");
+
+  hemo::FluidSolver loose;
+  loose.non_orthogonal_correctors = 0;
+  loose.velocity_relative_tolerance = 0.05;
+  loose.velocity_tolerance = 1e-6;
+  loose.momentum_predictor = false;
+  loose.pressure_solver = "GAMG";
+  const std::string text = written_fv_solution(loose);
+  EXPECT_EQ(entry_in(text, "PISO\n{", "nNonOrthogonalCorrectors"), "0;");
+  EXPECT_EQ(entry_in(text, "PISO\n{", "momentumPredictor"), "no;");
+  EXPECT_EQ(entry_in(text, "    U\n    {", "relTol"), "0.050000000000000003;");
+  EXPECT_EQ(entry_in(text, "    U\n    {", "tolerance"), "9.9999999999999995e-07;");
+  EXPECT_EQ(entry_in(text, "    p\n    {", "solver"), "GAMG;");
+  // pFinal keeps relTol 0 whatever p's is: the last corrector solves to the tolerance.
+  EXPECT_EQ(entry_in(text, "    pFinal\n    {", "relTol"), "0;");
 }
 
 }  // namespace

@@ -750,7 +750,7 @@ struct SettingsRun {
   double poiseuille_error = 0;                                // L2 error (cell averages), steady particle-free 4/3
 };
 
-SettingsRun settings_run(const std::string& label, const std::string& keys, long steps) {
+SettingsRun settings_run(const std::string& label, const std::string& keys, long steps, bool with_poiseuille) {
   SettingsRun out;
   out.label = label;
   out.keys = keys;
@@ -783,11 +783,28 @@ SettingsRun settings_run(const std::string& label, const std::string& keys, long
   }
   out.mean = m.at({"fluid", "mean_velocity_m_s"});
   out.cells = read_state(r.dir + "/state.csv");
-  // The steady Poiseuille check asserts steadiness to 1e-9, which the looser settings are not
-  // meant to reach in 20 steps; only the reference, the defaults and PCG are compared on it.
-  if (label == "tight" || label == "defaults" || label == "PCG")
+  // The steady Poiseuille check asserts steadiness to 1e-9, which the looser tolerances are not
+  // meant to reach in 20 steps; only the settings asserted on it are compared there.
+  if (with_poiseuille)
     out.poiseuille_error = poiseuille(4, 3, "--mode none", "[fluid]\n" + keys + "\n").error_average;
   return out;
+}
+
+// Every pressure corrector solved to 1e-10, the velocity to 1e-12: the flow the others are held to.
+const char* const kTightSettings = "pressure_relative_tolerance = 0\nvelocity_tolerance = 1e-12\npressure_tolerance = 1e-10";
+
+// The largest relative difference of the mean velocity over the steps, and the largest
+// difference of a velocity component in a cell at the end over the reference's largest.
+std::pair<double, double> flow_difference(const SettingsRun& r, const SettingsRun& reference) {
+  double mean_err = 0, du = 0, umax = 0;
+  for (const auto& [k, v] : r.mean)
+    if (k >= 1) mean_err = std::max(mean_err, std::abs(v / reference.mean.at(k) - 1));
+  for (std::size_t i = 0; i < r.cells.size(); ++i)
+    for (int c = 0; c < 3; ++c) {
+      umax = std::max(umax, std::abs(reference.cells[i].u[c]));
+      du = std::max(du, std::abs(r.cells[i].u[c] - reference.cells[i].u[c]));
+    }
+  return {mean_err, du / umax};
 }
 
 }  // namespace
@@ -802,13 +819,12 @@ SettingsRun settings_run(const std::string& label, const std::string& keys, long
 TEST(FluidSolverSettings, DefaultsGiveTheTightSettingsFlow) {
   const long steps = 30;
   std::vector<SettingsRun> runs;
-  runs.push_back(settings_run(
-      "tight", "pressure_relative_tolerance = 0\nvelocity_tolerance = 1e-12\npressure_tolerance = 1e-10", steps));
-  runs.push_back(settings_run("defaults", "", steps));
-  runs.push_back(settings_run("U-1e-6", "velocity_tolerance = 1e-6", steps));
-  runs.push_back(settings_run("corr-1e-2", "corrector_tolerance = 1e-2", steps));
-  runs.push_back(settings_run("p-1e-7", "pressure_tolerance = 1e-7", steps));
-  runs.push_back(settings_run("PCG", "pressure_solver = \"PCG\"", steps));
+  runs.push_back(settings_run("tight", kTightSettings, steps, true));
+  runs.push_back(settings_run("defaults", "", steps, true));
+  runs.push_back(settings_run("U-1e-6", "velocity_tolerance = 1e-6", steps, false));
+  runs.push_back(settings_run("corr-1e-2", "corrector_tolerance = 1e-2", steps, false));
+  runs.push_back(settings_run("p-1e-7", "pressure_tolerance = 1e-7", steps, false));
+  runs.push_back(settings_run("PCG", "pressure_solver = \"PCG\"", steps, true));
   const auto& tight = runs.front();
   std::printf(
       "fluid solver settings, calibration mesh 4/3/24, dt = 1e-4 s, moving blob, %ld steps:\n"
@@ -816,26 +832,86 @@ TEST(FluidSolverSettings, DefaultsGiveTheTightSettingsFlow) {
       steps, "settings", "ms/step", "corr", "p it", "U it", "mean U err", "max du/umax", "contin.", "budget",
       "Poiseuille");
   for (const auto& r : runs) {
-    double mean_err = 0, du = 0, umax = 0;
-    for (const auto& [k, v] : r.mean)
-      if (k >= 1) mean_err = std::max(mean_err, std::abs(v / tight.mean.at(k) - 1));
-    for (std::size_t i = 0; i < r.cells.size(); ++i)
-      for (int c = 0; c < 3; ++c) {
-        umax = std::max(umax, std::abs(tight.cells[i].u[c]));
-        du = std::max(du, std::abs(r.cells[i].u[c] - tight.cells[i].u[c]));
-      }
+    const auto [mean_err, du] = flow_difference(r, tight);
     std::printf("  %-10s %8.2f %6.2f %7.1f %6.1f %12.3e %12.3e %11.2e %11.2e %12.6e\n", r.label.c_str(), r.ms_per_step,
-                r.correctors, r.p_iterations, r.U_iterations, mean_err, du / umax, r.continuity, r.budget,
+                r.correctors, r.p_iterations, r.U_iterations, mean_err, du, r.continuity, r.budget,
                 r.poiseuille_error);
     if (r.label == "defaults" || r.label == "PCG") {  // the defaults, and the other p solver
       EXPECT_LT(mean_err, 1e-4);
-      EXPECT_LT(du / umax, 1e-4);
+      EXPECT_LT(du, 1e-4);
       EXPECT_LT(r.continuity, 1e-9);
       // The moving blob leaves a budget residual of ~6e-5 of the driving force even with tight
       // settings; the defaults must not add to it.
       EXPECT_LT(r.budget, tight.budget * (1 + 1e-3) + 1e-12);
       EXPECT_NEAR(r.poiseuille_error, tight.poiseuille_error, 1e-6);
     }
+  }
+}
+
+// The cheaper readings of docs/performance.md ("The fluid's solvers") on top of the calibration
+// scene's settings (corrector_tolerance 1e-2, PCG, pressure_relative_tolerance 0.1), on the
+// calibration mesh at its interval with the moving blob, 30 steps:
+// - one pressure solve per corrector (fluid.non_orthogonal_correctors = 0; the O-grid is within
+//   15.3 deg of orthogonal) must add no more to the scene's settings than they already differ
+//   from the tight ones (mean velocity and the largest cell difference);
+// - the U predictor to 1 % of its initial residual (velocity_relative_tolerance = 0.01), alone and
+//   with the above, moves the mean velocity by more than that (2.5e-5 against 1.5e-6): it is held
+//   to the bar DefaultsGiveTheTightSettingsFlow sets for "the same flow", 1e-4 relative in the mean
+//   velocity and 1e-4 of u_max in any cell, against the scene's settings;
+// - with two PISO correctors besides, cells move by ~3e-3 of u_max: printed, not asserted (not
+//   the same flow by that bar; docs/performance.md).
+// A lagged non-orthogonal correction and a looser predictor change the path to the steady state,
+// not the state: each must reach the tight settings' steady Poiseuille flow (its L2 error
+// against the analytic profile the same to 1e-6), and continuity holds to 1e-9.
+TEST(FluidSolverSettings, CheaperReadingsKeepThePoiseuilleFlowAndTheScenesFlow) {
+  const long steps = 30;
+  const std::string scene = "corrector_tolerance = 1e-2\npressure_solver = \"PCG\"\npressure_relative_tolerance = 0.1\n";
+  const auto tight = settings_run("tight", kTightSettings, steps, true);
+  const auto calibration = settings_run("calibration", scene, steps, true);
+  const auto [scene_mean, scene_du] = flow_difference(calibration, tight);
+  std::printf("cheaper readings on the calibration scene's settings, 4/3/24, dt = 1e-4 s, moving blob, %ld steps:\n"
+              "  %-28s %8s %6s %7s %6s %13s %12s %13s %12s %11s %12s\n",
+              steps, "settings", "ms/step", "corr", "p it", "U it", "mean vs tight", "du vs tight", "mean vs scene",
+              "du vs scene", "contin.", "Poiseuille");
+  const auto print = [&](const SettingsRun& r) {
+    const auto [mean_t, du_t] = flow_difference(r, tight);
+    const auto [mean_s, du_s] = flow_difference(r, calibration);
+    std::printf("  %-28s %8.2f %6.2f %7.1f %6.1f %13.3e %12.3e %13.3e %12.3e %11.2e %12.6e\n", r.label.c_str(),
+                r.ms_per_step, r.correctors, r.p_iterations, r.U_iterations, mean_t, du_t, mean_s, du_s, r.continuity,
+                r.poiseuille_error);
+  };
+  print(tight);
+  print(calibration);
+  enum class Bar { scenes_own, same_flow, none };
+  struct Reading {
+    std::string label, keys;
+    Bar bar;
+    bool one_p_solve, loose_u;  // what must show in the work: fewer p iterations, fewer U iterations
+  };
+  const std::vector<Reading> readings{
+      {"nonorth-0", "non_orthogonal_correctors = 0", Bar::scenes_own, true, false},
+      {"U-rel-0.01", "velocity_relative_tolerance = 0.01", Bar::same_flow, false, true},
+      {"nonorth-0-U-rel-0.01", "non_orthogonal_correctors = 0\nvelocity_relative_tolerance = 0.01", Bar::same_flow,
+       true, true},
+      {"nonorth-0-U-rel-0.01-piso-2",
+       "non_orthogonal_correctors = 0\nvelocity_relative_tolerance = 0.01\nmax_correctors = 2", Bar::none, true,
+       true}};
+  for (const auto& reading : readings) {
+    const auto r = settings_run(reading.label, scene + reading.keys, steps, reading.bar != Bar::none);
+    print(r);
+    // The setting reached the solver: its work changed as it says.
+    if (reading.one_p_solve) {
+      EXPECT_LT(r.p_iterations, 0.9 * calibration.p_iterations) << reading.label;
+    }
+    if (reading.loose_u) {
+      EXPECT_LT(r.U_iterations, 0.5 * calibration.U_iterations) << reading.label;
+    }
+    if (reading.bar == Bar::none) continue;
+    const auto [mean_s, du_s] = flow_difference(r, calibration);
+    EXPECT_LE(mean_s, reading.bar == Bar::scenes_own ? scene_mean : 1e-4) << reading.label;
+    EXPECT_LE(du_s, reading.bar == Bar::scenes_own ? scene_du : 1e-4) << reading.label;
+    EXPECT_LT(r.continuity, 1e-9) << reading.label;
+    EXPECT_NEAR(r.poiseuille_error, tight.poiseuille_error, 1e-6) << reading.label;
   }
 }
 

@@ -366,6 +366,35 @@ TEST(Scene, FluidSolveEveryIsAtLeastOneAndNeedsTheSerialSchemeAndFixedIntervals)
   }
 }
 
+// The PISO loop's and the velocity solver's keys: today's fvSolution by default, the values a
+// scene gives, and a one-line problem on the key for a value OpenFOAM could not use.
+TEST(Scene, FluidSolverKeysDefaultToTodaysSettingsAndRefuseBadValues) {
+  const std::string base = test::kMinimalScene;
+  const auto d = load_scene(test::write_temp(base)).fluid;
+  EXPECT_EQ(d.non_orthogonal_correctors, 1);
+  EXPECT_EQ(d.velocity_relative_tolerance, 0.0);
+  EXPECT_TRUE(d.momentum_predictor);
+  const auto f = load_scene(test::write_temp(base +
+                                             "[fluid]\nnon_orthogonal_correctors = 0\n"
+                                             "velocity_relative_tolerance = 0.01\nmomentum_predictor = false\n"))
+                     .fluid;
+  EXPECT_EQ(f.non_orthogonal_correctors, 0);
+  EXPECT_EQ(f.velocity_relative_tolerance, 0.01);
+  EXPECT_FALSE(f.momentum_predictor);
+  for (const auto& [extra, key] :
+       {std::pair<std::string, std::string>{"non_orthogonal_correctors = -1", "fluid.non_orthogonal_correctors"},
+        {"non_orthogonal_correctors = 1000", "fluid.non_orthogonal_correctors"},
+        {"non_orthogonal_correctors = 0.5", "fluid.non_orthogonal_correctors"},
+        {"velocity_relative_tolerance = 1", "fluid.velocity_relative_tolerance"},
+        {"velocity_relative_tolerance = -0.1", "fluid.velocity_relative_tolerance"},
+        {"momentum_predictor = \"no\"", "fluid.momentum_predictor"}}) {
+    const auto ps = problems_of(base + "[fluid]\n" + extra + "\n");
+    ASSERT_EQ(ps.size(), 1u) << extra;
+    EXPECT_EQ(ps[0].key, key) << extra;
+    EXPECT_EQ(ps[0].message.find('\n'), std::string::npos) << ps[0].message;
+  }
+}
+
 // Every committed scene (scenes/*.toml and the bench suites' base) passes what `hemocosim check`
 // and `run` check, its particles' placement included (the studies' and suites' scenes: ctest
 // study_check.*, bench_check.*).
