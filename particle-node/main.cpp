@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
       if (step->order.write_output) node.write_output(node.step(), node.time());
       if (step->order.write_checkpoint) node.write_checkpoint();  // acknowledged in the diagnostics
       diagnostics = node.diagnostics();
-      if (scene.load_balance != hemo::LoadBalance::none && port->partitioned()) {
+      if (scene.load_balance != hemo::LoadBalance::none) {  // one rank: nothing to move, 1
         diagnostics.emplace_back("load_balance_moves", static_cast<double>(balances));
         diagnostics.emplace_back("particle_rank_imbalance", node.particle_imbalance());
       }
