@@ -152,6 +152,20 @@ TEST(PartitionedRun, SlabsThatFollowTheParticlesRederiveTheMapOnBothNodesAndEndA
   expect_same_run_to_round_off(one_by_one(), balanced, "2 x 2, slabs balanced");
 }
 
+// A fluid that does not follow the moved boxes (the analytic fluid, a one-rank program: its map
+// stays the start-up's) sends particle rank 0 the cells of the old map from step 4's state on;
+// the rank misses the ones it now needs, and the run stops at that step with one line naming the
+// pair, not later in the DEM.
+TEST(PartitionedRun, AFluidThatKeepsTheOldMapAfterTheSlabsMovedStopsTheRunWithOneLine) {
+  const std::string analytic = "fluid_command = \"" + bin("hemocosim-analytic-fluid") + " --flow poiseuille\"\n";
+  const std::string dir = fresh_run_dir("partitioned-balanced-stale-fluid");
+  std::ofstream(dir + ".toml") << long_scene_text(
+      analytic, "[dem]\nload_balance = \"particle_count\"\nload_balance_every_steps = 3\nload_balance_threshold = 1\n");
+  const auto result = run(bin("hemocosim") + " run " + dir + ".toml --out " + dir + " --np-particles 2");
+  EXPECT_NE(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.output.find("step 4: fluid rank 0 -> particle rank"), std::string::npos) << result.output;
+}
+
 // One node on two ranks, the other on one: the exchange is partitioned as soon as either is (the
 // one-rank end takes or sends every cell of its peer's ranks), and the run ends as 1 x 1 to the
 // same round-off. 1 x 2: the fluid adds two particle ranks' partials; 2 x 1: one particle rank's
