@@ -257,6 +257,8 @@ class Reader {
         {"time.closure_every_dem_steps", {ninf, 1e6}},
         {"time.mass_scaling", {ninf, 1e9}},
         {"time.coupling_relaxation_times", {ninf, 1e6}},
+        {"dem.load_balance_every_steps", {ninf, 1e9}},
+        {"dem.load_balance_threshold", {ninf, 1e6}},  // the largest over the mean is at most the rank count
         {"output.every_steps", {ninf, 1e9}},
         {"output.checkpoint_every_steps", {ninf, 1e9}},
         {"gravity.x_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
