@@ -72,6 +72,11 @@ class NodePort {
   int peer_ranks();
   // A message of `kind` kept for good by the other node (PARTITION, DOMAIN), waited for.
   Received wait_for_kept(const std::string& kind, const char* what) { return wait_for(kind, 0, what); }
+  // The same of a later step: the particle ranks' boxes after they moved (DOMAIN of the step from
+  // which they hold, docs/notes/partitioned-exchange.md).
+  Received wait_for_kept(const std::string& kind, std::int64_t step, const char* what) {
+    return wait_for(kind, step, what);
+  }
   // Handles what has reached the bus, without waiting: answers the requests to publish again
   // what this port kept (its feedback, say) and keeps what a later wait wants. For a node whose
   // ranks wait on channels of their own (the partitioned exchange) while the port's peers may

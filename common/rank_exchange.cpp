@@ -25,6 +25,12 @@ std::vector<std::string> channels_of(const std::vector<PairInbox::Source>& sourc
   return out;
 }
 
+std::map<std::string, int> ranks_of(const std::vector<PairInbox::Source>& sources) {
+  std::map<std::string, int> out;
+  for (const auto& s : sources) out[s.channel] = s.rank;
+  return out;
+}
+
 }  // namespace
 
 std::string rank_sender(const std::string& role, int rank) { return role + "." + std::to_string(rank); }
@@ -61,13 +67,15 @@ std::uint64_t AnsweringBus::take_sent_bytes(const std::string& kind) {
 }
 
 PairInbox::PairInbox(const RunContext& ctx, const std::string& sender, std::vector<Source> sources,
-                     double patience_s, std::string self, std::string what, std::string peer)
+                     const std::vector<Source>& heard, double patience_s, std::string self, std::string what,
+                     std::string peer)
     : sources_(std::move(sources)),
+      heard_(ranks_of(heard)),
       patience_s_(patience_s),
       self_(std::move(self)),
       what_(std::move(what)),
       peer_(std::move(peer)),
-      bus_(ctx, sender, channels_of(sources_)) {}
+      bus_(ctx, sender, channels_of(heard)) {}
 
 bool PairInbox::wait_within(std::int64_t step, double seconds, const std::function<void()>& serve) {
   const auto& ctx = bus_.context();
@@ -85,6 +93,17 @@ bool PairInbox::wait_within(std::int64_t step, double seconds, const std::functi
     }
     bus_.poll(std::max(0.0, std::min(0.05, until - seconds_now())),
               [&](const Received& msg) { pending_[{msg.kind, msg.envelope.step}] = msg; });
+    // A peer that sends this step's cells on a pair the map of the step does not have works
+    // from another map (the boxes moved on one node only).
+    for (const auto& [key, msg] : pending_) {
+      if (key.second != step) continue;
+      const bool source = std::any_of(sources_.begin(), sources_.end(),
+                                      [&](const Source& s) { return s.channel == key.first; });
+      if (!source)
+        throw std::runtime_error(fmt::format("{}: a {} of step {} from {} {}, which the overlap map of the step does "
+                                             "not pair it with",
+                                             self_, what_, step, peer_, heard_.count(key.first) ? heard_.at(key.first) : -1));
+    }
     if (serve) serve();
     const double now = seconds_now();
     if (now - last_asked_ > ctx.retry_s) {
@@ -115,21 +134,26 @@ std::uint64_t PairInbox::take_received_bytes() {
 FluidRankPublisher::FluidRankPublisher(const RunContext& ctx, int rank, int ranks, int particle_ranks,
                                        const std::map<int, std::vector<int>>& readers,
                                        const std::vector<int>& global_of_local)
-    : rank_(rank), out_(ctx, rank_sender("fluid", rank)) {
-  std::map<int, int> local_of_global;
-  for (std::size_t i = 0; i < global_of_local.size(); ++i) local_of_global[global_of_local[i]] = static_cast<int>(i);
+    : rank_(rank), ranks_(ranks), particle_ranks_(particle_ranks), out_(ctx, rank_sender("fluid", rank)) {
+  for (std::size_t i = 0; i < global_of_local.size(); ++i) local_of_global_[global_of_local[i]] = static_cast<int>(i);
+  replan(readers);
+}
+
+void FluidRankPublisher::replan(const std::map<int, std::vector<int>>& readers) {
+  std::map<int, Reader> planned;
   for (const auto& [p, cells] : readers) {
-    Reader r{channel::of_pair(channel::fluid_state, rank, ranks, p, particle_ranks), cells, {}};
+    Reader r{channel::of_pair(channel::fluid_state, rank_, ranks_, p, particle_ranks_), cells, {}};
     for (int c : cells) {
-      const auto it = local_of_global.find(c);
-      if (it == local_of_global.end())
+      const auto it = local_of_global_.find(c);
+      if (it == local_of_global_.end())
         throw std::runtime_error(
             fmt::format("the overlap map gives particle rank {} cell {} of fluid rank {}, which does not own it", p, c,
-                        rank));
+                        rank_));
       r.local_index.push_back(it->second);
     }
-    readers_.emplace(p, std::move(r));
+    planned.emplace(p, std::move(r));
   }
+  readers_ = std::move(planned);
 }
 
 void FluidRankPublisher::publish(const fluid_state_t& local, std::int64_t step) {
@@ -149,17 +173,32 @@ std::size_t FluidRankPublisher::cells_published() const {
 
 namespace {
 
+// The pair channel of this rank with the other node's rank `peer`.
+std::string pair_channel(const std::string& kind, int rank, int ranks, int peer, int peer_ranks, bool fluid_side) {
+  return fluid_side ? channel::of_pair(kind, rank, ranks, peer, peer_ranks)
+                    : channel::of_pair(kind, peer, peer_ranks, rank, ranks);
+}
+
 // One source per rank of the other node this rank exchanges with, ascending.
 std::vector<PairInbox::Source> pair_sources(const std::string& kind, const std::map<int, std::vector<int>>& peers,
                                             int rank, int ranks, int peer_ranks, bool fluid_side,
                                             std::vector<std::vector<int>>& cells) {
   std::vector<PairInbox::Source> sources;
+  cells.clear();
   for (const auto& [peer, peer_cells] : peers) {
-    sources.push_back({peer, fluid_side ? channel::of_pair(kind, rank, ranks, peer, peer_ranks)
-                                        : channel::of_pair(kind, peer, peer_ranks, rank, ranks)});
+    sources.push_back({peer, pair_channel(kind, rank, ranks, peer, peer_ranks, fluid_side)});
     cells.push_back(peer_cells);
   }
   return sources;
+}
+
+// Every pair channel of this rank: what it hears, whichever of them the map of a step uses.
+std::vector<PairInbox::Source> every_pair(const std::string& kind, int rank, int ranks, int peer_ranks,
+                                          bool fluid_side) {
+  std::vector<PairInbox::Source> all;
+  for (int peer = 0; peer < peer_ranks; ++peer)
+    all.push_back({peer, pair_channel(kind, rank, ranks, peer, peer_ranks, fluid_side)});
+  return all;
 }
 
 }  // namespace
@@ -168,11 +207,18 @@ ParticleRankReceiver::ParticleRankReceiver(const RunContext& ctx, int rank, int 
                                            const std::map<int, std::vector<int>>& from, std::string mesh_hash,
                                            int n_cells, double patience_s)
     : rank_(rank),
+      ranks_(ranks),
+      fluid_ranks_(fluid_ranks),
       mesh_hash_(std::move(mesh_hash)),
       n_cells_(n_cells),
       in_(ctx, rank_sender("particles", rank),
           pair_sources(channel::fluid_state, from, rank, ranks, fluid_ranks, /*fluid_side=*/false, cells_),
-          patience_s, fmt::format("particle rank {}", rank), "fluid state", "fluid rank") {}
+          every_pair(channel::fluid_state, rank, ranks, fluid_ranks, /*fluid_side=*/false), patience_s,
+          fmt::format("particle rank {}", rank), "fluid state", "fluid rank") {}
+
+void ParticleRankReceiver::replan(const std::map<int, std::vector<int>>& from) {
+  in_.set_sources(pair_sources(channel::fluid_state, from, rank_, ranks_, fluid_ranks_, /*fluid_side=*/false, cells_));
+}
 
 fluid_state_t ParticleRankReceiver::receive(std::int64_t step, const std::function<void()>& serve) {
   for (;;)
@@ -196,9 +242,14 @@ std::optional<fluid_state_t> ParticleRankReceiver::receive_within(std::int64_t s
 
 ParticleRankPublisher::ParticleRankPublisher(const RunContext& ctx, int rank, int ranks, int fluid_ranks,
                                              const std::map<int, std::vector<int>>& from)
-    : rank_(rank), out_(ctx, rank_sender("particles", rank)) {
+    : rank_(rank), ranks_(ranks), fluid_ranks_(fluid_ranks), out_(ctx, rank_sender("particles", rank)) {
+  replan(from);
+}
+
+void ParticleRankPublisher::replan(const std::map<int, std::vector<int>>& from) {
+  fluids_.clear();
   for (const auto& [f, cells] : from)
-    fluids_.emplace(f, Fluid{channel::of_pair(channel::particle_feedback, f, fluid_ranks, rank, ranks), cells});
+    fluids_.emplace(f, Fluid{channel::of_pair(channel::particle_feedback, f, fluid_ranks_, rank_, ranks_), cells});
 }
 
 void ParticleRankPublisher::publish(const particle_feedback_t& partial, std::int64_t step) {
@@ -214,11 +265,19 @@ FluidRankReceiver::FluidRankReceiver(const RunContext& ctx, int rank, int ranks,
                                      const std::map<int, std::vector<int>>& readers, std::string mesh_hash,
                                      int n_cells, double patience_s)
     : rank_(rank),
+      ranks_(ranks),
+      particle_ranks_(particle_ranks),
       mesh_hash_(std::move(mesh_hash)),
       n_cells_(n_cells),
       in_(ctx, rank_sender("fluid", rank),
           pair_sources(channel::particle_feedback, readers, rank, ranks, particle_ranks, /*fluid_side=*/true, cells_),
-          patience_s, fmt::format("fluid rank {}", rank), "feedback", "particle rank") {}
+          every_pair(channel::particle_feedback, rank, ranks, particle_ranks, /*fluid_side=*/true), patience_s,
+          fmt::format("fluid rank {}", rank), "feedback", "particle rank") {}
+
+void FluidRankReceiver::replan(const std::map<int, std::vector<int>>& readers) {
+  in_.set_sources(
+      pair_sources(channel::particle_feedback, readers, rank_, ranks_, particle_ranks_, /*fluid_side=*/true, cells_));
+}
 
 particle_feedback_t FluidRankReceiver::receive(std::int64_t step, const std::function<void()>& serve) {
   for (;;)
@@ -240,17 +299,12 @@ std::optional<particle_feedback_t> FluidRankReceiver::receive_within(std::int64_
   return sum;
 }
 
-namespace {
-
-// The overlap map's pairs of fluid rank f: particle rank -> from[p][f].
 std::map<int, std::vector<int>> readers_of(const OverlapMap& map, int fluid_rank) {
   std::map<int, std::vector<int>> readers;
   for (std::size_t p = 0; p < map.from.size(); ++p)
     if (const auto it = map.from[p].find(fluid_rank); it != map.from[p].end()) readers[static_cast<int>(p)] = it->second;
   return readers;
 }
-
-}  // namespace
 
 std::optional<FluidRankEnd> open_one_rank_fluid_end(FluidPort& port, const mesh_t& mesh, const RunContext& ctx) {
   const int particle_ranks = port.peer_ranks();

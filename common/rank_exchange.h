@@ -60,9 +60,14 @@ class PairInbox {
     std::string channel;
   };
   // `self`, `what`, `peer`: how a give-up names them ("particle rank 1", "fluid state",
-  // "fluid rank").
-  PairInbox(const RunContext& ctx, const std::string& sender, std::vector<Source> sources, double patience_s,
-            std::string self, std::string what, std::string peer);
+  // "fluid rank"). `heard`: every pair channel of this rank, with each rank of the other node:
+  // the sources may change (set_sources), and a message of the step waited for on one that is
+  // not a source stops the wait.
+  PairInbox(const RunContext& ctx, const std::string& sender, std::vector<Source> sources,
+            const std::vector<Source>& heard, double patience_s, std::string self, std::string what,
+            std::string peer);
+  // From the next wait on (the overlap map after the particle ranks' boxes moved).
+  void set_sources(std::vector<Source> sources) { sources_ = std::move(sources); }
   // True once every source's message of `step` came, waiting at most `seconds` (what came is
   // kept for the next call); `serve` is called between the polls. Throws std::runtime_error with
   // one line when one has not come within the patience.
@@ -77,6 +82,7 @@ class PairInbox {
 
  private:
   std::vector<Source> sources_;
+  std::map<std::string, int> heard_;  // channel -> the other node's rank
   double patience_s_;
   std::string self_, what_, peer_;
   Bus bus_;
@@ -98,6 +104,9 @@ class FluidRankPublisher {
   // Publishes every reader's partition of `local` (the rank's cells in its own order) as `step`.
   // Throws std::runtime_error when the resend thread lost the bus.
   void publish(const fluid_state_t& local, std::int64_t step);
+  // The readers from the next publish on (the overlap map after the particle ranks' boxes
+  // moved); what was published before stays kept for resends.
+  void replan(const std::map<int, std::vector<int>>& readers);
   // The cells this rank publishes a step, summed over its readers.
   std::size_t cells_published() const;
   // The bytes of its partitions published (resends too) since the last call.
@@ -108,7 +117,8 @@ class FluidRankPublisher {
     std::string channel;
     std::vector<int> cells, local_index;
   };
-  int rank_;
+  int rank_, ranks_, particle_ranks_;
+  std::map<int, int> local_of_global_;
   std::map<int, Reader> readers_;
   AnsweringBus out_;
 };
@@ -136,9 +146,11 @@ class ParticleRankReceiver {
                                               const std::function<void()>& serve = {});
   // The bytes of the partitions it was handed (every datagram of its channels) since the last call.
   std::uint64_t take_received_bytes() { return in_.take_received_bytes(); }
+  // The cells it takes from the next receive on (the overlap map after the boxes moved).
+  void replan(const std::map<int, std::vector<int>>& from);
 
  private:
-  int rank_;
+  int rank_, ranks_, fluid_ranks_;
   std::vector<std::vector<int>> cells_;  // per source of in_, the cells it sends
   std::string mesh_hash_;
   int n_cells_;
@@ -157,6 +169,8 @@ class ParticleRankPublisher {
   // Publishes to every fluid rank its cells of `partial` (the whole mesh's arrays) as `step`.
   // Throws std::runtime_error when the resend thread lost the bus.
   void publish(const particle_feedback_t& partial, std::int64_t step);
+  // The cells from the next publish on; what was published stays kept for resends.
+  void replan(const std::map<int, std::vector<int>>& from);
   // The bytes of its partials published (resends too) since the last call.
   std::uint64_t take_sent_bytes() { return out_.take_sent_bytes(channel::particle_feedback); }
 
@@ -165,7 +179,7 @@ class ParticleRankPublisher {
     std::string channel;
     std::vector<int> cells;
   };
-  int rank_;
+  int rank_, ranks_, fluid_ranks_;
   std::map<int, Fluid> fluids_;
   AnsweringBus out_;
 };
@@ -185,14 +199,19 @@ class FluidRankReceiver {
   std::optional<particle_feedback_t> receive_within(std::int64_t step, double seconds,
                                                     const std::function<void()>& serve = {});
   std::uint64_t take_received_bytes() { return in_.take_received_bytes(); }
+  // The readers and cells from the next receive on.
+  void replan(const std::map<int, std::vector<int>>& readers);
 
  private:
-  int rank_;
+  int rank_, ranks_, particle_ranks_;
   std::vector<std::vector<int>> cells_;
   std::string mesh_hash_;
   int n_cells_;
   PairInbox in_;
 };
+
+// The overlap map's pairs of fluid rank f: particle rank -> from[p][f].
+std::map<int, std::vector<int>> readers_of(const OverlapMap& map, int fluid_rank);
 
 // Each end of one rank of either node: what it publishes and what it receives.
 struct FluidRankEnd {

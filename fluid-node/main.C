@@ -51,6 +51,7 @@ int main(int argc, char* argv[])
         #include "checkpointedFields.H"
         #include "restoreCheckpoint.H"
 
+        port.followBoxes(scene);
         port.initialize(meshMsg, globalCell, rankCells);
         #include "publishState.H"
 

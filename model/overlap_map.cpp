@@ -35,6 +35,13 @@ CellPoints cell_points_from_faces(const std::vector<Vec3>& points, int n_cells, 
                   face_points.begin() + static_cast<long>(end));
     }
   }
+  // Each point once (a hexahedron's 8, not its faces' 24): the map reads the set only, and every
+  // rank holds this for the whole mesh at start-up.
+  for (auto& cell : mesh.cells) {
+    std::sort(cell.begin(), cell.end());
+    cell.erase(std::unique(cell.begin(), cell.end()), cell.end());
+    cell.shrink_to_fit();
+  }
   return mesh;
 }
 
@@ -99,13 +106,19 @@ bool boxes_meet(const Box& a, const Box& b) {
 
 std::vector<std::vector<int>> point_neighbours(const CellPoints& mesh, std::optional<AxialPeriod> period) {
   const auto same = joined_points(mesh.points, period);
+  // Whole-mesh sized on every rank at start-up: each list holds each cell once (a cell's points
+  // repeat in its faces, and all its pushes come while it is the one processed), and each
+  // cell's neighbours are gathered in one scratch list and kept at their size.
   std::vector<std::vector<int>> cells_of_point(mesh.points.size());
   for (std::size_t c = 0; c < mesh.cells.size(); ++c)
-    for (const int p : mesh.cells[c])
-      cells_of_point[static_cast<std::size_t>(same[static_cast<std::size_t>(p)])].push_back(static_cast<int>(c));
+    for (const int p : mesh.cells[c]) {
+      auto& cells = cells_of_point[static_cast<std::size_t>(same[static_cast<std::size_t>(p)])];
+      if (cells.empty() || cells.back() != static_cast<int>(c)) cells.push_back(static_cast<int>(c));
+    }
   std::vector<std::vector<int>> out(mesh.cells.size());
+  std::vector<int> n;
   for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    auto& n = out[c];
+    n.clear();
     for (const int p : mesh.cells[c]) {
       const auto& others = cells_of_point[static_cast<std::size_t>(same[static_cast<std::size_t>(p)])];
       n.insert(n.end(), others.begin(), others.end());
@@ -113,6 +126,7 @@ std::vector<std::vector<int>> point_neighbours(const CellPoints& mesh, std::opti
     std::sort(n.begin(), n.end());
     n.erase(std::unique(n.begin(), n.end()), n.end());
     n.erase(std::remove(n.begin(), n.end(), static_cast<int>(c)), n.end());
+    out[c].assign(n.begin(), n.end());
   }
   return out;
 }

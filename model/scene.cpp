@@ -257,6 +257,8 @@ class Reader {
         {"time.closure_every_dem_steps", {ninf, 1e6}},
         {"time.mass_scaling", {ninf, 1e9}},
         {"time.coupling_relaxation_times", {ninf, 1e6}},
+        {"dem.load_balance_every_steps", {ninf, 1e9}},
+        {"dem.load_balance_threshold", {ninf, 1e6}},  // the largest over the mean is at most the rank count
         {"output.every_steps", {ninf, 1e9}},
         {"output.checkpoint_every_steps", {ninf, 1e9}},
         {"gravity.x_m_s2", {-1e8, 1e8}},  // stress bench: 1e7
@@ -1076,6 +1078,19 @@ static Scene read_scene(const toml::table& root, const std::string& path, std::v
   r.read("coupling.kernel_width_diameters", s.kernel_width_diameters);
   r.check(s.kernel_width_diameters > 0, "coupling.kernel_width_diameters", "must be positive");
   read_choice(r, "coupling.scheme", s.coupling_scheme);
+  read_choice(r, "dem.load_balance", s.load_balance);
+  r.read("dem.load_balance_every_steps", s.load_balance_every_steps);
+  r.read("dem.load_balance_threshold", s.load_balance_threshold);
+  r.check(s.load_balance_every_steps >= 1, "dem.load_balance_every_steps", "must be at least 1");
+  r.check(s.load_balance_threshold >= 1 && std::isfinite(s.load_balance_threshold), "dem.load_balance_threshold",
+          "must be at least 1 (1: any imbalance moves the cuts)");
+  r.check(s.load_balance == LoadBalance::none || s.coupling_scheme == CouplingScheme::serial, "dem.load_balance",
+          "moves the slabs between a step's feedback and its fluid state, which the parallel scheme overlaps: use "
+          "coupling.scheme = \"serial\"");
+  r.check(s.load_balance == LoadBalance::none || s.neighbour_rebuild == NeighbourRebuild::engine, "dem.load_balance",
+          "\"streaming\" neighbour lists run on one particle rank: use dem.neighbour_rebuild = \"engine\"");
+  r.check(s.load_balance == LoadBalance::none || !known_ends(s.vessel) || !open_ends(s.vessel), "dem.load_balance",
+          "is tested in periodic vessels only: an open vessel's insertion and removal at moving slabs is not");
   read_choice(r, "coupling.implicit_drag", s.implicit_drag);
   r.read("coupling.return_held_back_momentum", s.return_held_back_momentum);
   read_choice(r, "coupling.fluid_velocity", s.fluid_velocity);
@@ -1156,9 +1171,14 @@ std::vector<NumericalReading> numerical_readings(const Scene& s) {
     r.push_back({"plasma.suspension_viscosity", s.plasma.suspension_viscosity,
                  suspension_viscosity(s.plasma.suspension_viscosity).reading});
   r.push_back(reading_of(s.plasma_velocity));
+  if (s.load_balance != LoadBalance::none) r.push_back(reading_of(s.load_balance));
   if (s.platelet.present)
     r.push_back(reading_of(s.platelet.orientation_integrator, "platelet."));
   return r;
+}
+
+bool load_balance_after(const Scene& scene, long step) {
+  return scene.load_balance != LoadBalance::none && step > 0 && step % scene.load_balance_every_steps == 0;
 }
 
 }  // namespace hemo

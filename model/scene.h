@@ -333,7 +333,19 @@ struct Scene {
   // the scene's driving, particle-node/dem_streaming_neighbours.h; one particle rank). The lists
   // are complete either way; docs/performance.md §1 measures the builds and the cost.
   NeighbourRebuild neighbour_rebuild = NeighbourRebuild::engine;
+  // Whether the particle ranks' slabs follow their particles (dem.load_balance: "none", or
+  // "particle_count": every `load_balance_every_steps` coupling steps, when the most loaded rank
+  // holds more than `load_balance_threshold` times the mean, the cuts move so that each rank
+  // holds as many; LAMMPS's `fix balance` Nfreq and thresh). The overlap map follows at that
+  // step on both nodes (docs/notes/partitioned-exchange.md). Serial scheme only.
+  LoadBalance load_balance = LoadBalance::none;
+  long load_balance_every_steps = 10;
+  double load_balance_threshold = 1.1;
 };
+
+// Whether the particle node moves its ranks' slabs at the end of coupling step `step`, the new
+// slabs (and the overlap map of both nodes) holding from step + 1 on. The same on both nodes.
+bool load_balance_after(const Scene& scene, long step);
 
 // A numerical choice the paper leaves open, as a scene makes it, and whose reading it is
 // ("ours", CFDEMcoupling's documented behaviour, the paper's Algorithm 1): `hemocosim check`

@@ -74,6 +74,23 @@ struct ChoiceTable<NeighbourRebuild> {
   }};
 };
 
+// dem.load_balance: whether the particle ranks' sub-domains follow their particles. LIGGGHTS 3.8
+// (Debian's liggghts 3.8.0) has neither LAMMPS's `balance` command nor its `fix balance`
+// ("Unknown command", "Invalid fix style"), so the one reading is ours, of theirs: LAMMPS's
+// `balance shift z` cut by particle count, applied through LIGGGHTS's own non-uniform sub-domains
+// (Comm::zsplit) and its set-up's atom exchange (particle-node/dem_balance.h).
+enum class LoadBalance { none, particle_count };
+template <>
+struct ChoiceTable<LoadBalance> {
+  static constexpr std::string_view key = "dem.load_balance";
+  static constexpr std::array<Choice<LoadBalance>, 2> entries = {{
+      {LoadBalance::none, "none", "LIGGGHTS's equal slabs along the axis, fixed for the run"},
+      {LoadBalance::particle_count, "particle_count",
+       "ours, LAMMPS's `balance shift z` by particle count (LIGGGHTS 3.8 has none): the slabs' cuts moved every "
+       "dem.load_balance_every_steps coupling steps so that each rank holds as many particles"},
+  }};
+};
+
 // mesh.wall_polygon: where the O-grid's polygonal wall lies against the vessel's circle.
 enum class WallPolygon { circumscribed, inscribed };
 template <>

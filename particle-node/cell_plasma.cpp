@@ -15,9 +15,17 @@ CellPlasmaRelaxation::CellPlasmaRelaxation(int n_cells)
     : mass_(n_cells, 0.0),
       shift_(3 * mass_.size(), 0.0),
       sums_(4 * mass_.size(), 0.0),
-      touched_mark_(mass_.size(), 0) {}
+      touched_mark_(mass_.size(), 0),
+      shifted_mark_(mass_.size(), 0) {}
 
-void CellPlasmaRelaxation::start_interval() { std::fill(shift_.begin(), shift_.end(), 0.0); }
+void CellPlasmaRelaxation::start_interval() {
+  // Only the cells an interval moved hold a shift: O(cells moved), not O(mesh), a coupling step.
+  for (const int c : shifted_) {
+    std::fill_n(shift_.begin() + 3 * static_cast<std::ptrdiff_t>(c), 3, 0.0);
+    shifted_mark_[static_cast<std::size_t>(c)] = 0;
+  }
+  shifted_.clear();
+}
 
 void CellPlasmaRelaxation::relax(const CellHaloSum* halo, MPI_Comm comm) {
   int ranks = 1;
@@ -43,6 +51,10 @@ void CellPlasmaRelaxation::relax_cell(int cell) {
   double* s = &sums_[4 * static_cast<std::size_t>(cell)];
   if (s[3] == 0 && s[0] == 0 && s[1] == 0 && s[2] == 0) return;  // no particles, or already moved
   double* d = &shift_[3 * static_cast<std::size_t>(cell)];
+  if (!shifted_mark_[static_cast<std::size_t>(cell)]) {
+    shifted_mark_[static_cast<std::size_t>(cell)] = 1;
+    shifted_.push_back(cell);
+  }
   const double m = mass_[static_cast<std::size_t>(cell)];
   // m (d' - d) = -(P + A d')  =>  d' = (m d - P) / (m + A)
   const double denominator = m + s[3];

@@ -90,6 +90,8 @@ class CellPlasmaRelaxation {
   std::vector<double> sums_;   // this step's impulse (3) and slope per cell
   std::vector<int> touched_;   // the cells add() reached this step, once each
   std::vector<char> touched_mark_;
+  std::vector<int> shifted_;  // the cells whose shift this interval moved, once each
+  std::vector<char> shifted_mark_;
   // Moves one cell's shift by its summed step and clears the sums.
   void relax_cell(int cell);
 };

@@ -105,6 +105,11 @@ CheckpointReader::~CheckpointReader() {
   if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
 }
 
+bool CheckpointReader::has(const std::string& name) const {
+  const QuietHdf5 quiet;
+  return H5Lexists(static_cast<hid_t>(file_), name.c_str(), H5P_DEFAULT) > 0;
+}
+
 void CheckpointReader::get(const std::string& name, std::vector<double>& out) const {
   out = read_array<double>(static_cast<hid_t>(file_), path_, name, H5T_NATIVE_DOUBLE);
 }

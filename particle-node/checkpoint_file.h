@@ -43,6 +43,8 @@ class CheckpointReader {
 
   void get(const std::string& name, std::vector<double>& out) const;
   void get(const std::string& name, std::vector<std::int64_t>& out) const;
+  // Whether it holds `name` (a field later builds added).
+  bool has(const std::string& name) const;
   std::string bytes(const std::string& name) const;
   double real(const std::string& name) const;           // an array of exactly one value
   std::int64_t integer(const std::string& name) const;  // an array of exactly one value

@@ -104,9 +104,7 @@ LAMMPS_NS::FixContactHistory* LiggghtsCheckpoint::contact_history() const {
 void LiggghtsCheckpoint::save(EngineState& s) {
   // The rebuild may move atoms to other ranks, and a set-up may reset fix values: what the next
   // run needs is taken per tag before and put back after.
-  const std::vector<double> carried = gather_carried();
-  liggghts_.rebuild_neighbours();
-  scatter_carried(carried);
+  rebuild();
   s.particles = liggghts_.particles() + liggghts_.straddling();  // the atoms it holds
   s.created = liggghts_.created();
   s.tag_capacity = liggghts_.tag_capacity();
@@ -120,6 +118,13 @@ void LiggghtsCheckpoint::save(EngineState& s) {
   s.neighbour_builds = liggghts_.neighbour_builds();
   save_atoms(s);
   save_contact_history(s);
+}
+
+void LiggghtsCheckpoint::rebuild(const std::function<void()>& before) {
+  const std::vector<double> carried = gather_carried();
+  if (before) before();
+  liggghts_.rebuild_neighbours();
+  scatter_carried(carried);
 }
 
 std::vector<double> LiggghtsCheckpoint::gather_carried() const {

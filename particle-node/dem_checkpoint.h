@@ -39,6 +39,9 @@ class LiggghtsCheckpoint {
   // state does not fit the box.
   // `listener`: an open vessel's events from then on (LiggghtsSession::first_init).
   void restore(const EngineState& state, LiggghtsSession::OpenEndsListener listener = {});
+  // Rebuilds the neighbour lists, the ghosts and the atoms' ranks as a checkpoint does, after
+  // `before` (new sub-domains: dem_balance.h), the carried values put back (collective).
+  void rebuild(const std::function<void()>& before = {});
 
  private:
   // The per-atom values a rebuild must leave as they were: force, torque, impulse, rotation,

@@ -2,9 +2,11 @@
 #include "dem_engine.h"
 
 #include "agree.h"
+#include "dem_balance.h"
 #include "dem_timing.h"
 
 #include <atom.h>
+#include <comm.h>
 #include <domain.h>
 #include <fmt/format.h>
 #include <lammps.h>
@@ -169,6 +171,22 @@ std::array<double, 6> DemEngine::sub_domain() const {
   return {d.sublo[0], d.sublo[1], d.sublo[2], d.subhi[0], d.subhi[1], d.subhi[2]};
 }
 
+bool DemEngine::balance(double threshold) {
+  LAMMPS_NS::LAMMPS& lmp = liggghts_.lammps();
+  if (lmp.comm->procgrid[2] < 2 || !(particle_imbalance() > threshold)) return false;
+  // Every slab at least the ghost cut-off thick, as LAMMPS's `balance shift` keeps its cuts a
+  // skin apart: no atom then skips a slab in one DEM step's exchange.
+  const std::vector<double> cuts = particle_count_cuts(lmp, lmp.neighbor->cutneighmax, comm_);
+  bool moved = false;
+  for (std::size_t c = 0; c < cuts.size(); ++c) moved = moved || lmp.comm->zsplit[c + 1] != cuts[c];
+  if (moved) checkpoint_.rebuild([&] { set_z_cuts(lmp, cuts); });
+  return moved;
+}
+
+std::vector<double> DemEngine::z_cuts() const { return hemo::particles::z_cuts(liggghts_.lammps()); }
+
+double DemEngine::particle_imbalance() const { return hemo::particles::particle_imbalance(liggghts_.lammps(), comm_); }
+
 double DemEngine::exchange_margin() const { return 0.5 * species_.d_max + liggghts_.lammps().neighbor->skin; }
 
 EngineDiagnostics DemEngine::diagnostics(const FluidSampler* fluid) {
@@ -198,10 +216,12 @@ EngineState DemEngine::checkpoint_state() {
   return state;
 }
 
-void DemEngine::restore(const EngineState& s) {
+void DemEngine::restore(const EngineState& s, const std::vector<double>& cuts) {
   if (liggghts_.box_set_up()) throw std::logic_error("particles were already created");
   agreed([&] { check_globals(s); }, comm_);
   set_up_box({s.type_of[kRbc] > 0, s.type_of[kPlatelet] > 0});
+  if (!cuts.empty() && static_cast<int>(cuts.size()) == liggghts_.lammps().comm->procgrid[2] - 1)
+    set_z_cuts(liggghts_.lammps(), cuts);
   checkpoint_.restore(s, open_ends_listener());
   dt_ = s.dt;
   first_run_ = false;  // the next run carries the last force over (`pre no`), as it would have

@@ -83,6 +83,13 @@ class DemEngine {
   // checks that every DEM step). What the partitioned exchange takes cells for (overlap_map.h).
   std::array<double, 6> sub_domain() const;
   double exchange_margin() const;
+  // dem.load_balance = "particle_count", between two runs: when the most loaded rank holds more
+  // than `threshold` times the mean, moves the slabs' cuts so that each rank holds as many
+  // particles (dem_balance.h) and rebuilds as a checkpoint does. Returns whether any rank's
+  // sub-domain changed; the same on every rank. Collective.
+  bool balance(double threshold);
+  // The ranks' particle counts, the largest over the mean (collective).
+  double particle_imbalance() const;
 
   // Checkpoint, between runs (collective): rebuilds the neighbour lists from the atoms (see
   // dem_checkpoint.h) and returns this rank's state.
@@ -91,7 +98,13 @@ class DemEngine {
   // them (every rank its own part, written on as many ranks). The next run goes on exactly as
   // the checkpointed engine's next run. Throws std::invalid_argument, on every rank alike, when
   // the state does not fit the scene.
-  void restore(const EngineState& state);
+  // `z_cuts`: the slabs' cuts of the run that wrote it (dem.load_balance; DemEngine::z_cuts),
+  // used when they are as many as this run's slabs need, so that each rank holds the atoms it
+  // held then.
+  void restore(const EngineState& state, const std::vector<double>& z_cuts = {});
+  // The particle ranks' slabs' cuts along z (fractions of the box) once a balance moved them;
+  // else none (LIGGGHTS's equal slabs).
+  std::vector<double> z_cuts() const;
 
   // Runs `substeps` DEM steps of `dt` in `fluid`, each particle accumulating the impulse the
   // fluid gave it. `coupling_step` only labels errors. Returns an empty string, or a one-line

@@ -119,17 +119,33 @@ int main(int argc, char** argv) {
     const hemo::mesh_t mesh = port->initialize();
     hemo::particles::ParticleNode node(scene, mesh, run_dir, MPI_COMM_WORLD, ctx.resume_step);
     if (port->partitioned())
-      node.use_overlap(port->start_exchange(mesh, node.sub_domain(), node.exchange_margin(), ctx));
+      node.use_overlap(port->start_exchange(mesh, node.sub_domain(), node.exchange_margin(), ctx,
+                                            scene.load_balance != hemo::LoadBalance::none));
     hemo::particle_feedback_t feedback = node.feedback();
     hemo::Diagnostics diagnostics = node.diagnostics();
+    // dem.load_balance: after the feedback of a step the scene names, the slabs may move; the
+    // overlap map of both nodes follows from the next step's state on (DOMAIN of that step).
+    long balances = 0;
+    const auto follow_boxes = [&](std::int64_t step) {
+      if (!hemo::load_balance_after(scene, static_cast<long>(step - 1))) return;
+      const bool moved = node.balance();
+      if (auto map = port->publish_boxes(node.sub_domain(), node.exchange_margin(), step, moved)) {
+        node.follow_overlap(*map);
+        ++balances;
+      }
+    };
 
-    while (auto step = port->advance(feedback, diagnostics)) {
+    while (auto step = port->advance(feedback, diagnostics, follow_boxes)) {
       if (auto why = node.check(step->fluid); !why.empty()) return stop(*port, why);
       if (auto why = node.advance(step->order, step->fluid); !why.empty()) return stop(*port, why);
       feedback = node.feedback();
       if (step->order.write_output) node.write_output(node.step(), node.time());
       if (step->order.write_checkpoint) node.write_checkpoint();  // acknowledged in the diagnostics
       diagnostics = node.diagnostics();
+      if (scene.load_balance != hemo::LoadBalance::none) {  // one rank: nothing to move, 1
+        diagnostics.emplace_back("load_balance_moves", static_cast<double>(balances));
+        diagnostics.emplace_back("particle_rank_imbalance", node.particle_imbalance());
+      }
     }
 
     node.write_output(node.step(), node.time());  // the final state (kept once if already written)

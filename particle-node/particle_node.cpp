@@ -63,6 +63,7 @@ struct ParticleNode::NodeCheckpoint {
   std::vector<double> fluid_velocity, fluid_gradient;  // the fluid state of the interval; empty before any
   std::vector<double> fluid_pressure_gradient;         // of that state; empty when it carried none
   std::vector<double> fluid_viscous_force;             // likewise
+  std::vector<double> z_cuts;                          // the particle ranks' slabs (DemEngine::z_cuts)
 };
 
 ParticleNode::ParticleNode(const Scene& scene, const mesh_t& mesh, const std::string& run_dir, MPI_Comm comm,
@@ -149,7 +150,7 @@ void ParticleNode::resume(long step) {
 
   engine_ = std::make_unique<DemEngine>(scene_, locator_, run_dir_ + "/liggghts.log", comm_, /*append_log=*/true);
   try {
-    engine_->restore(engine_state);
+    engine_->restore(engine_state, saved.z_cuts);
   } catch (const std::invalid_argument& e) {  // found alike on every rank (DemEngine::restore agrees on it)
     throw CheckpointError(fmt::format("cannot resume from step {}: {}", step, e.what()));
   }
@@ -199,6 +200,7 @@ ParticleNode::NodeCheckpoint ParticleNode::read_checkpoint(long step) const {
   in.get("fluid_gradient", c.fluid_gradient);
   in.get("fluid_pressure_gradient", c.fluid_pressure_gradient);
   in.get("fluid_viscous_force", c.fluid_viscous_force);
+  if (in.has("z_cuts")) in.get("z_cuts", c.z_cuts);
   check_fits(c, step, in.path());
   return c;
 }
@@ -244,6 +246,33 @@ Box ParticleNode::sub_domain() const {
 }
 
 void ParticleNode::use_overlap(const OverlapMap& map) {
+  hold(map);
+  if (!take_own_deposition()) {
+    // The deposition so far (placed, or resumed on other rank counts) was summed over the ranks:
+    // each cell's sum stays with the one rank that speaks for it, so that the fluid's sum of
+    // the partials is it.
+    for (std::size_t c = 0; c < designated_.size(); ++c)
+      if (!designated_[c]) std::fill_n(deposition_.data() + Deposition::kStride * c, Deposition::kStride, 0.0);
+  }
+  engine_->use_halo(std::make_unique<CellHaloSum>(map, rank_, comm_));
+}
+
+bool ParticleNode::balance() {
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool moved = engine_->balance(scene_.load_balance_threshold);
+  phase_.dem += seconds_since(t0);
+  return moved;
+}
+
+void ParticleNode::follow_overlap(const OverlapMap& map) {
+  const auto t0 = std::chrono::steady_clock::now();
+  hold(map);
+  engine_->use_halo(std::make_unique<CellHaloSum>(map, rank_, comm_));
+  engine_->deposit(deposition_);
+  phase_.deposition += seconds_since(t0);
+}
+
+void ParticleNode::hold(const OverlapMap& map) {
   const std::size_t n = static_cast<std::size_t>(locator_.n_cells());
   held_.assign(n, 0);
   for (int c : map.needed(rank_)) held_[static_cast<std::size_t>(c)] = 1;
@@ -256,14 +285,6 @@ void ParticleNode::use_overlap(const OverlapMap& map) {
         if (p == rank_) designated_[static_cast<std::size_t>(c)] = 1;
       }
   fluid_.set_held(held_);
-  if (!take_own_deposition()) {
-    // The deposition so far (placed, or resumed on other rank counts) was summed over the ranks:
-    // each cell's sum stays with the one rank that speaks for it, so that the fluid's sum of
-    // the partials is it.
-    for (std::size_t c = 0; c < n; ++c)
-      if (!designated_[c]) std::fill_n(deposition_.data() + Deposition::kStride * c, Deposition::kStride, 0.0);
-  }
-  engine_->use_halo(std::make_unique<CellHaloSum>(map, rank_, comm_));
 }
 
 bool ParticleNode::take_own_deposition() {
@@ -473,6 +494,7 @@ void ParticleNode::write_node_checkpoint(const std::string& path, const std::arr
   out.put("fluid_gradient", fluid[1]);
   out.put("fluid_pressure_gradient", fluid[2]);
   out.put("fluid_viscous_force", fluid[3]);
+  out.put("z_cuts", engine_->z_cuts());
   out.close();
 }
 

@@ -68,6 +68,16 @@ class ParticleNode {
   // checkpoint's fluid state comes from the cells it is the lowest rank to hold, and so does
   // each cell's deposition summed so far (placed or resumed). Collective.
   void use_overlap(const OverlapMap& map);
+  // dem.load_balance, between two steps: whether the ranks' slabs moved (DemEngine::balance;
+  // the same on every rank). Collective.
+  bool balance();
+  // After the slabs moved: the map of the new boxes from the next step on (held and halo cells),
+  // and the particles deposited again on their new ranks, so that what the next interval reads
+  // of the cells' solid volume (summed with the ranks now sharing them) is of the new map.
+  // Collective.
+  void follow_overlap(const OverlapMap& map);
+  // The ranks' particle counts, the largest over the mean (collective).
+  double particle_imbalance() const { return engine_->particle_imbalance(); }
 
   // "" when the fluid state can be used, else why not (size, mesh hash, non-finite value).
   std::string check(const fluid_state_t& fluid) const;
@@ -93,6 +103,8 @@ class ParticleNode {
 
  private:
   struct NodeCheckpoint;
+  // The cells of the map this rank holds (needed(p)) and speaks for (the lowest rank holding it).
+  void hold(const OverlapMap& map);
   // The constructor's steps, in order (start or resume).
   void find_used_species();
   void start();

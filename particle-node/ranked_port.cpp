@@ -103,8 +103,7 @@ mesh_t RankedPort::initialize() {
   return mesh;
 }
 
-OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx) {
-  // Every rank's box, on every rank (each computes the map itself).
+ParticleDecomposition RankedPort::every_box(const Box& box, double margin) const {
   const double mine[6] = {box.lo.x(), box.lo.y(), box.lo.z(), box.hi.x(), box.hi.y(), box.hi.z()};
   std::vector<double> all(6 * static_cast<std::size_t>(ranks_));
   MPI_Allgather(mine, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, comm_);
@@ -114,6 +113,13 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
     const double* b = all.data() + 6 * r;
     particles.boxes.push_back({Vec3(b[0], b[1], b[2]), Vec3(b[3], b[4], b[5])});
   }
+  return particles;
+}
+
+OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx,
+                                      bool boxes_move) {
+  // Every rank's box, on every rank (each computes the map itself).
+  const ParticleDecomposition particles = every_box(box, margin);
   fluid_decomposition_t owners;
   int control = kContinue;
   std::string error;
@@ -132,13 +138,47 @@ OverlapMap RankedPort::start_exchange(const mesh_t& mesh, const Box& box, double
   broadcast(owners, comm_, rank_);
   OverlapMap map;
   try {
-    map = overlap_map(cell_points_of(mesh), fluid_decomposition_of(owners, mesh), particles, period_of(mesh));
+    CellPoints points = cell_points_of(mesh);
+    FluidDecomposition fluid = fluid_decomposition_of(owners, mesh);
+    map = overlap_map(points, fluid, particles, period_of(mesh));
+    if (boxes_move) {
+      cell_points_ = std::move(points);
+      fluid_ = std::move(fluid);
+      period_ = period_of(mesh);
+      mesh_hash_ = mesh.mesh_hash;
+    }
     receiver_ = std::make_unique<ParticleRankReceiver>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_],
                                                        mesh.mesh_hash, mesh.n_cells,
                                                        kCoordinatorPatience * ctx.timeout_s);
     publisher_ = std::make_unique<ParticleRankPublisher>(ctx, rank_, ranks_, fluid_ranks_, map.from[rank_]);
   } catch (const std::exception& e) {
     error = e.what();
+  }
+  error = agree_on_error(error, comm_);
+  if (!error.empty()) throw ExchangeError(error);
+  return map;
+}
+
+std::optional<OverlapMap> RankedPort::publish_boxes(const Box& box, double margin, std::int64_t step, bool moved) {
+  const ParticleDecomposition particles = every_box(box, margin);
+  std::string error;
+  if (rank_ == 0) {
+    try {
+      particle_domain_t domain = domain_message(mesh_hash_, particles);
+      port_->bus().publish(channel::domain, domain, step, /*keep=*/true);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  std::optional<OverlapMap> map;
+  if (moved && error.empty()) {
+    try {
+      map = overlap_map(cell_points_, fluid_, particles, period_);
+      receiver_->replan(map->from[static_cast<std::size_t>(rank_)]);
+      publisher_->replan(map->from[static_cast<std::size_t>(rank_)]);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
   }
   error = agree_on_error(error, comm_);
   if (!error.empty()) throw ExchangeError(error);
@@ -166,7 +206,8 @@ Diagnostics RankedPort::with_rank_traffic(const Diagnostics& diag) {
   return out;
 }
 
-std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, const Diagnostics& diag) {
+std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, const Diagnostics& diag,
+                                                const std::function<void(std::int64_t)>& before_state) {
   std::optional<ParticleStep> step;
   int control = kContinue;
   std::string error;
@@ -209,6 +250,7 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
     broadcast(step->fluid, comm_, rank_);
     return step;
   }
+  if (before_state) before_state(step_);
   // Every rank its own cells of the state the step runs in; a partition that does not fit, or
   // does not come, stops every rank with the lowest one's line.
   try {

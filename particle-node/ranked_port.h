@@ -44,13 +44,23 @@ class RankedPort {
   // Partitioned, collective: rank 0 publishes every rank's box and `margin` (DOMAIN) and takes
   // the fluid's decomposition (PARTITION); every rank computes the overlap map and opens its own
   // ends (the state in, the feedback out) on `ctx`'s bus. Returns the map. Throws ExchangeError
-  // on every rank.
-  OverlapMap start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx);
+  // on every rank. `boxes_move`: the map's inputs are kept for publish_boxes (O(cells)).
+  OverlapMap start_exchange(const mesh_t& mesh, const Box& box, double margin, const RunContext& ctx,
+                            bool boxes_move = false);
+  // Partitioned, collective, at a step the scene moves the slabs after (load_balance_after):
+  // rank 0 publishes every rank's box and `margin` as DOMAIN of `step`, from which they hold
+  // (whether or not they moved: the fluid waits for it); when they `moved`, every rank computes
+  // the map of the new boxes and its ends use it from this step on, and the map is returned.
+  // Throws ExchangeError on every rank.
+  std::optional<OverlapMap> publish_boxes(const Box& box, double margin, std::int64_t step, bool moved);
   // Collective. Rank 0 publishes `feedback` (partitioned: every rank its own partial
   // `feedback`) and reports the step with `diag`, every other rank reports it with its own
   // bytes; every rank gets the next step or nothing (stop). When rank 0 fails to get a step (bus
   // error, timeout) every rank throws.
-  std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag);
+  // `before_state`, when given, is called on every rank with the new step's number once its
+  // order is here and before its fluid state is taken (the slabs may move then: publish_boxes).
+  std::optional<ParticleStep> advance(particle_feedback_t& feedback, const Diagnostics& diag,
+                                      const std::function<void(std::int64_t)>& before_state = {});
   void finalize();
   // Rank 0 tells the coordinator (other ranks: nothing).
   void fail(const std::string& error);
@@ -61,6 +71,8 @@ class RankedPort {
  private:
   enum Control : int { kContinue = 0, kStop = 1, kError = 2 };
   void broadcast_control(int& control, std::string& error);
+  // Every rank's box and the margin, on every rank.
+  ParticleDecomposition every_box(const Box& box, double margin) const;
   // What this rank reports: on rank 0 `diag` and its own bytes moved for the coupling since its
   // last report, on every other rank its bytes alone (rank<r>_sent_B, rank<r>_resent_B,
   // rank<r>_received_B, rank<r>_received_again_B, rank<r>_received_fluid_state_B,
@@ -75,6 +87,11 @@ class RankedPort {
   bool partitioned_ = false;
   int fluid_lag_ = 0;  // the port's, on every rank
   int fluid_ranks_ = 1;
+  // The map's inputs other than the boxes, for when they move.
+  CellPoints cell_points_;
+  FluidDecomposition fluid_;
+  std::optional<AxialPeriod> period_;
+  std::string mesh_hash_;
   std::unique_ptr<ParticleRankReceiver> receiver_;
   std::unique_ptr<ParticleRankPublisher> publisher_;
   std::unique_ptr<RankReporter> reporter_;  // every rank's but 0's (several ranks)

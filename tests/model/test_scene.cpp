@@ -631,6 +631,7 @@ TEST(Scene, EveryNamedOptionReadsBackAsItsValue) {
   expect_choices_round_trip<OrientationMethod>(2);
   expect_choices_round_trip<FluidForceUpdate>(3);
   expect_choices_round_trip<ImplicitDrag>(3);
+  expect_choices_round_trip<LoadBalance>(2);
   // and a scene spells them as the tables do
   const Scene s = load_scene(test::write_temp(std::string(test::kMinimalScene) +
                                               "[coupling]\nscheme = \"parallel\"\nplasma_velocity = \"cell_centre\"\n"));
