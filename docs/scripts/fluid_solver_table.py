@@ -20,19 +20,12 @@ mean +- standard error over the seeds, each seed's in brackets, and the fluid co
 """
 import argparse
 import csv
-import json
 import os
 import subprocess
 import sys
 from collections import defaultdict
 
-
-def analysis(run, hemocosim):
-    path = os.path.join(run, "analysis.json")
-    if not os.path.exists(path):
-        subprocess.run([hemocosim, "analyze", run], check=True, stdout=subprocess.DEVNULL)
-    with open(path) as f:
-        return json.load(f)
+from run_analysis import analysis
 
 
 def fluid_means(run):

@@ -11,21 +11,13 @@ the oblate/sphere D ratio (seeds paired), and D against the reference configurat
 Prints a Markdown table.
 """
 import argparse
-import json
 import math
 import os
 import re
-import subprocess
 import sys
 from collections import defaultdict
 
-
-def analysis(run, hemocosim):
-    path = os.path.join(run, "analysis.json")
-    if not os.path.exists(path):
-        subprocess.run([hemocosim, "analyze", run], check=True, stdout=subprocess.DEVNULL)
-    with open(path) as f:
-        return json.load(f)
+from run_analysis import analysis
 
 
 def mean_se(values):
