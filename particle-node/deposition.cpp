@@ -36,7 +36,8 @@ void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::v
   // and the products are normalised. A cell's product depends only on the position and that
   // cell, and is 0 when it enters or leaves the set (the sphere then touches their shared
   // plane from outside), so the shares are continuous whichever cell holds the centre.
-  std::vector<double> weight;
+  // Each cell's product is kept in its own fraction until all are known (no vector of weights:
+  // this runs for every particle every coupling step).
   double total = 0;
   for (std::size_t k = 0; k < out.size(); ++k) {
     const int c = out[k].cell;
@@ -51,10 +52,10 @@ void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::v
         if (s.cell == beyond) return;
       out.push_back({beyond, 0.0, cyclic ? dz - std::copysign(locator_->length(), normal.z()) : dz});
     });
-    weight.push_back(w);
+    out[k].fraction = w;
     total += w;
   }
-  for (std::size_t k = 0; k < out.size(); ++k) out[k].fraction = total > 0 ? weight[k] / total : (k == 0 ? 1.0 : 0.0);
+  for (std::size_t k = 0; k < out.size(); ++k) out[k].fraction = total > 0 ? out[k].fraction / total : (k == 0 ? 1.0 : 0.0);
   // Cells that get nothing (reached across a plane the sphere only touches) are dropped.
   std::size_t kept = 1;
   for (std::size_t k = 1; k < out.size(); ++k)
