@@ -63,10 +63,6 @@ inline double sum_all(double v, MPI_Comm comm) {
   MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_SUM, comm);
   return v;
 }
-inline double max_all(double v, MPI_Comm comm) {
-  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, comm);
-  return v;
-}
 
 // Every rank's values (int or double), in rank order, on every rank.
 template <class T>

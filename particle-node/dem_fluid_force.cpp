@@ -85,14 +85,17 @@ void DemFluidForce::finish_run(long evaluations) {
     throw std::runtime_error(fmt::format("LIGGGHTS evaluated the fluid forces {} times in a run of {} steps, not {}",
                                          evaluations_, run_.steps, evaluations));
   outside_total_ = static_cast<long>(sum_all(static_cast<double>(outside_), comm_));
+  // The largest slips and drag coefficients over the ranks in one reduction (a maximum is exact
+  // in any order: the same values as one reduction each).
+  std::array<double, 2 * kSpeciesCount> largest;
+  std::copy(max_slip_squared_.begin(), max_slip_squared_.end(), largest.begin());
+  std::copy(max_beta_.begin(), max_beta_.end(), largest.begin() + kSpeciesCount);
+  MPI_Allreduce(MPI_IN_PLACE, largest.data(), static_cast<int>(largest.size()), MPI_DOUBLE, MPI_MAX, comm_);
   for (int sp = 0; sp < kSpeciesCount; ++sp)
-    max_re_[sp] =
-        species_.forces[sp]
-            ? species_.forces[sp]->params().reynolds(Vec3(std::sqrt(max_all(max_slip_squared_[sp], comm_)), 0, 0))
-            : 0.0;
+    max_re_[sp] = species_.forces[sp] ? species_.forces[sp]->params().reynolds(Vec3(std::sqrt(largest[sp]), 0, 0)) : 0.0;
   min_relaxation_time_ = std::numeric_limits<double>::infinity();
   for (int sp = 0; sp < kSpeciesCount; ++sp)
-    if (const double beta = max_all(max_beta_[sp], comm_); beta > 0)
+    if (const double beta = largest[kSpeciesCount + sp]; beta > 0)
       min_relaxation_time_ = std::min(min_relaxation_time_, species_.mass[sp] / beta);
 }
 
