@@ -92,7 +92,8 @@ void DemFluidForce::finish_run(long evaluations) {
   std::copy(max_beta_.begin(), max_beta_.end(), largest.begin() + kSpeciesCount);
   MPI_Allreduce(MPI_IN_PLACE, largest.data(), static_cast<int>(largest.size()), MPI_DOUBLE, MPI_MAX, comm_);
   for (int sp = 0; sp < kSpeciesCount; ++sp)
-    max_re_[sp] = species_.forces[sp] ? species_.forces[sp]->params().reynolds(Vec3(std::sqrt(largest[sp]), 0, 0)) : 0.0;
+    max_re_[sp] =
+        species_.forces[sp] ? species_.forces[sp]->params().reynolds(Vec3(std::sqrt(largest[sp]), 0, 0)) : 0.0;
   min_relaxation_time_ = std::numeric_limits<double>::infinity();
   for (int sp = 0; sp < kSpeciesCount; ++sp)
     if (const double beta = largest[kSpeciesCount + sp]; beta > 0)

@@ -55,7 +55,8 @@ void SphereOverlapFraction::share(int cell, const Vec3& x, double radius, std::v
     out[k].fraction = w;
     total += w;
   }
-  for (std::size_t k = 0; k < out.size(); ++k) out[k].fraction = total > 0 ? out[k].fraction / total : (k == 0 ? 1.0 : 0.0);
+  for (std::size_t k = 0; k < out.size(); ++k)
+    out[k].fraction = total > 0 ? out[k].fraction / total : (k == 0 ? 1.0 : 0.0);
   // Cells that get nothing (reached across a plane the sphere only touches) are dropped.
   std::size_t kept = 1;
   for (std::size_t k = 1; k < out.size(); ++k)
