@@ -11,6 +11,7 @@
 #include "cell_halo_sum.h"
 #include "cell_plasma.h"
 #include "dem_timing.h"
+#include "overlap.h"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -130,6 +131,47 @@ TEST(ParticleEngineMpi, FluidForcesEqualMinusDepositedSourcesAndVolumeIsConserve
     const Eigen::Map<const Eigen::Vector4d> q(&snap.orientation[4 * i]);
     EXPECT_NEAR(q.norm(), 1.0, 1e-12) << "particle " << snap.id[i];
   }
+}
+
+// The diagnostics' largest speed and overlap, and a run's largest Reynolds numbers and shortest
+// relaxation time, are maxima (minima) over every rank's particles, taken in one reduction each:
+// the speed is the snapshot's largest to the last bit, the overlap what a grid of all particles
+// finds, and every rank holds the same values. A crossflow drives the cells against the wall and
+// each other, so that there are overlaps to find.
+TEST(ParticleEngineMpi, TheLargestSpeedAndOverlapAreTheWholeNodes) {
+  PoiseuilleCase pc(PoiseuilleCase::paper_scene());
+  const FieldAt crossflow = [](const std::array<double, 3>&, std::array<double, 3>& u, std::array<double, 9>& g) {
+    u = {5e-2, 0, 0};
+    g.fill(0.0);
+  };
+  pc.fluid.set_state(fluid_state(pc.mesh, crossflow));
+  double largest_overlap = 0;
+  for (int step = 1; step <= 20; ++step) {
+    ASSERT_EQ(pc.engine.run(step, pc.timing.substeps, pc.timing.dt, pc.fluid), "");
+    const EngineDiagnostics d = pc.engine.diagnostics(&pc.fluid);
+    const ParticleSnapshot s = pc.engine.snapshot(step, step * pc.interval);
+    double speed = 0;
+    std::vector<Vec3> x(s.size());
+    std::vector<double> diameters(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      speed = std::max(speed, Vec3(s.velocity[3 * i], s.velocity[3 * i + 1], s.velocity[3 * i + 2]).norm());
+      x[i] = Vec3(s.position[3 * i], s.position[3 * i + 1], s.position[3 * i + 2]);
+      diameters[i] = s.species[i] == kRbc ? pc.scene.rbc.diameter : pc.scene.platelet.diameter;
+    }
+    EXPECT_EQ(d.max_speed, speed) << "step " << step;
+    const double reference = measure_overlaps(x, diameters, PoiseuilleCase::R, PoiseuilleCase::L, 0).max_relative;
+    EXPECT_NEAR(d.max_overlap, reference, 1e-9 * reference + 1e-15) << "step " << step;
+    largest_overlap = std::max(largest_overlap, reference);
+    // The same on every rank: the lowest and the highest over the ranks agree.
+    double values[4] = {d.max_speed, d.max_overlap, pc.engine.max_reynolds(kRbc), pc.engine.min_relaxation_time()};
+    double low[4], high[4];
+    MPI_Allreduce(values, low, 4, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(values, high, 4, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(low[k], high[k]) << "value " << k << ", step " << step;
+    EXPECT_GT(pc.engine.max_reynolds(kRbc), 0);
+    EXPECT_GT(pc.engine.min_relaxation_time(), 0);
+  }
+  EXPECT_GT(largest_overlap, 0);  // the comparison saw contacts
 }
 
 // coupling.implicit_drag = "co_relaxed" across ranks: every rank must see the same plasma
