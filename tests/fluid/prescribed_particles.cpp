@@ -302,6 +302,10 @@ int main(int argc, char** argv) {
   try {
     scene = hemo::load_scene(scene_path);
     if (hemo::fed_by_feeder(scene.vessel)) opt.feeder_from_x = hemo::feeder_layout(scene).split_x;
+    // A fluid that follows moving slabs waits for the particle node's DOMAIN of each move, which
+    // this stand-in never publishes: it would wait for ever.
+    if (scene.load_balance != hemo::LoadBalance::none)
+      throw std::runtime_error("dem.load_balance needs the real particle node: this stand-in publishes no moved slabs");
     ctx.load_secret();
     port = std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, 1, scene.coupling_scheme == hemo::CouplingScheme::parallel);
   } catch (const std::exception& e) {
