@@ -9,6 +9,8 @@
 //   blob        phi = --phi + a Gaussian blob of peak --blob-phi and width --blob-sigma-um
 //               centred at (--blob-x-um, 0, z0 + --blob-speed-m-s t), periodic in z; the blob
 //               part is rescaled every step so that the total solid volume never changes
+//   fill        phi rising linearly from 0 to --phi over --fill-time-s in the vessel's cells, 0 in
+//               an open vessel's feeder: the vessel's solid volume grows, the feeder's does not
 //   source      phi = --phi, explicit source S uniform per unit volume with total --force-N
 //               (so that sum S V = F exactly), drag coefficient --drag-coefficient
 //   nan         like none, but from --bad-at-step on the solid fraction of one cell is NaN
@@ -38,6 +40,7 @@
 #include <node_port.h>
 #include <rank_exchange.h>
 #include <scene.h>
+#include <vessel_ends.h>
 
 #include <CLI/CLI.hpp>
 
@@ -59,7 +62,7 @@ namespace {
 
 constexpr const char* kProgram = "hemocosim-prescribed-particles (test stand-in)";
 
-enum class Mode { none, uniform, blob, source, nan, wrong_size, wrong_mesh };
+enum class Mode { none, uniform, blob, fill, source, nan, wrong_size, wrong_mesh };
 
 struct Options {
   Mode mode = Mode::none;
@@ -69,6 +72,8 @@ struct Options {
   double blob_x = 10e-6;                 // m, off-axis position of the blob centre
   double blob_z0 = -1;                   // m, initial axial position (default: mid-length)
   double blob_speed = 0.05;              // m/s along z
+  double fill_time = 1e-3;               // s, fill: time to reach --phi
+  double feeder_from_x = std::numeric_limits<double>::infinity();  // m, fill: cells at x beyond are the feeder's
   std::array<double, 3> force{0, 0, 0};  // N, total explicit source
   double drag_coefficient = 0;           // N s/m^4, uniform
   long bad_at_step = 1;                  // first step whose feedback is bad (bad modes)
@@ -113,6 +118,10 @@ class Prescription {
       for (int c = 0; c < n; ++c) sum += raw[c] * mesh_.cell_volumes[c];
       const double scale = sum > 0 ? blob_volume_ / sum : 0.0;  // constant solid volume
       for (int c = 0; c < n; ++c) fb.solid_fraction[c] += scale * raw[c];
+    }
+    if (opt_.mode == Mode::fill) {
+      const double phi = opt_.phi * std::min(1.0, time_s / opt_.fill_time);
+      for (int c = 0; c < n; ++c) fb.solid_fraction[c] = mesh_.cell_centres[c][0] < opt_.feeder_from_x ? phi : 0.0;
     }
     if (opt_.mode == Mode::source) {
       for (int c = 0; c < n; ++c) {
@@ -242,6 +251,7 @@ int main(int argc, char** argv) {
   const std::map<std::string, Mode> modes{{"none", Mode::none},
                                           {"uniform", Mode::uniform},
                                           {"blob", Mode::blob},
+                                          {"fill", Mode::fill},
                                           {"source", Mode::source},
                                           {"nan", Mode::nan},
                                           {"wrong-size", Mode::wrong_size},
@@ -256,6 +266,8 @@ int main(int argc, char** argv) {
   app.add_option("--blob-x-um", x_um, "blob: distance of its path from the axis")->capture_default_str();
   app.add_option("--blob-z0-um", z0_um, "blob: axial position at t = 0 (default: mid-length)");
   app.add_option("--blob-speed-m-s", opt.blob_speed, "blob: axial speed")->capture_default_str();
+  app.add_option("--fill-time-s", opt.fill_time, "fill: time for the vessel's solid fraction to reach --phi")
+      ->capture_default_str();
   app.add_option("--force-N", force_text, "source: total explicit momentum source 'fx,fy,fz' in N");
   app.add_option("--drag-coefficient", opt.drag_coefficient, "source: uniform implicit drag coefficient, N s/m^4")
       ->capture_default_str();
@@ -289,6 +301,11 @@ int main(int argc, char** argv) {
   std::unique_ptr<hemo::ParticlePort> port;
   try {
     scene = hemo::load_scene(scene_path);
+    if (hemo::fed_by_feeder(scene.vessel)) opt.feeder_from_x = hemo::feeder_layout(scene).split_x;
+    // A fluid that follows moving slabs waits for the particle node's DOMAIN of each move, which
+    // this stand-in never publishes: it would wait for ever.
+    if (scene.load_balance != hemo::LoadBalance::none)
+      throw std::runtime_error("dem.load_balance needs the real particle node: this stand-in publishes no moved slabs");
     ctx.load_secret();
     port = std::make_unique<hemo::ParticlePort>(ctx, "particles", kProgram, 1, scene.coupling_scheme == hemo::CouplingScheme::parallel);
   } catch (const std::exception& e) {
