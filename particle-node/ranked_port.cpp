@@ -214,6 +214,9 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   if (partitioned_) {
     // Every rank its own partial sums to the fluid ranks whose cells they reach, before it
     // reports the step: what the next order makes the fluid wait for is then published.
+    // Publishing counts as coupling, not computing, as the fluid's does (fluidLink.H).
+    if (port_) port_->end_computing();
+    if (reporter_) reporter_->end_computing();
     try {
       publisher_->publish(feedback, step_);
     } catch (const std::exception& e) {
@@ -253,19 +256,21 @@ std::optional<ParticleStep> RankedPort::advance(particle_feedback_t& feedback, c
   if (before_state) before_state(step_);
   // Every rank its own cells of the state the step runs in; a partition that does not fit, or
   // does not come, stops every rank with the lowest one's line.
+  const auto waiting = std::chrono::steady_clock::now();
   try {
     // Rank 0 keeps serving its port meanwhile: the fluid may be asking again for the feedback
     // it needs before it can publish this state.
-    const auto waiting = std::chrono::steady_clock::now();
     step->fluid = receiver_->receive(step_ - fluid_lag_, [this] {
       if (port_) port_->serve();
     });
-    if (port_) port_->count_as_waiting(std::chrono::duration<double>(std::chrono::steady_clock::now() - waiting).count());
   } catch (const std::exception& e) {
     error = e.what();
   }
   error = agree_on_error(error, comm_);
   if (!error.empty()) throw ExchangeError(error);
+  // The agreement is where a rank that has its part waits for the others' (the other ranks'
+  // wait ends here too, at WaitEnds): waiting, not computing.
+  if (port_) port_->count_as_waiting(std::chrono::duration<double>(std::chrono::steady_clock::now() - waiting).count());
   return step;
 }
 
