@@ -16,6 +16,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace hemo::test {
@@ -140,7 +141,10 @@ SharedRun shared_run(const std::string& scene_text, const std::string& options) 
   const fs::path cache(HEMO_SHARED_RUNS_DIR);
   fs::create_directories(cache);
   const std::string key = sha256_hex(manifest).substr(0, 32);
-  const fs::path entry = cache / key, making = cache / ("." + key + ".making");
+  // A maker's own directory: a run whose test was killed may go on writing into its own.
+  const fs::path entry = cache / key,
+                 making = cache / ("." + key + ".making-" + std::to_string(::getpid()) + "-" +
+                                   std::to_string(std::random_device{}()));
   SharedRun r{(entry / "run").string(), (entry / "scene.toml").string(), {}};
 
   // One maker at a time (a test binary run by hand beside ctest): the others wait and take its run.
@@ -150,16 +154,15 @@ SharedRun shared_run(const std::string& scene_text, const std::string& options) 
   } lock{::open((cache / ".lock").c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644)};
   if (lock.fd < 0 || ::flock(lock.fd, LOCK_EX) != 0) throw std::runtime_error("cannot lock " + cache.string());
 
-  // The manifest is written last, so its presence means a whole run; comparing all of it, not
-  // only its hash's prefix, leaves nothing to a collision.
-  if (fs::exists(entry / "manifest") && file_text((entry / "manifest").string()) == manifest) {
+  // An entry appears whole (by the rename below); its manifest compared in full, not only by
+  // its hash's prefix, leaves nothing to a collision.
+  if (file_text((entry / "manifest").string()) == manifest) {
     r.result.exit_code = 0;
     r.result.output = file_text((entry / "output").string());
     r.result.seconds = std::stod(file_text((entry / "seconds").string()));
     return r;
   }
   fs::remove_all(entry);
-  fs::remove_all(making);
   fs::create_directories(making);
   std::ofstream(making / "scene.toml") << scene_text;
   r.result = run(bin("hemocosim") + " run " + (making / "scene.toml").string() + " --out " +
@@ -169,12 +172,11 @@ SharedRun shared_run(const std::string& scene_text, const std::string& options) 
     r.scene = (making / "scene.toml").string();
     return r;
   }
-  std::ofstream(making / "output") << r.result.output;
-  std::ofstream(making / "seconds") << r.result.seconds;
-  {
-    std::ofstream out(making / "manifest");
-    out << manifest;
-    if (!out.flush()) throw std::runtime_error("cannot write " + (making / "manifest").string());
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"output", r.result.output},
+                                   {"seconds", std::to_string(r.result.seconds)},
+                                   {"manifest", manifest}}) {
+    std::ofstream out(making / file);
+    if (!(out << text).flush()) throw std::runtime_error("cannot write " + (making / file).string());
   }
   fs::rename(making, entry);
   return r;
