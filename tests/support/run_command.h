@@ -28,8 +28,8 @@ std::string file_text(const std::string& path);      // a file's whole text ("" 
 // test that read it; this one is kept on disk (HEMO_SHARED_RUNS_DIR, under the build tree; ctest
 // empties it before the first test that needs it, fixture shared_runs) under the SHA-256 of all
 // that makes it: the scene's text, the options, the bytes of every hemocosim* program of the build,
-// and the installed packages (dpkg's status file: the engines, OpenFOAM and LIGGGHTS, come from
-// Debian). A rebuilt program or another scene is another run. A run is made in a directory of its
+// and the installed packages (dpkg's status file, by size and time: the engines, OpenFOAM and
+// LIGGGHTS, come from Debian). A rebuilt program or another scene is another run. A run is made in a directory of its
 // own and renamed into place once it ended well: a half-written or failed run is never taken (a
 // failed one stays beside, dot-named, for a look). Runs are for reading: a test that resumes,
 // restarts or otherwise changes a run makes its own.
