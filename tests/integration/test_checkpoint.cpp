@@ -128,15 +128,16 @@ void expect_same_run(const std::string& whole, const std::string& parts, double 
 void expect_resumed_run_equals_uninterrupted(const std::string& name, const std::string& ranks, double round_off,
                                              const std::string& other_ranks = "", const std::string& more = "",
                                              std::string* whole_dir = nullptr) {
-  const std::string whole = fresh_run_dir(name + "-whole"), parts = fresh_run_dir(name + "-parts");
+  // The uninterrupted run is that of every test of the same scene and ranks (shared_run).
+  const SharedRun a = shared_run(scene_with_checkpoints(40, 8) + (more.empty() ? "" : "\n" + more), ranks);
+  ASSERT_EQ(a.result.exit_code, 0) << a.result.output;
+  const std::string& whole = a.dir;
+  const std::string parts = fresh_run_dir(name + "-parts");
   if (whole_dir) *whole_dir = whole;
-  std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8) + "\n" + more;
-  const auto a = run(bin("hemocosim") + " run " + whole + ".toml --out " + whole + ranks);
-  ASSERT_EQ(a.exit_code, 0) << a.output;
   EXPECT_EQ(checkpoint_folders(whole), std::vector<std::string>{"step-40"}) << "only the newest is kept";
 
   // Resumed on the ranks it ran on (run.toml keeps them).
-  const auto first = run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20" + ranks);
+  const auto first = run(bin("hemocosim") + " run " + a.scene + " --out " + parts + " --stop-after-step 20" + ranks);
   ASSERT_EQ(first.exit_code, 0) << first.output;
   EXPECT_NE(first.output.find("stopped after step 20 of 40"), std::string::npos) << first.output;
   EXPECT_NE(first.output.find("its last checkpoint is step 20"), std::string::npos) << first.output;
@@ -413,10 +414,11 @@ std::string expect_asked_restart(const std::string& name, std::string ask, const
   std::snprintf(stop_snapshot, sizeof stop_snapshot, "%08ld", k);
   expect_same_run(resumed, asked, 0.0, stop_snapshot);
   // And as the run without the restart, to round-off: the checkpoint written at k rebuilds the
-  // neighbour lists, which reorders force sums (measured 3.8e-19 m after 600 steps).
-  const std::string whole = fresh_run_dir(name + "-whole");
-  EXPECT_EQ(run(bin("hemocosim") + " run " + asked + ".toml --out " + whole).exit_code, 0);
-  expect_same_run(whole, asked, 1e-15);
+  // neighbour lists, which reorders force sums (measured 3.8e-19 m after 600 steps). That run is
+  // the scene's without the options: one for all the tests asking (shared_run).
+  const SharedRun whole = shared_run(scene_with_checkpoints(600, 0));
+  EXPECT_EQ(whole.result.exit_code, 0) << whole.result.output;
+  expect_same_run(whole.dir, asked, 1e-15);
   return asked;
 }
 
@@ -655,10 +657,11 @@ TEST(RunState, CheckPrintsTheCommandsAScenesNodesRun) {
 // A second coordinator on a run that is going is refused in one line, and the first run ends
 // as the uninterrupted run does, bit for bit.
 TEST(RunState, ASecondResumeOfARunThatIsGoingIsRefusedAndTheRunEndsAsIfAlone) {
-  const std::string whole = fresh_run_dir("lock-whole"), parts = fresh_run_dir("lock-parts");
-  std::ofstream(whole + ".toml") << scene_with_checkpoints(40, 8);
-  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + whole).exit_code, 0);
-  ASSERT_EQ(run(bin("hemocosim") + " run " + whole + ".toml --out " + parts + " --stop-after-step 20").exit_code, 0);
+  // The uninterrupted run of Checkpoint.ResumedRunEqualsTheUninterruptedRun (shared_run).
+  const SharedRun whole = shared_run(scene_with_checkpoints(40, 8));
+  ASSERT_EQ(whole.result.exit_code, 0);
+  const std::string parts = fresh_run_dir("lock-parts");
+  ASSERT_EQ(run(bin("hemocosim") + " run " + whole.scene + " --out " + parts + " --stop-after-step 20").exit_code, 0);
 
   Background first(bin("hemocosim") + " resume " + parts, parts + "-first");
   for (int i = 0; i < 600 && file_text(first.err).find("resumes from step 20") == std::string::npos; ++i)
@@ -670,7 +673,7 @@ TEST(RunState, ASecondResumeOfARunThatIsGoingIsRefusedAndTheRunEndsAsIfAlone) {
   EXPECT_NE(second.output.find("another hemocosim coordinator runs it"), std::string::npos) << second.output;
   const auto ended = first.done.get();
   ASSERT_EQ(ended.exit_code, 0) << file_text(first.err);
-  expect_same_run(whole, parts, 0.0);
+  expect_same_run(whole.dir, parts, 0.0);
 
   // Nobody drives it now: restart and swap say so in one line.
   const auto restart = run(bin("hemocosim") + " restart " + parts + " fluid --timeout 2");

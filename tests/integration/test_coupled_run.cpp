@@ -20,13 +20,12 @@ using namespace hemo::test;
 
 namespace {
 
-// One run of the small scene shared by the tests below (it takes tens of seconds).
+// One run of the small scene shared by the tests below, made once a suite (shared_run).
 const std::string& small_run() {
   static const std::string dir = [] {
-    const std::string d = fresh_run_dir("coupled-small");
-    const auto r = run(bin("hemocosim") + " run " + scene("coupled_small.toml") + " --out " + d);
-    EXPECT_EQ(r.exit_code, 0) << r.output;
-    return d;
+    const SharedRun r = shared_run(file_text(scene("coupled_small.toml")));
+    EXPECT_EQ(r.result.exit_code, 0) << r.result.output;
+    return r.dir;
   }();
   return dir;
 }

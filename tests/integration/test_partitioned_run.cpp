@@ -53,12 +53,19 @@ RankedRun run_long(const std::string& name, const std::string& ranks, const std:
   return r;
 }
 
+// A run several tests read: made once a suite (shared_run), not once a test.
+RankedRun shared_long(const std::string& ranks, const std::string& run_keys = "", const std::string& more = "") {
+  const SharedRun s = shared_run(long_scene_text(run_keys, more), ranks);
+  EXPECT_EQ(s.result.exit_code, 0) << s.result.output;
+  return {s.dir, read_metrics(s.dir)};
+}
+
 const RankedRun& one_by_one() {
-  static const RankedRun r = run_long("partitioned-1x1", "");
+  static const RankedRun r = shared_long("");
   return r;
 }
 const RankedRun& two_by_two() {
-  static const RankedRun r = run_long("partitioned-2x2", " --np-fluid 2 --np-particles 2");
+  static const RankedRun r = shared_long(" --np-fluid 2 --np-particles 2");
   return r;
 }
 
@@ -206,7 +213,7 @@ TEST(PartitionedRun, TheDragOverTheVoidFractionSumsTheSolidVolumeOfEveryRank) {
 const std::string kCoRelaxed = "[coupling]\nimplicit_drag = \"co_relaxed\"\n";
 
 const RankedRun& co_relaxed_one_by_two() {
-  static const RankedRun r = run_long("partitioned-corelaxed-1x2", " --np-particles 2", "", kCoRelaxed);
+  static const RankedRun r = shared_long(" --np-particles 2", "", kCoRelaxed);
   return r;
 }
 
@@ -411,7 +418,7 @@ TEST(PartitionedRun, TheCoordinatorHeardEveryRanksReportOfEveryStep) {
 // answers from a thread of its own while it waits in OpenFOAM's collectives or runs the DEM, and
 // the run ends bit for bit as without.
 const RankedRun& lossy_two_by_two() {
-  static const RankedRun r = run_long("partitioned-2x2-lossy", " --np-fluid 2 --np-particles 2", "drop_every = 7\n");
+  static const RankedRun r = shared_long(" --np-fluid 2 --np-particles 2", "drop_every = 7\n");
   return r;
 }
 

@@ -1,7 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_command.h"
 
+#include <fcntl.h>
+#include <openssl/evp.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -9,6 +16,8 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace hemo::test {
 
@@ -80,6 +89,97 @@ std::string file_text(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string sha256_hex(const std::string& bytes) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  if (EVP_Digest(bytes.data(), bytes.size(), digest, &n, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256 failed");
+  static const char* const hex = "0123456789abcdef";
+  std::string out;
+  for (unsigned int i = 0; i < n; ++i) out += {hex[digest[i] >> 4], hex[digest[i] & 15]};
+  return out;
+}
+
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path.string());
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// What a shared run is of, in one text: its SHA-256 names the run (shared_run).
+std::string shared_run_manifest(const std::string& scene_text, const std::string& options) {
+  std::ostringstream m;
+  m << "hemocosim run SCENE --out RUN" << options << "\n";
+  // Each process hashes the build's programs once (a few tens of ms).
+  static const std::string programs = [] {
+    std::vector<fs::path> found;
+    for (const auto& e : fs::directory_iterator(HEMO_BIN_DIR))
+      if (e.is_regular_file() && e.path().filename().string().rfind("hemocosim", 0) == 0) found.push_back(e.path());
+    std::sort(found.begin(), found.end());
+    std::string out;
+    for (const auto& p : found) out += sha256_hex(file_bytes(p)) + "  " + p.filename().string() + "\n";
+    struct stat st{};
+    if (::stat("/var/lib/dpkg/status", &st) == 0)
+      out += "dpkg status: " + std::to_string(st.st_size) + " B, modified " + std::to_string(st.st_mtim.tv_sec) + "." +
+             std::to_string(st.st_mtim.tv_nsec) + "\n";
+    return out;
+  }();
+  m << programs << "scene:\n" << scene_text;
+  return m.str();
+}
+
+}  // namespace
+
+SharedRun shared_run(const std::string& scene_text, const std::string& options) {
+  const std::string manifest = shared_run_manifest(scene_text, options);
+  const fs::path cache(HEMO_SHARED_RUNS_DIR);
+  fs::create_directories(cache);
+  const std::string key = sha256_hex(manifest).substr(0, 32);
+  // A maker's own directory: a run whose test was killed may go on writing into its own.
+  const fs::path entry = cache / key,
+                 making = cache / ("." + key + ".making-" + std::to_string(::getpid()) + "-" +
+                                   std::to_string(std::random_device{}()));
+  SharedRun r{(entry / "run").string(), (entry / "scene.toml").string(), {}};
+
+  // One maker at a time (a test binary run by hand beside ctest): the others wait and take its run.
+  struct Lock {
+    int fd;
+    ~Lock() { ::close(fd); }  // releases the flock
+  } lock{::open((cache / ".lock").c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644)};
+  if (lock.fd < 0 || ::flock(lock.fd, LOCK_EX) != 0) throw std::runtime_error("cannot lock " + cache.string());
+
+  // An entry appears whole (by the rename below); its manifest compared in full, not only by
+  // its hash's prefix, leaves nothing to a collision.
+  if (file_text((entry / "manifest").string()) == manifest) {
+    r.result.exit_code = 0;
+    r.result.output = file_text((entry / "output").string());
+    r.result.seconds = std::stod(file_text((entry / "seconds").string()));
+    return r;
+  }
+  fs::remove_all(entry);
+  fs::create_directories(making);
+  std::ofstream(making / "scene.toml") << scene_text;
+  r.result = run(bin("hemocosim") + " run " + (making / "scene.toml").string() + " --out " +
+                 (making / "run").string() + options);
+  if (r.result.exit_code != 0) {
+    r.dir = (making / "run").string();
+    r.scene = (making / "scene.toml").string();
+    return r;
+  }
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"output", r.result.output},
+                                   {"seconds", std::to_string(r.result.seconds)},
+                                   {"manifest", manifest}}) {
+    std::ofstream out(making / file);
+    if (!(out << text).flush()) throw std::runtime_error("cannot write " + (making / file).string());
+  }
+  fs::rename(making, entry);
+  return r;
 }
 
 }  // namespace hemo::test

@@ -23,6 +23,23 @@ std::string bin(const std::string& program);         // a built program
 std::string fresh_run_dir(const std::string& name);  // an unused path under the temp dir
 std::string file_text(const std::string& path);      // a file's whole text ("" if it cannot be read)
 
+// A `hemocosim run` that several tests read, made once a suite. gtest_discover_tests starts every
+// test in a process of its own, so a run held in a function-local static was made again by each
+// test that read it; this one is kept on disk (HEMO_SHARED_RUNS_DIR, under the build tree; ctest
+// empties it before the first test that needs it, fixture shared_runs) under the SHA-256 of all
+// that makes it: the scene's text, the options, the bytes of every hemocosim* program of the build,
+// and the installed packages (dpkg's status file, by size and time: the engines, OpenFOAM and
+// LIGGGHTS, come from Debian). A rebuilt program or another scene is another run. A run is made in a directory of its
+// own and renamed into place once it ended well: a half-written or failed run is never taken (a
+// failed one stays beside, dot-named, for a look). Runs are for reading: a test that resumes,
+// restarts or otherwise changes a run makes its own.
+struct SharedRun {
+  std::string dir;       // the run directory
+  std::string scene;     // the scene file it ran (for a later run of the same scene)
+  CommandResult result;  // its `hemocosim run`, as when it was made
+};
+SharedRun shared_run(const std::string& scene_text, const std::string& options = "");
+
 // metrics.csv of a run: (node, name) -> step -> value
 using Metrics = std::map<std::pair<std::string, std::string>, std::map<long, double>>;
 Metrics read_metrics(const std::string& run_dir);
