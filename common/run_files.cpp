@@ -184,6 +184,14 @@ std::string sha256_file(const std::string& path) {
   return hex(md, n);
 }
 
+std::string sha256_text(const std::string& text) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  if (EVP_Digest(text.data(), text.size(), md, &n, EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256 unavailable");
+  return hex(md, n);
+}
+
 std::string hmac_hex(const std::vector<std::uint8_t>& key, const std::string& text) {
   unsigned char md[EVP_MAX_MD_SIZE];
   std::size_t n = 0;

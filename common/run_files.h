@@ -59,6 +59,8 @@ class AppendFile {
 
 // SHA-256 of a file's bytes, in hex.
 std::string sha256_file(const std::string& path);
+// The SHA-256 of `text`, as lowercase hex.
+std::string sha256_text(const std::string& text);
 // HMAC-SHA256 of `text` under `key`, in hex.
 std::string hmac_hex(const std::vector<std::uint8_t>& key, const std::string& text);
 

@@ -73,7 +73,7 @@ struct Options {
   double blob_z0 = -1;                   // m, initial axial position (default: mid-length)
   double blob_speed = 0.05;              // m/s along z
   double fill_time = 1e-3;               // s, fill: time to reach --phi
-  double feeder_from_x = std::numeric_limits<double>::infinity();  // m, fill: cells at x beyond are the feeder's
+  std::optional<hemo::FeederLayout> feeder;  // fill: an open vessel's feeder, whose cells stay at 0
   std::array<double, 3> force{0, 0, 0};  // N, total explicit source
   double drag_coefficient = 0;           // N s/m^4, uniform
   long bad_at_step = 1;                  // first step whose feedback is bad (bad modes)
@@ -121,7 +121,8 @@ class Prescription {
     }
     if (opt_.mode == Mode::fill) {
       const double phi = opt_.phi * std::min(1.0, time_s / opt_.fill_time);
-      for (int c = 0; c < n; ++c) fb.solid_fraction[c] = mesh_.cell_centres[c][0] < opt_.feeder_from_x ? phi : 0.0;
+      for (int c = 0; c < n; ++c)
+        fb.solid_fraction[c] = opt_.feeder && opt_.feeder->in_feeder(mesh_.cell_centres[c][0]) ? 0.0 : phi;
     }
     if (opt_.mode == Mode::source) {
       for (int c = 0; c < n; ++c) {
@@ -301,7 +302,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<hemo::ParticlePort> port;
   try {
     scene = hemo::load_scene(scene_path);
-    if (hemo::fed_by_feeder(scene.vessel)) opt.feeder_from_x = hemo::feeder_layout(scene).split_x;
+    if (hemo::fed_by_feeder(scene.vessel)) opt.feeder = hemo::feeder_layout(scene);
     // A fluid that follows moving slabs waits for the particle node's DOMAIN of each move, which
     // this stand-in never publishes: it would wait for ever.
     if (scene.load_balance != hemo::LoadBalance::none)

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "run_command.h"
 
+#include <run_files.h>
+
 #include <fcntl.h>
-#include <openssl/evp.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -95,23 +96,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string sha256_hex(const std::string& bytes) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int n = 0;
-  if (EVP_Digest(bytes.data(), bytes.size(), digest, &n, EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("SHA-256 failed");
-  static const char* const hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int i = 0; i < n; ++i) out += {hex[digest[i] >> 4], hex[digest[i] & 15]};
-  return out;
-}
-
-std::string file_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path.string());
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // What a shared run is of, in one text: its SHA-256 names the run (shared_run).
 std::string shared_run_manifest(const std::string& scene_text, const std::string& options) {
   std::ostringstream m;
@@ -123,7 +107,7 @@ std::string shared_run_manifest(const std::string& scene_text, const std::string
       if (e.is_regular_file() && e.path().filename().string().rfind("hemocosim", 0) == 0) found.push_back(e.path());
     std::sort(found.begin(), found.end());
     std::string out;
-    for (const auto& p : found) out += sha256_hex(file_bytes(p)) + "  " + p.filename().string() + "\n";
+    for (const auto& p : found) out += hemo::sha256_file(p.string()) + "  " + p.filename().string() + "\n";
     struct stat st{};
     if (::stat("/var/lib/dpkg/status", &st) == 0)
       out += "dpkg status: " + std::to_string(st.st_size) + " B, modified " + std::to_string(st.st_mtim.tv_sec) + "." +
@@ -140,7 +124,7 @@ SharedRun shared_run(const std::string& scene_text, const std::string& options) 
   const std::string manifest = shared_run_manifest(scene_text, options);
   const fs::path cache(HEMO_SHARED_RUNS_DIR);
   fs::create_directories(cache);
-  const std::string key = sha256_hex(manifest).substr(0, 32);
+  const std::string key = hemo::sha256_text(manifest).substr(0, 32);
   // A maker's own directory: a run whose test was killed may go on writing into its own.
   const fs::path entry = cache / key,
                  making = cache / ("." + key + ".making-" + std::to_string(::getpid()) + "-" +
